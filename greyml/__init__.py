@@ -1,0 +1,19 @@
+"""greyml: thermal-error models of CNC machine tools, scikit-learn compatible."""
+
+from greyml._sequences import TEST_LEVEL, TIME_LEVEL, make_test_index, test_ids
+from greyml.grey import AGO, GMC, GreyConditioningWarning, fit_gm1n, simulate_gmc
+
+__version__ = "0.1.0.dev0"
+
+__all__ = [
+    "AGO",
+    "GMC",
+    "GreyConditioningWarning",
+    "TEST_LEVEL",
+    "TIME_LEVEL",
+    "fit_gm1n",
+    "make_test_index",
+    "simulate_gmc",
+    "test_ids",
+    "__version__",
+]

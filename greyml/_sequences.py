@@ -1,0 +1,193 @@
+"""Which rows belong to which heating/cooling test.
+
+greyml represents several tests in one table by the row index: a pandas
+``MultiIndex`` whose level named ``"test"`` holds the test label of each row and,
+optionally, a level named ``"time_s"`` holds seconds from the start of that test.
+Rows of one test are contiguous and in time order. Anything without a ``test``
+level (a NumPy array, a DataFrame with a plain index) is a single test.
+
+Why the index: scikit-learn's ``Pipeline``, ``cross_val_score``, ``GridSearchCV``
+and every splitter index rows with ``iloc``, so the row index travels with the
+data through all of them, and ``set_output(transform="pandas")`` keeps it across
+transformers. Nothing has to be routed as extra metadata.
+
+Every sequence-aware piece of greyml (AGO, the grey models, the learning models,
+the simulator's I/O) calls :func:`test_segments` and nothing else to find the
+boundaries, so accumulation, differencing and convolution never cross them.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+TEST_LEVEL = "test"
+TIME_LEVEL = "time_s"
+
+__all__ = [
+    "TEST_LEVEL",
+    "TIME_LEVEL",
+    "Segment",
+    "test_segments",
+    "test_ids",
+    "has_test_index",
+    "segment_label",
+    "make_test_index",
+]
+
+
+@dataclass(frozen=True)
+class Segment:
+    """Rows ``start:stop`` (in the order given) of the test labelled ``label``.
+
+    ``label`` is ``None`` when the data carries no test labels (a single test).
+    """
+
+    label: object
+    start: int
+    stop: int
+
+    @property
+    def n(self) -> int:
+        return self.stop - self.start
+
+    @property
+    def slice(self) -> slice:
+        return slice(self.start, self.stop)
+
+
+def segment_label(segment: Segment) -> str:
+    """How a segment is named in messages: ``"test 'IV'"`` or ``"the single test"``."""
+    if segment.label is None:
+        return "the single test"
+    return f"test {segment.label!r}"
+
+
+def _index_of(X):
+    if isinstance(X, (pd.DataFrame, pd.Series)):
+        return X.index
+    if isinstance(X, pd.Index):
+        return X
+    return None
+
+
+def has_test_index(X) -> bool:
+    """True when ``X`` is a pandas object whose index has a level named ``test``."""
+    index = _index_of(X)
+    return index is not None and TEST_LEVEL in (index.names or [])
+
+
+def _first_runs(labels: np.ndarray):
+    """Start positions of runs of equal consecutive labels."""
+    n = len(labels)
+    if n == 0:
+        return np.array([], dtype=int)
+    change = np.ones(n, dtype=bool)
+    # pandas-aware inequality so that NaN labels are caught separately
+    change[1:] = ~(pd.Series(labels[1:]).to_numpy() == pd.Series(labels[:-1]).to_numpy())
+    return np.flatnonzero(change)
+
+
+def test_segments(X, n_samples: int | None = None) -> list[Segment]:
+    """Split the rows of ``X`` into tests.
+
+    Parameters
+    ----------
+    X : DataFrame, Series, Index or array-like
+        Data whose row index may carry a ``test`` level (and a ``time_s`` level).
+    n_samples : int, optional
+        Number of rows, needed only when ``X`` is not a pandas object and has no
+        ``len``.
+
+    Returns
+    -------
+    segments : list of Segment
+        One per test, in the order the tests first appear.
+
+    Raises
+    ------
+    ValueError
+        If a test label is missing, if a test appears in two separate runs of
+        rows, or if ``time_s`` does not strictly increase within a test.
+    """
+    index = _index_of(X)
+    if n_samples is None:
+        n_samples = len(index) if index is not None else len(X)
+    if index is None or TEST_LEVEL not in (index.names or []):
+        return [Segment(None, 0, int(n_samples))]
+
+    labels = np.asarray(index.get_level_values(TEST_LEVEL), dtype=object)
+    missing = pd.isna(labels)
+    if missing.any():
+        row = int(np.flatnonzero(missing)[0])
+        raise ValueError(
+            f"The '{TEST_LEVEL}' index level has a missing test label at row {row}; "
+            "every row must name the test it belongs to."
+        )
+    starts = _first_runs(labels)
+    stops = np.append(starts[1:], len(labels))
+    segments = []
+    seen = {}
+    for start, stop in zip(starts, stops):
+        label = labels[start]
+        if label in seen:
+            first = seen[label]
+            raise ValueError(
+                f"Test {label!r} appears in two separate runs of rows "
+                f"(rows {first.start}-{first.stop - 1} and {start}-{stop - 1}); "
+                "the rows of one test must be contiguous. Sort the data by test "
+                "and time, e.g. X.sort_index(level=['test', 'time_s'])."
+            )
+        seg = Segment(label, int(start), int(stop))
+        seen[label] = seg
+        segments.append(seg)
+
+    if TIME_LEVEL in index.names:
+        time = np.asarray(index.get_level_values(TIME_LEVEL), dtype=float)
+        for seg in segments:
+            t = time[seg.slice]
+            if np.isnan(t).any():
+                row = seg.start + int(np.flatnonzero(np.isnan(t))[0])
+                raise ValueError(
+                    f"The '{TIME_LEVEL}' index level of {segment_label(seg)} is "
+                    f"missing at row {row}."
+                )
+            steps = np.diff(t)
+            bad = np.flatnonzero(steps <= 0)
+            if bad.size:
+                k = int(bad[0])
+                what = "repeats" if steps[k] == 0 else "goes back"
+                raise ValueError(
+                    f"Time does not increase within {segment_label(seg)}: "
+                    f"'{TIME_LEVEL}' {what} from {t[k]:g} to {t[k + 1]:g} at row "
+                    f"{seg.start + k + 1}. Rows of a test must be in strictly "
+                    "increasing time order."
+                )
+    return segments
+
+
+def test_ids(X) -> np.ndarray:
+    """The test label of every row, for ``groups=`` of scikit-learn splitters.
+
+    >>> import pandas as pd
+    >>> idx = pd.MultiIndex.from_tuples(
+    ...     [("I", 0), ("I", 10), ("II", 0)], names=["test", "time_s"])
+    >>> test_ids(pd.DataFrame({"T1_C": [20.0, 20.5, 21.0]}, index=idx)).tolist()
+    ['I', 'I', 'II']
+    """
+    segments = test_segments(X)
+    n = segments[-1].stop if segments else 0
+    out = np.empty(n, dtype=object)
+    for seg in segments:
+        out[seg.slice] = 0 if seg.label is None else seg.label
+    return out
+
+
+def make_test_index(tests, times) -> pd.MultiIndex:
+    """Build greyml's ``(test, time_s)`` row index from per-row labels and times."""
+    return pd.MultiIndex.from_arrays(
+        [np.asarray(tests), np.asarray(times, dtype=float)],
+        names=[TEST_LEVEL, TIME_LEVEL],
+    )

@@ -1,0 +1,181 @@
+"""Input validation shared by every greyml estimator.
+
+scikit-learn's ``validate_data`` does the bookkeeping (``n_features_in_``,
+``feature_names_in_``, dtype conversion, fit/predict column checks); the checks
+here add what it cannot know: which *test* and which *column* a bad value sits
+in, so that every message names both.
+"""
+
+from __future__ import annotations
+
+import numbers
+
+import numpy as np
+import pandas as pd
+from sklearn.utils.validation import validate_data
+
+from greyml._sequences import Segment, has_test_index, segment_label, test_segments
+
+__all__ = ["validate_sequences", "column_names", "check_int_param"]
+
+
+def column_names(estimator, n_features: int) -> list[str]:
+    """Names used in messages: ``feature_names_in_`` if fitted on a DataFrame."""
+    names = getattr(estimator, "feature_names_in_", None)
+    if names is not None and len(names) == n_features:
+        return [str(c) for c in names]
+    return [f"x{j}" for j in range(n_features)]
+
+
+def _where(seg: Segment, row: int) -> str:
+    return f"{segment_label(seg)} at row {row} (sample {row - seg.start + 1} of that test)"
+
+
+def _check_numeric_frame(X, what="X"):
+    if isinstance(X, pd.DataFrame):
+        for col in X.columns:
+            dtype = X[col].dtype
+            if not (pd.api.types.is_numeric_dtype(dtype) or pd.api.types.is_bool_dtype(dtype)):
+                raise ValueError(
+                    f"Column {str(col)!r} of {what} has non-numeric dtype {dtype}; "
+                    "greyml models need numeric sensor values."
+                )
+
+
+def _check_finite(A: np.ndarray, names, segments, what: str):
+    bad = ~np.isfinite(A)
+    if not bad.any():
+        return
+    if A.ndim == 1:
+        A = A[:, None]
+        bad = bad[:, None]
+    for seg in segments:
+        block = bad[seg.slice]
+        if block.any():
+            r, c = np.argwhere(block)[0]
+            row = seg.start + int(r)
+            value = A[row, c]
+            kind = "NaN" if np.isnan(value) else "infinity (inf)"
+            name = names[c] if names is not None else None
+            where = f"column {name!r}" if name is not None else "the target y"
+            prefix = (
+                f"Input {what} contains {'NaN' if np.isnan(value) else 'infinity or a value too large for dtype(' + repr('float64') + ')'}"
+            )
+            raise ValueError(f"{prefix}: {where} has {kind} in {_where(seg, row)}.")
+
+
+def _check_constant(A, names, segments):
+    if A.shape[0] < 2:
+        return
+    spread = np.ptp(A, axis=0)
+    for j in np.flatnonzero(spread == 0):
+        tests = ", ".join(segment_label(s) for s in segments)
+        raise ValueError(
+            f"Column {names[j]!r} is constant ({A[0, j]:g}) in every row of "
+            f"{tests}: a constant sensor carries no information. Remove it or "
+            "check that it was logged."
+        )
+
+
+def _segments_of(X, y):
+    if has_test_index(X):
+        segments = test_segments(X)
+        if y is not None and has_test_index(y):
+            if not np.array_equal(
+                np.asarray(X.index.get_level_values("test"), dtype=object),
+                np.asarray(y.index.get_level_values("test"), dtype=object),
+            ):
+                raise ValueError(
+                    "X and y disagree on which rows belong to which test: their "
+                    "'test' index levels differ. Align them (e.g. y = y.loc[X.index])."
+                )
+        return segments
+    if y is not None and has_test_index(y):
+        return test_segments(y)
+    return None
+
+
+def validate_sequences(
+    estimator,
+    X,
+    y=None,
+    *,
+    reset: bool,
+    min_samples_per_test: int = 1,
+    min_rows: int | None = None,
+    n_params_msg: str | None = None,
+    reject_constant: bool = False,
+):
+    """Validate ``X`` (and ``y``) and find the test boundaries.
+
+    Returns ``(X, y, segments)`` with ``X`` a float64 array, ``y`` a float64 1-D
+    array (or ``None``) and ``segments`` the list of :class:`Segment`.
+    ``min_rows`` is the number of equations the estimator needs, counted as rows
+    minus one per test (the first sample of each test only starts it).
+    """
+    segments = _segments_of(X, y)
+    _check_numeric_frame(X)
+    if y is not None:
+        if isinstance(y, pd.DataFrame) and y.shape[1] == 1:
+            y = y.iloc[:, 0]
+        y_arr = np.asarray(y)
+        if y_arr.dtype.kind in "fc" and y_arr.size:
+            y_flat = y_arr.reshape(-1) if y_arr.ndim == 2 and 1 in y_arr.shape else y_arr
+            if y_flat.ndim == 1:
+                segs = segments or [Segment(None, 0, len(y_flat))]
+                _check_finite(y_flat, None, segs, "y")
+        Xa, ya = validate_data(
+            estimator,
+            X,
+            y,
+            reset=reset,
+            ensure_all_finite=False,
+            dtype=np.float64,
+            y_numeric=True,
+        )
+        ya = np.asarray(ya, dtype=np.float64)
+    else:
+        Xa = validate_data(
+            estimator, X, reset=reset, ensure_all_finite=False, dtype=np.float64
+        )
+        ya = None
+    if segments is None:
+        segments = [Segment(None, 0, Xa.shape[0])]
+    names = column_names(estimator, Xa.shape[1])
+    _check_finite(Xa, names, segments, "X")
+    if ya is not None:
+        _check_finite(ya, None, segments, "y")
+
+    name = type(estimator).__name__
+    for seg in segments:
+        if seg.n < min_samples_per_test:
+            raise ValueError(
+                f"{segment_label(seg).capitalize()} has {seg.n} sample"
+                f"{'' if seg.n == 1 else 's'}; {name} needs at least "
+                f"{min_samples_per_test} samples per test."
+            )
+    if min_rows is not None:
+        n_eq = Xa.shape[0] - len(segments)
+        if n_eq < min_rows:
+            what = n_params_msg or f"{min_rows} coefficients"
+            raise ValueError(
+                f"{name} has too few samples to fit {what}: {Xa.shape[0]} samples "
+                f"in {len(segments)} test(s) give {n_eq} equations, fewer than "
+                f"{min_rows}. Give more samples or fewer columns."
+            )
+    if reject_constant:
+        _check_constant(Xa, names, segments)
+    return Xa, ya, segments
+
+
+def check_int_param(estimator, name, value, low, high=None):
+    """Raise the scikit-learn style message for an integer parameter."""
+    ok = isinstance(value, numbers.Integral) and not isinstance(value, bool)
+    ok = ok and value >= low and (high is None or value <= high)
+    if not ok:
+        hi = "inf" if high is None else str(high)
+        raise ValueError(
+            f"The {name!r} parameter of {type(estimator).__name__} must be an int "
+            f"in the range [{low}, {hi}]. Got {value!r} instead."
+        )
+    return int(value)

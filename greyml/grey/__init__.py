@@ -1,0 +1,41 @@
+"""Grey models: AGO, GM(1,N) and GMC(1,N)."""
+
+from greyml.grey._ago import AGO
+from greyml.grey._functions import fit_gm1n, simulate_gmc
+from greyml.grey._gmc import GMC, GreyConditioningWarning
+from greyml.grey._kernels import (
+    ago,
+    background,
+    gm1n_design,
+    gm1n_lstsq,
+    gmc_basis,
+    gmc_design,
+    gmc_lstsq,
+    gmc_predict,
+    gmc_predict_population,
+    gmc_response,
+    gmc_separable,
+    gmc_sse_population,
+    iago,
+)
+
+__all__ = [
+    "AGO",
+    "GMC",
+    "GreyConditioningWarning",
+    "ago",
+    "background",
+    "fit_gm1n",
+    "gm1n_design",
+    "gm1n_lstsq",
+    "gmc_basis",
+    "gmc_design",
+    "gmc_lstsq",
+    "gmc_predict",
+    "gmc_predict_population",
+    "gmc_response",
+    "gmc_separable",
+    "gmc_sse_population",
+    "iago",
+    "simulate_gmc",
+]

@@ -1,0 +1,147 @@
+"""Public, validated entry points to the grey kernels."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+
+from greyml._sequences import Segment, segment_label, test_segments
+from greyml.grey._gmc import GreyConditioningWarning
+from greyml.grey._kernels import ago, gm1n_lstsq, gmc_forcing, gmc_initial, gmc_response, iago
+
+__all__ = ["fit_gm1n", "simulate_gmc"]
+
+
+class _Named:
+    """Stand-in estimator so the shared validation can name columns."""
+
+    def __init__(self, name, columns=None):
+        self._name = name
+        if columns is not None:
+            self.feature_names_in_ = np.asarray(columns, dtype=object)
+
+
+def _validate(X, y, who, min_rows=None, reject_constant=False):
+    from greyml._validation import validate_sequences
+
+    columns = list(map(str, X.columns)) if hasattr(X, "columns") else None
+    stub = type(who, (), {"__sklearn_tags__": lambda self: None})()
+    if columns is not None:
+        stub.feature_names_in_ = np.asarray(columns, dtype=object)
+    return validate_sequences(
+        stub, X, y, reset=False, min_samples_per_test=2, min_rows=min_rows,
+        reject_constant=reject_constant,
+    )
+
+
+def fit_gm1n(X, y):
+    """GM(1,N) coefficients by least squares.
+
+    Solves x₁⁽⁰⁾(k) + a·z₁⁽¹⁾(k) = Σⱼ bⱼxⱼ⁽¹⁾(k), k = 2..n of every test, for the
+    development coefficient ``a`` and the driving (influence) coefficients
+    ``b``, with B = [−z₁⁽¹⁾, x₂⁽¹⁾, …, x_N⁽¹⁾] (DOMAIN.md corrects the sign that
+    seed 001 drops).
+
+    Parameters
+    ----------
+    X : array-like or DataFrame of shape (n_samples, n_features)
+        Drivers x₂…x_N (columns); tests from the ``test`` index level.
+    y : array-like or Series of shape (n_samples,)
+        The series x₁ whose behaviour the drivers explain.
+
+    Returns
+    -------
+    a : float
+        Development coefficient.
+    b : ndarray of shape (n_features,)
+        Driving coefficients. They are comparable between columns only when the
+        columns are on a common scale (normalise first).
+
+    Warns
+    -----
+    GreyConditioningWarning
+        If the system is rank deficient (e.g. two identical sensors); the
+        minimum-norm solution is returned.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from greyml.grey import fit_gm1n
+    >>> X = np.array([[1.0, 2.0], [1.2, 1.9], [1.5, 2.2], [1.9, 2.1], [2.2, 2.5]])
+    >>> y = np.array([0.5, 0.9, 1.4, 1.6, 2.1])
+    >>> a, b = fit_gm1n(X, y)
+    >>> b.shape
+    (2,)
+    """
+    n_features = np.shape(X)[1] if np.ndim(X) == 2 else 0
+    Xa, ya, segments = _validate(X, y, "fit_gm1n", min_rows=n_features + 1)
+    a, b, rank, _ = gm1n_lstsq(ya, Xa, [(s.start, s.stop) for s in segments])
+    if rank < n_features + 1:
+        warnings.warn(
+            f"GM(1,N) least-squares system is rank deficient (rank {rank} < "
+            f"{n_features + 1}): some columns are linear combinations of others "
+            "after accumulation; the minimum-norm solution is returned.",
+            GreyConditioningWarning,
+            stacklevel=2,
+        )
+    return float(a), np.asarray(b, dtype=float)
+
+
+def simulate_gmc(X, development, driving, control=0.0, *, form="trapezoid", initial="model"):
+    """The GMC(1,N) prediction x̂₁⁽⁰⁾ for given coefficients, per test.
+
+    Useful to make data with known coefficients, and to see what a calibrated
+    model does on new drivers.
+
+    Parameters
+    ----------
+    X : array-like or DataFrame of shape (n_samples, n_features)
+        Drivers; tests from the ``test`` index level.
+    development : float
+        b₁.
+    driving : array-like of shape (n_features,)
+        b₂…b_N.
+    control : float, default=0.0
+        u.
+    form : {"trapezoid", "midpoint"}, default="trapezoid"
+    initial : {"model", "zero"}, default="model"
+        See :class:`greyml.GMC`.
+
+    Returns
+    -------
+    y : ndarray of shape (n_samples,)
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from greyml.grey import simulate_gmc
+    >>> simulate_gmc(np.ones((3, 1)), 0.0, [1.0], initial="zero").tolist()
+    [0.0, 1.5, 2.0]
+    """
+    X = np.asarray(X, dtype=float) if not hasattr(X, "columns") else X
+    segments = test_segments(X)
+    Xa = np.asarray(X, dtype=float)
+    if Xa.ndim != 2:
+        raise ValueError(f"X must be 2-D (samples × drivers); got shape {Xa.shape}.")
+    driving = np.asarray(driving, dtype=float).reshape(-1)
+    if driving.size != Xa.shape[1]:
+        raise ValueError(
+            f"driving has {driving.size} coefficients but X has {Xa.shape[1]} columns."
+        )
+    if not np.isfinite(Xa).all():
+        r, c = np.argwhere(~np.isfinite(Xa))[0]
+        seg = next(s for s in segments if s.start <= r < s.stop)
+        raise ValueError(f"X has a non-finite value in column {c} of {segment_label(seg)} at row {r}.")
+    out = np.empty(Xa.shape[0])
+    X1 = ago(Xa, [(s.start, s.stop) for s in segments])
+    for seg in segments:
+        f = gmc_forcing(X1[seg.slice], driving, control)
+        x0 = float(gmc_initial(f[0], development, initial))
+        with np.errstate(over="ignore", invalid="ignore"):
+            out[seg.slice] = iago(gmc_response(f, float(development), x0, form))
+    return out
+
+
+# keep Segment importable for type checkers of this module
+_ = Segment

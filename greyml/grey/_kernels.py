@@ -1,0 +1,348 @@
+"""Numerical kernels of the grey models: pure functions, arrays in, arrays out.
+
+No validation and no estimator state here; the estimators validate and then call
+these. Every function that walks along time takes ``bounds``, a sequence of
+``(start, stop)`` row ranges, one per test, and never lets a sum, a difference or
+a recursion cross from one range to the next.
+
+Notation (DOMAIN.md): x⁽⁰⁾ raw series, x⁽¹⁾ its 1-AGO, z⁽¹⁾(k) = ½(x⁽¹⁾(k) +
+x⁽¹⁾(k−1)) the background value, k = 2..n within each test.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.signal import lfilter
+
+__all__ = [
+    "ago",
+    "iago",
+    "background",
+    "gm1n_design",
+    "gm1n_lstsq",
+    "gmc_design",
+    "gmc_lstsq",
+    "gmc_forcing",
+    "gmc_initial",
+    "gmc_response",
+    "gmc_predict",
+    "gmc_predict_population",
+    "gmc_sse_population",
+    "gmc_basis",
+    "gmc_separable",
+    "LARGE_LOSS",
+]
+
+#: Loss given to a parameter set whose trajectory overflows or is not finite.
+#: Large enough to lose against any usable candidate, small enough that sums of a
+#: few of them stay finite.
+LARGE_LOSS = 1e200
+
+# Largest exponent we let a growing response reach before calling it exploded
+# (e^600 ~ 1e260 leaves room for the data's own magnitude below float max).
+_MAX_EXPONENT = 600.0
+
+
+def _as_bounds(bounds, n):
+    if bounds is None:
+        return [(0, n)]
+    return [(int(a), int(b)) for a, b in bounds]
+
+
+def ago(x, bounds=None):
+    """1-AGO: cumulative sum along axis 0, restarted at every test start."""
+    x = np.asarray(x, dtype=float)
+    out = np.empty_like(x)
+    for a, b in _as_bounds(bounds, x.shape[0]):
+        np.cumsum(x[a:b], axis=0, out=out[a:b])
+    return out
+
+
+def iago(x1, bounds=None):
+    """Inverse AGO: first difference within each test, x⁽⁰⁾(1) = x⁽¹⁾(1)."""
+    x1 = np.asarray(x1, dtype=float)
+    out = np.empty_like(x1)
+    for a, b in _as_bounds(bounds, x1.shape[0]):
+        if b > a:
+            out[a] = x1[a]
+            np.subtract(x1[a + 1 : b], x1[a : b - 1], out=out[a + 1 : b])
+    return out
+
+
+def background(x1, bounds=None):
+    """Background values z⁽¹⁾(k) = ½(x⁽¹⁾(k) + x⁽¹⁾(k−1)) for k = 2..n of each test.
+
+    Returns the rows k = 2..n of every test stacked (``n − n_tests`` rows).
+    """
+    x1 = np.asarray(x1, dtype=float)
+    parts = [0.5 * (x1[a + 1 : b] + x1[a : b - 1]) for a, b in _as_bounds(bounds, len(x1))]
+    return np.concatenate(parts, axis=0)
+
+
+def _later_rows(x, bounds):
+    """Rows k = 2..n of every test stacked."""
+    return np.concatenate([x[a + 1 : b] for a, b in _as_bounds(bounds, len(x))], axis=0)
+
+
+def gm1n_design(y, X, bounds=None):
+    """GM(1,N) least-squares system ``B θ ≈ Y`` for θ = (a, b₂…b_N).
+
+    B = [−z₁⁽¹⁾(k), x₂⁽¹⁾(k), …, x_N⁽¹⁾(k)], Y = x₁⁽⁰⁾(k), k = 2..n per test.
+    """
+    y = np.asarray(y, dtype=float)
+    X = np.asarray(X, dtype=float)
+    y1 = ago(y, bounds)
+    X1 = ago(X, bounds)
+    B = np.column_stack([-background(y1, bounds), _later_rows(X1, bounds)])
+    return B, _later_rows(y, bounds)
+
+
+def gm1n_lstsq(y, X, bounds=None):
+    """Least-squares GM(1,N) coefficients.
+
+    Returns ``(a, b, rank, singular_values)`` with ``a`` the development
+    coefficient and ``b`` (shape ``(N-1,)``) the driving (influence) coefficients.
+    """
+    B, Y = gm1n_design(y, X, bounds)
+    theta, _, rank, sv = np.linalg.lstsq(B, Y, rcond=None)
+    return theta[0], theta[1:], rank, sv
+
+
+def gmc_design(y, X, bounds=None):
+    """GMC(1,N) least-squares system for θ = (b₁, b₂…b_N, u).
+
+    x₁⁽⁰⁾(k) + b₁z₁⁽¹⁾(k) = Σⱼ bⱼ zⱼ⁽¹⁾(k) + u, k = 2..n per test, so
+    B = [−z₁⁽¹⁾, z₂⁽¹⁾, …, z_N⁽¹⁾, 1] and Y = x₁⁽⁰⁾.
+    """
+    y = np.asarray(y, dtype=float)
+    X = np.asarray(X, dtype=float)
+    z1 = background(ago(y, bounds), bounds)
+    zX = background(ago(X, bounds), bounds)
+    B = np.column_stack([-z1, zX, np.ones(len(z1))])
+    return B, _later_rows(y, bounds)
+
+
+def gmc_lstsq(y, X, bounds=None):
+    """GMC(1,N) by least squares. Returns ``(b1, b, u, rank, singular_values)``."""
+    B, Y = gmc_design(y, X, bounds)
+    theta, _, rank, sv = np.linalg.lstsq(B, Y, rcond=None)
+    return theta[0], theta[1:-1], theta[-1], rank, sv
+
+
+def gmc_forcing(X1, coef, control):
+    """f(k) = Σⱼ bⱼ xⱼ⁽¹⁾(k) + u.
+
+    ``coef`` of shape ``(N-1,)`` gives ``(n,)``; of shape ``(P, N-1)`` with
+    ``control`` of shape ``(P,)`` gives ``(n, P)``, one column per candidate.
+    """
+    return X1 @ np.asarray(coef, dtype=float).T + control
+
+
+def gmc_initial(f1, b1, initial):
+    """The response's starting value x̂₁⁽¹⁾(1) = x̂₁⁽⁰⁾(1).
+
+    ``"model"``: the grey equation at k = 1, where z₁⁽¹⁾(1) = x₁⁽¹⁾(1), gives
+    x₁⁽⁰⁾(1)(1 + b₁) = f(1); ``"zero"``: the displacement is referenced to the
+    start of the test (a probe datum), so x₁⁽⁰⁾(1) = 0.
+    """
+    f1 = np.asarray(f1, dtype=float)
+    if initial == "zero":
+        return np.zeros_like(f1)
+    denom = 1.0 + np.asarray(b1, dtype=float)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        return np.where(np.abs(denom) > 1e-12, f1 / np.where(denom == 0, 1.0, denom), np.inf)
+
+
+def gmc_response(f, b1, x0, form="trapezoid"):
+    """GMC(1,N) time response x̂₁⁽¹⁾(k) of one test, in O(n).
+
+    Parameters
+    ----------
+    f : ndarray of shape (n,)
+        Forcing f(k) = Σⱼ bⱼ xⱼ⁽¹⁾(k) + u.
+    b1 : float
+        Development coefficient.
+    x0 : float
+        Starting value x̂₁⁽¹⁾(1).
+    form : {"trapezoid", "midpoint"}
+        ``"trapezoid"`` (Tien 2012, seeds 002/004)::
+
+            x̂(k) = x0·e^{−b₁(k−1)} + ½e^{−b₁(k−1)}f(1) + Σ_{τ=2}^{k−1} e^{−b₁(k−τ)}f(τ) + ½f(k)
+
+        ``"midpoint"`` (seed 000)::
+
+            x̂(k) = x0·e^{−b₁(k−1)} + Σ_{τ=2}^{k} ½e^{−b₁(k−τ+½)}[f(τ) + f(τ−1)]
+
+    Returns
+    -------
+    x1_hat : ndarray of shape (n,)
+        May contain ``inf`` if the response explodes (b₁ ≪ 0); callers decide.
+
+    Notes
+    -----
+    With a = e^{−b₁}, the trapezoid sum obeys P(k) = a·P(k−1) + f(k),
+    P(1) = x0 + ½f(1), and x̂(k) = P(k) − ½f(k); the midpoint sum obeys
+    M(k) = a·M(k−1) + ½√a·(f(k) + f(k−1)), M(1) = x0. Both are first-order linear
+    filters, run by :func:`scipy.signal.lfilter` in compiled code.
+    """
+    f = np.asarray(f, dtype=float)
+    n = f.shape[0]
+    if n == 0:
+        return f.copy()
+    with np.errstate(over="ignore", invalid="ignore"):
+        a = np.exp(-b1)
+        if form == "trapezoid":
+            p, _ = lfilter([1.0], [1.0, -a], f, zi=[x0 - 0.5 * f[0]])
+            return p - 0.5 * f
+        if form == "midpoint":
+            g = np.empty(n)
+            g[0] = 0.0
+            g[1:] = (0.5 * np.sqrt(a)) * (f[1:] + f[:-1])
+            m, _ = lfilter([1.0], [1.0, -a], g, zi=[x0])
+            return m
+    raise ValueError(f"Unknown response form {form!r}; use 'trapezoid' or 'midpoint'.")
+
+
+def _explodes(b1, n):
+    """True where e^{−b₁(n−1)} would overflow: the trajectory is unusable."""
+    return (-np.asarray(b1, dtype=float)) * max(n - 1, 0) > _MAX_EXPONENT
+
+
+def gmc_predict(X1, b1, coef, control, bounds=None, form="trapezoid", initial="model"):
+    """Predicted x̂₁⁽⁰⁾ of every test (IAGO of the time response), shape ``(n,)``.
+
+    ``X1`` holds the 1-AGO of the drivers (per test). Values of an exploding
+    trajectory come back as ``inf`` (never NaN); callers decide what to do.
+    """
+    X1 = np.asarray(X1, dtype=float)
+    out = np.empty(X1.shape[0])
+    for a, b in _as_bounds(bounds, X1.shape[0]):
+        if b == a:
+            continue
+        if _explodes(b1, b - a):
+            out[a:b] = np.inf
+            continue
+        with np.errstate(over="ignore", invalid="ignore"):
+            f = gmc_forcing(X1[a:b], coef, control)
+            x0 = gmc_initial(f[0], b1, initial)
+            x1_hat = gmc_response(f, b1, float(x0), form)
+            seg = iago(x1_hat)
+        seg[~np.isfinite(seg)] = np.inf
+        out[a:b] = seg
+    return out
+
+
+def gmc_predict_population(X1, params, bounds=None, form="trapezoid", initial="model"):
+    """Predictions for a population of parameter vectors ``(b₁, b₂…b_N, u)``.
+
+    ``params`` has shape ``(P, N+1)``; returns ``(n, P)``. The forcing of all
+    candidates is one matrix product; each candidate's recursion is one compiled
+    :func:`~scipy.signal.lfilter` call per test.
+    """
+    X1 = np.asarray(X1, dtype=float)
+    params = np.atleast_2d(np.asarray(params, dtype=float))
+    b1 = params[:, 0]
+    out = np.empty((X1.shape[0], params.shape[0]))
+    for a, b in _as_bounds(bounds, X1.shape[0]):
+        if b == a:
+            continue
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+            F = gmc_forcing(X1[a:b], params[:, 1:-1], params[:, -1])
+            x0 = gmc_initial(F[0], b1, initial)
+            for i in range(params.shape[0]):
+                if _explodes(b1[i], b - a) or not np.isfinite(x0[i]):
+                    out[a:b, i] = np.inf
+                    continue
+                x1_hat = gmc_response(F[:, i], b1[i], x0[i], form)
+                out[a, i] = x1_hat[0]
+                np.subtract(x1_hat[1:], x1_hat[:-1], out=out[a + 1 : b, i])
+    bad = ~np.isfinite(out)
+    if bad.any():
+        out[bad] = np.inf
+    return out
+
+
+def gmc_sse_population(X1, y, params, bounds=None, form="trapezoid", initial="model"):
+    """Σ(x̂₁⁽⁰⁾ − x₁⁽⁰⁾)² for each candidate, shape ``(P,)``, always finite.
+
+    A candidate whose trajectory explodes or overflows gets :data:`LARGE_LOSS`.
+    """
+    pred = gmc_predict_population(X1, params, bounds, form, initial)
+    with np.errstate(over="ignore", invalid="ignore"):
+        resid = pred - np.asarray(y, dtype=float)[:, None]
+        sse = np.einsum("ij,ij->j", resid, resid)
+    sse[~np.isfinite(sse)] = LARGE_LOSS
+    return np.minimum(sse, LARGE_LOSS)
+
+
+def gmc_basis(X1, b1, bounds=None, form="trapezoid", initial="model"):
+    """Prediction x̂₁⁽⁰⁾ as a linear map of θ = (b₂…b_N, u) for a fixed b₁.
+
+    For a fixed development coefficient the time response is linear in the
+    forcing and in its starting value, and both are linear in θ, so
+    x̂₁⁽⁰⁾ = Φ(b₁)·θ. Returns Φ of shape ``(n, N)``: column j is the prediction
+    with bⱼ = 1 and every other coefficient 0; the last column is u's. All
+    columns run through one :func:`~scipy.signal.lfilter` call per test.
+    Non-finite entries (an exploding response) come back as ``inf``.
+    """
+    X1 = np.asarray(X1, dtype=float)
+    n = X1.shape[0]
+    U = np.column_stack([X1, np.ones(n)])
+    phi = np.empty_like(U)
+    for a, b in _as_bounds(bounds, n):
+        if b == a:
+            continue
+        if _explodes(b1, b - a):
+            phi[a:b] = np.inf
+            continue
+        F = U[a:b]
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+            x0 = gmc_initial(F[0], b1, initial)
+            decay = np.exp(-b1)
+            if form == "trapezoid":
+                p, _ = lfilter([1.0], [1.0, -decay], F, axis=0, zi=(x0 - 0.5 * F[0])[None, :])
+                x1_hat = p - 0.5 * F
+            else:
+                G = np.zeros_like(F)
+                G[1:] = (0.5 * np.sqrt(decay)) * (F[1:] + F[:-1])
+                x1_hat, _ = lfilter([1.0], [1.0, -decay], G, axis=0, zi=x0[None, :])
+            phi[a] = x1_hat[0]
+            np.subtract(x1_hat[1:], x1_hat[:-1], out=phi[a + 1 : b])
+    phi[~np.isfinite(phi)] = np.inf
+    return phi
+
+
+def gmc_separable(X1, y, b1, bounds=None, form="trapezoid", initial="model"):
+    """Best (b₂…b_N, u) for each candidate b₁, and the resulting loss.
+
+    Variable projection (Golub & Pereyra 1973): for every b₁ in ``b1`` (shape
+    ``(P,)``) the linear coefficients solve min ‖Φ(b₁)θ − y‖² exactly.
+
+    Returns
+    -------
+    sse : ndarray of shape (P,)
+        Finite; :data:`LARGE_LOSS` for a candidate whose response explodes.
+    theta : ndarray of shape (P, N)
+        (b₂…b_N, u) per candidate (zeros where the response explodes).
+    """
+    b1 = np.atleast_1d(np.asarray(b1, dtype=float))
+    y = np.asarray(y, dtype=float)
+    q = np.asarray(X1).shape[1] + 1
+    sse = np.full(b1.shape[0], LARGE_LOSS)
+    theta = np.zeros((b1.shape[0], q))
+    scale = max(float(np.abs(y).max(initial=0.0)), 1.0)
+    for i, b in enumerate(b1):
+        phi = gmc_basis(X1, b, bounds, form, initial)
+        if not np.isfinite(phi).all() or np.abs(phi).max(initial=0.0) > 1e150:
+            continue
+        # column scaling keeps lstsq well conditioned whatever the drivers' units
+        norms = np.sqrt(np.einsum("ij,ij->j", phi, phi))
+        norms[norms == 0] = 1.0
+        coef, *_ = np.linalg.lstsq(phi / norms, y, rcond=None)
+        coef /= norms
+        resid = phi @ coef - y
+        value = float(resid @ resid)
+        if np.isfinite(value) and np.abs(coef).max(initial=0.0) < 1e100 * scale:
+            sse[i] = min(value, LARGE_LOSS)
+            theta[i] = coef
+    return sse, theta
