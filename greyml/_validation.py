@@ -27,6 +27,10 @@ def column_names(estimator, n_features: int) -> list[str]:
     return [f"x{j}" for j in range(n_features)]
 
 
+def _upper_first(text: str) -> str:
+    return text[:1].upper() + text[1:]
+
+
 def _where(seg: Segment, row: int) -> str:
     return f"{segment_label(seg)} at row {row} (sample {row - seg.start + 1} of that test)"
 
@@ -110,8 +114,9 @@ def validate_sequences(
 
     Returns ``(X, y, segments)`` with ``X`` a float64 array, ``y`` a float64 1-D
     array (or ``None``) and ``segments`` the list of :class:`Segment`.
-    ``min_rows`` is the number of equations the estimator needs, counted as rows
-    minus one per test (the first sample of each test only starts it).
+    ``min_rows`` is the number of equations the estimator needs (an int, or a
+    function of the number of columns), counted as rows minus one per test (the
+    first sample of each test only starts it).
     """
     segments = _segments_of(X, y)
     _check_numeric_frame(X)
@@ -150,10 +155,14 @@ def validate_sequences(
     for seg in segments:
         if seg.n < min_samples_per_test:
             raise ValueError(
-                f"{segment_label(seg).capitalize()} has {seg.n} sample"
+                f"{_upper_first(segment_label(seg))} has {seg.n} sample"
                 f"{'' if seg.n == 1 else 's'}; {name} needs at least "
                 f"{min_samples_per_test} samples per test."
             )
+    if callable(min_rows):
+        min_rows = min_rows(Xa.shape[1])
+    if callable(n_params_msg):
+        n_params_msg = n_params_msg(Xa.shape[1])
     if min_rows is not None:
         n_eq = Xa.shape[0] - len(segments)
         if n_eq < min_rows:

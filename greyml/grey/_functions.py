@@ -6,32 +6,23 @@ import warnings
 
 import numpy as np
 
-from greyml._sequences import Segment, segment_label, test_segments
+from sklearn.base import BaseEstimator
+
+from greyml._sequences import segment_label, test_segments
+from greyml._validation import validate_sequences
 from greyml.grey._gmc import GreyConditioningWarning
 from greyml.grey._kernels import ago, gm1n_lstsq, gmc_forcing, gmc_initial, gmc_response, iago
 
 __all__ = ["fit_gm1n", "simulate_gmc"]
 
 
-class _Named:
-    """Stand-in estimator so the shared validation can name columns."""
-
-    def __init__(self, name, columns=None):
-        self._name = name
-        if columns is not None:
-            self.feature_names_in_ = np.asarray(columns, dtype=object)
+class _Inputs(BaseEstimator):
+    """Holds what validation learns about a function's inputs (names, counts)."""
 
 
-def _validate(X, y, who, min_rows=None, reject_constant=False):
-    from greyml._validation import validate_sequences
-
-    columns = list(map(str, X.columns)) if hasattr(X, "columns") else None
-    stub = type(who, (), {"__sklearn_tags__": lambda self: None})()
-    if columns is not None:
-        stub.feature_names_in_ = np.asarray(columns, dtype=object)
+def _validate(X, y, min_rows=None):
     return validate_sequences(
-        stub, X, y, reset=False, min_samples_per_test=2, min_rows=min_rows,
-        reject_constant=reject_constant,
+        _Inputs(), X, y, reset=True, min_samples_per_test=2, min_rows=min_rows
     )
 
 
@@ -74,8 +65,8 @@ def fit_gm1n(X, y):
     >>> b.shape
     (2,)
     """
-    n_features = np.shape(X)[1] if np.ndim(X) == 2 else 0
-    Xa, ya, segments = _validate(X, y, "fit_gm1n", min_rows=n_features + 1)
+    Xa, ya, segments = _validate(X, y, min_rows=lambda p: p + 1)
+    n_features = Xa.shape[1]
     a, b, rank, _ = gm1n_lstsq(ya, Xa, [(s.start, s.stop) for s in segments])
     if rank < n_features + 1:
         warnings.warn(
@@ -142,6 +133,3 @@ def simulate_gmc(X, development, driving, control=0.0, *, form="trapezoid", init
             out[seg.slice] = iago(gmc_response(f, float(development), x0, form))
     return out
 
-
-# keep Segment importable for type checkers of this module
-_ = Segment

@@ -6,6 +6,7 @@ import numbers
 import warnings
 
 import numpy as np
+from scipy.optimize import minimize_scalar
 from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.utils.validation import check_is_fitted
 
@@ -82,6 +83,11 @@ class GMC(RegressorMixin, BaseEstimator):
         grey equation at k = 1, x̂₁⁽⁰⁾(1) = f(1) / (1 + b₁), from that test's own
         first driver values. ``"zero"``: x̂₁⁽⁰⁾(1) = 0, for displacements measured
         from a datum taken at the start of each test.
+    polish : bool, default=True
+        With ``search="separable"``: refine the optimiser's best b₁ by a bounded
+        Brent search in its neighbourhood, kept only if it lowers the loss (as
+        ``polish`` in :func:`scipy.optimize.differential_evolution`). Population
+        methods find the right basin quickly but converge slowly inside it.
     warm_start_ls : bool, default=True
         Put the least-squares solution (clipped to ``bounds``) into the initial
         population of the PSO/CS solvers. The optimisers still search the whole
@@ -104,6 +110,8 @@ class GMC(RegressorMixin, BaseEstimator):
         What the optimiser returned (with ``history``); ``None`` for ``"ls"``.
     n_tests_ : int
         Number of tests seen in ``fit``.
+    n_iter_ : int
+        Optimiser iterations run (1 for ``"ls"``, one least-squares solve).
     n_features_in_ : int
     feature_names_in_ : ndarray of shape (n_features_in_,)
 
@@ -118,6 +126,12 @@ class GMC(RegressorMixin, BaseEstimator):
     near the optimum once there are more than two or three drivers (the loss
     surface is a narrow valley); ``search="separable"`` searches b₁ alone and
     keeps the seeds' objective, so it is the default.
+
+    GMC is invariant to the units of a driver (bⱼ rescales) but not to an
+    offset: a constant added to a driver accumulates into a ramp that u cannot
+    absorb. Scale drivers without centring them (e.g.
+    ``StandardScaler(with_mean=False)``) or give temperature rises consistently
+    in fit and predict.
 
     Tests are read from the ``test`` level of the row index of ``X`` (or ``y``);
     accumulation, convolution and differencing restart at each test, and each
@@ -156,6 +170,7 @@ class GMC(RegressorMixin, BaseEstimator):
         max_iter=100,
         response="trapezoid",
         initial="model",
+        polish=True,
         warm_start_ls=True,
         random_state=None,
     ):
@@ -166,6 +181,7 @@ class GMC(RegressorMixin, BaseEstimator):
         self.max_iter = max_iter
         self.response = response
         self.initial = initial
+        self.polish = polish
         self.warm_start_ls = warm_start_ls
         self.random_state = random_state
 
@@ -224,16 +240,19 @@ class GMC(RegressorMixin, BaseEstimator):
         self : GMC
         """
         optimizer = self._check_params()
-        n_features = np.shape(X)[1] if np.ndim(X) == 2 else None
-        n_coef = (n_features + 2) if n_features is not None else None
+        if y is None:
+            raise ValueError(
+                "GMC requires y to be passed, but the target y is None: give the "
+                "measured target (e.g. the displacement) of every row."
+            )
         Xa, ya, segments = validate_sequences(
             self,
             X,
             y,
             reset=True,
             min_samples_per_test=2,
-            min_rows=n_coef,
-            n_params_msg=f"{n_coef} coefficients (b1, one b per column, u)",
+            min_rows=lambda p: p + 2,
+            n_params_msg=lambda p: f"{p + 2} coefficients (b1, one b per column, u)",
             reject_constant=True,
         )
         bounds = _bounds_list(segments)
@@ -255,6 +274,7 @@ class GMC(RegressorMixin, BaseEstimator):
         if optimizer is None:
             theta = theta_ls
             self.optimizer_result_ = None
+            self.n_iter_ = 1
         elif self.search == "full":
             lower, upper = check_bounds(self.bounds, n_theta)
             rng = make_generator(self.random_state)
@@ -267,16 +287,27 @@ class GMC(RegressorMixin, BaseEstimator):
             )
             theta = result.x
             self.optimizer_result_ = result
+            self.n_iter_ = result.nit
         else:
             lower, upper = check_bounds(self.bounds, n_theta if np.ndim(self.bounds[0]) else 1)
-            lower, upper = lower[:1], upper[:1]
+            # b1 is searched on an arcsinh scale: fine near 0, where the stable,
+            # physically meaningful development coefficients lie, coarse far out
+            lower, upper = np.arcsinh(lower[:1]), np.arcsinh(upper[:1])
             rng = make_generator(self.random_state)
-            x0 = np.array([[b1]]) if self.warm_start_ls and np.isfinite(b1) else None
+            x0 = (
+                np.arcsinh(np.clip([[b1]], np.sinh(lower), np.sinh(upper)))
+                if self.warm_start_ls and np.isfinite(b1)
+                else None
+            )
             objective = _GMCSeparableObjective(X1, ya, bounds, self.response, self.initial)
             result = optimizer.minimize(objective, (lower, upper), rng, x0=x0)
+            if self.polish:
+                _polish(objective, result, lower[0], upper[0])
+            result.x = np.sinh(result.x)
             _, lin = gmc_separable(X1, ya, result.x, bounds, self.response, self.initial)
             theta = np.concatenate([result.x, lin[0]])
             self.optimizer_result_ = result
+            self.n_iter_ = result.nit
 
         self.development_coef_ = float(theta[0])
         self.driving_coef_ = np.asarray(theta[1:-1], dtype=float)
@@ -336,6 +367,26 @@ class GMC(RegressorMixin, BaseEstimator):
         return tags
 
 
+def _polish(objective, result, lower, upper):
+    """Bounded Brent refinement of a 1-D optimum; kept only if it is better."""
+    s0 = float(result.x[0])
+    width = 0.02 * (upper - lower)
+    lo, hi = max(lower, s0 - width), min(upper, s0 + width)
+    if not hi > lo:
+        return
+    found = minimize_scalar(
+        lambda s: float(objective(np.array([[s]]))[0]),
+        bounds=(lo, hi),
+        method="bounded",
+        options={"xatol": 1e-10 * max(1.0, abs(s0))},
+    )
+    result.nfev += int(found.nfev)
+    if found.fun < result.fun:
+        result.x = np.array([found.x])
+        result.fun = float(found.fun)
+        result.message += "; polished by bounded Brent search"
+
+
 class _GMCObjective:
     """Picklable population objective: Σ(x̂₁⁽⁰⁾ − x₁⁽⁰⁾)² per candidate."""
 
@@ -353,10 +404,13 @@ class _GMCObjective:
 
 
 class _GMCSeparableObjective(_GMCObjective):
-    """Loss of each candidate b₁ with (b₂…b_N, u) solved exactly (variable projection)."""
+    """Loss of each candidate with (b₂…b_N, u) solved exactly (variable projection).
+
+    The candidates are s = arcsinh(b₁).
+    """
 
     def __call__(self, params):
         sse, _ = gmc_separable(
-            self.X1, self.y, params[:, 0], self.bounds, self.form, self.initial
+            self.X1, self.y, np.sinh(params[:, 0]), self.bounds, self.form, self.initial
         )
         return sse

@@ -27,8 +27,12 @@ __all__ = ["PopulationOptimizer", "PENALTY", "check_bounds"]
 PENALTY = 1e200
 
 
-def check_bounds(bounds, n_dim=None):
-    """Validate ``(lower, upper)`` and broadcast them to arrays of shape ``(D,)``."""
+def check_bounds(bounds, n_dim=None, x0=None):
+    """Validate ``(lower, upper)`` and broadcast them to arrays of shape ``(D,)``.
+
+    ``D`` is ``n_dim`` if given, else the bounds' length, else the number of
+    columns of the starting points ``x0``.
+    """
     try:
         lower, upper = bounds
     except (TypeError, ValueError):
@@ -39,6 +43,8 @@ def check_bounds(bounds, n_dim=None):
     upper = np.asarray(upper, dtype=float)
     if n_dim is None:
         n_dim = max(lower.size, upper.size)
+        if n_dim == 1 and x0 is not None:
+            n_dim = np.atleast_2d(np.asarray(x0, dtype=float)).shape[1]
     try:
         lower = np.broadcast_to(lower, (n_dim,)).copy()
         upper = np.broadcast_to(upper, (n_dim,)).copy()

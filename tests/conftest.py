@@ -1,0 +1,33 @@
+"""Shared fixtures: multi-test data with known GMC coefficients."""
+
+import numpy as np
+import pandas as pd
+import pytest
+from scipy.signal import lfilter
+
+from greyml import make_test_index, simulate_gmc
+
+TRUE_B1 = 0.3
+TRUE_B = np.array([0.8, -0.5, 0.3, 0.2])
+TRUE_U = -2.0
+
+
+def exciting_drivers(rng, n, n_drivers=4):
+    """Smoothed random walks around 20 °C: persistently exciting, not collinear."""
+    steps = lfilter([0.3], [1.0, -0.7], rng.normal(size=(n, n_drivers)), axis=0)
+    return 20.0 + 0.5 * np.cumsum(steps, axis=0)
+
+
+@pytest.fixture
+def gmc_tests():
+    """Four tests (different lengths) from the GMC response with known coefficients."""
+    rng = np.random.default_rng(42)
+    frames = []
+    for label, n in [("I", 80), ("II", 100), ("III", 90), ("IV", 110)]:
+        X = exciting_drivers(rng, n)
+        y = simulate_gmc(X, TRUE_B1, TRUE_B, TRUE_U)
+        index = make_test_index([label] * n, 10.0 * np.arange(n))
+        frame = pd.DataFrame(X, index=index, columns=[f"T{j + 1}_C" for j in range(4)])
+        frame["dz_um"] = y
+        frames.append(frame)
+    return pd.concat(frames)
