@@ -32,14 +32,19 @@ def _upper_first(text: str) -> str:
 
 
 def _where(seg: Segment, row: int) -> str:
-    return f"{segment_label(seg)} at row {row} (sample {row - seg.start + 1} of that test)"
+    return (
+        f"{segment_label(seg)} at row {row} (sample {row - seg.start + 1} of that test)"
+    )
 
 
 def _check_numeric_frame(X, what="X"):
     if isinstance(X, pd.DataFrame):
         for col in X.columns:
             dtype = X[col].dtype
-            if not (pd.api.types.is_numeric_dtype(dtype) or pd.api.types.is_bool_dtype(dtype)):
+            if not (
+                pd.api.types.is_numeric_dtype(dtype)
+                or pd.api.types.is_bool_dtype(dtype)
+            ):
                 raise ValueError(
                     f"Column {str(col)!r} of {what} has non-numeric dtype {dtype}; "
                     "greyml models need numeric sensor values."
@@ -62,9 +67,11 @@ def _check_finite(A: np.ndarray, names, segments, what: str):
             kind = "NaN" if np.isnan(value) else "infinity (inf)"
             name = names[c] if names is not None else None
             where = f"column {name!r}" if name is not None else "the target y"
-            prefix = (
-                f"Input {what} contains {'NaN' if np.isnan(value) else 'infinity or a value too large for dtype(' + repr('float64') + ')'}"
-            )
+            # scikit-learn's wording first, so its estimator checks recognise it
+            if np.isnan(value):
+                prefix = f"Input {what} contains NaN"
+            else:
+                prefix = f"Input {what} contains infinity or a value too large for dtype('float64')"
             raise ValueError(f"{prefix}: {where} has {kind} in {_where(seg, row)}.")
 
 
@@ -125,7 +132,9 @@ def validate_sequences(
             y = y.iloc[:, 0]
         y_arr = np.asarray(y)
         if y_arr.dtype.kind in "fc" and y_arr.size:
-            y_flat = y_arr.reshape(-1) if y_arr.ndim == 2 and 1 in y_arr.shape else y_arr
+            y_flat = (
+                y_arr.reshape(-1) if y_arr.ndim == 2 and 1 in y_arr.shape else y_arr
+            )
             if y_flat.ndim == 1:
                 segs = segments or [Segment(None, 0, len(y_flat))]
                 _check_finite(y_flat, None, segs, "y")

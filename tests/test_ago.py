@@ -11,7 +11,10 @@ from greyml.grey import ago, iago
 
 def two_tests():
     idx = make_test_index(["I", "I", "I", "II", "II"], [0, 10, 20, 0, 10])
-    return pd.DataFrame({"T1_C": [1.0, 2.0, 3.0, 10.0, 20.0], "T2_C": [0.5, 0.5, 1.0, -1.0, 1.0]}, index=idx)
+    return pd.DataFrame(
+        {"T1_C": [1.0, 2.0, 3.0, 10.0, 20.0], "T2_C": [0.5, 0.5, 1.0, -1.0, 1.0]},
+        index=idx,
+    )
 
 
 def test_hand_computed_per_test():
@@ -54,7 +57,9 @@ def test_does_not_modify_input():
 def test_nan_names_column_and_test():
     X = two_tests()
     X.iloc[4, 1] = np.nan
-    with pytest.raises(ValueError, match=r"column 'T2_C' has NaN in test 'II' at row 4"):
+    with pytest.raises(
+        ValueError, match=r"column 'T2_C' has NaN in test 'II' at row 4"
+    ):
         AGO().fit(X)
 
 
@@ -67,15 +72,20 @@ def test_mismatched_columns_between_fit_and_transform():
 
 @settings(max_examples=200, deadline=None)
 @given(
-    data=arrays(np.float64, st.tuples(st.integers(1, 30), st.integers(1, 3)),
-                elements=st.floats(-1e6, 1e6, allow_nan=False)),
+    data=arrays(
+        np.float64,
+        st.tuples(st.integers(1, 30), st.integers(1, 3)),
+        elements=st.floats(-1e6, 1e6, allow_nan=False),
+    ),
     cuts=st.lists(st.integers(1, 29), max_size=4),
 )
 def test_iago_inverts_ago_per_test(data, cuts):
     n = data.shape[0]
     edges = sorted({0, n, *[c for c in cuts if c < n]})
     bounds = list(zip(edges[:-1], edges[1:]))
-    np.testing.assert_allclose(iago(ago(data, bounds), bounds), data, rtol=1e-9, atol=1e-6)
+    np.testing.assert_allclose(
+        iago(ago(data, bounds), bounds), data, rtol=1e-9, atol=1e-6
+    )
     # accumulation restarts at every boundary
     acc = ago(data, bounds)
     for a, _ in bounds:

@@ -3,12 +3,13 @@
 import numpy as np
 import pandas as pd
 import pytest
+from conftest import TRUE_B, TRUE_B1, TRUE_U, exciting_drivers
 from sklearn.model_selection import GridSearchCV, LeaveOneGroupOut, cross_val_score
 from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import StandardScaler
 
-from conftest import TRUE_B, TRUE_B1, TRUE_U, exciting_drivers
-from greyml import GMC, make_test_index, simulate_gmc, test_ids as groups_of
+from greyml import GMC, make_test_index, simulate_gmc
+from greyml import test_ids as groups_of
 from greyml.optimize import ParticleSwarm
 
 SENSORS = ["T1_C", "T2_C", "T3_C", "T4_C"]
@@ -30,7 +31,9 @@ def test_metaheuristics_recover_the_model(solver, warm_start_ls, seed):
     later, unseen 140 samples are measured with noise: the calibrated model's RMSE
     there is within 2 % of the true model's."""
     X, y_true, y_meas = recovery_problem(seed)
-    model = GMC(solver=solver, warm_start_ls=warm_start_ls, random_state=seed).fit(X[:60], y_true[:60])
+    model = GMC(solver=solver, warm_start_ls=warm_start_ls, random_state=seed).fit(
+        X[:60], y_true[:60]
+    )
     later = slice(60, None)
     rmse_model = np.sqrt(np.mean((model.predict(X)[later] - y_meas[later]) ** 2))
     rmse_true = np.sqrt(np.mean((y_true[later] - y_meas[later]) ** 2))
@@ -61,15 +64,21 @@ def test_midpoint_response_is_recovered():
     rng = np.random.default_rng(0)
     X = exciting_drivers(rng, 80)
     y = simulate_gmc(X, 0.2, TRUE_B, 1.0, form="midpoint", initial="zero")
-    model = GMC(solver="pso", response="midpoint", initial="zero", random_state=0).fit(X, y)
+    model = GMC(solver="pso", response="midpoint", initial="zero", random_state=0).fit(
+        X, y
+    )
     np.testing.assert_allclose(model.predict(X), y, atol=1e-6 * np.abs(y).max())
 
 
 def test_multi_test_cross_validation(gmc_tests):
     X, y = gmc_tests[SENSORS], gmc_tests["dz_um"]
     scores = cross_val_score(
-        GMC(solver="pso", random_state=0), X, y, groups=groups_of(X),
-        cv=LeaveOneGroupOut(), scoring="neg_root_mean_squared_error",
+        GMC(solver="pso", random_state=0),
+        X,
+        y,
+        groups=groups_of(X),
+        cv=LeaveOneGroupOut(),
+        scoring="neg_root_mean_squared_error",
     )
     assert scores.shape == (4,)
     # exact data from one model: every held-out test is predicted almost exactly
@@ -98,12 +107,16 @@ def test_no_accumulation_crosses_a_test_boundary(gmc_tests):
 def test_new_test_starts_from_its_own_first_drivers(gmc_tests):
     """predict needs no target: a test's response starts at f(1)/(1 + b₁) (initial="model")."""
     X, y = gmc_tests[SENSORS], gmc_tests["dz_um"]
-    model = GMC(solver="pso", random_state=0).fit(X.drop(index="IV"), y.drop(index="IV"))
+    model = GMC(solver="pso", random_state=0).fit(
+        X.drop(index="IV"), y.drop(index="IV")
+    )
     new = X.loc[["IV"]]
     pred = model.predict(new)
     f1 = new.iloc[0].to_numpy() @ model.driving_coef_ + model.control_
     assert pred[0] == pytest.approx(f1 / (1 + model.development_coef_), rel=1e-12)
-    np.testing.assert_allclose(pred, y.loc["IV"].to_numpy(), atol=1e-6 * np.abs(y).max())
+    np.testing.assert_allclose(
+        pred, y.loc["IV"].to_numpy(), atol=1e-6 * np.abs(y).max()
+    )
     zero = GMC(solver="ls", initial="zero").fit(X, y)
     assert zero.predict(new)[0] == 0.0
 
@@ -112,10 +125,13 @@ def test_pipeline_and_grid_search(gmc_tests):
     X, y = gmc_tests[SENSORS], gmc_tests["dz_um"]
     # scaling without centring: GMC is invariant to driver units, not to offsets
     pipe = make_pipeline(
-        StandardScaler(with_mean=False).set_output(transform="pandas"), GMC(random_state=0)
+        StandardScaler(with_mean=False).set_output(transform="pandas"),
+        GMC(random_state=0),
     )
     grid = GridSearchCV(
-        pipe, {"gmc__solver": ["ls", "pso"]}, cv=LeaveOneGroupOut(),
+        pipe,
+        {"gmc__solver": ["ls", "pso"]},
+        cv=LeaveOneGroupOut(),
         scoring="neg_root_mean_squared_error",
     ).fit(X, y, groups=groups_of(X))
     assert grid.best_params_["gmc__solver"] == "pso"
@@ -131,7 +147,9 @@ def test_bit_identical_and_global_state_untouched(solver, gmc_tests):
     after = np.random.get_state()
     assert np.array_equal(a, b)
     assert np.array_equal(state[1], after[1]) and state[2:] == after[2:]
-    c = GMC(solver=solver, random_state=None).fit(X, y)  # fresh OS entropy, not the global state
+    c = GMC(solver=solver, random_state=None).fit(
+        X, y
+    )  # fresh OS entropy, not the global state
     after2 = np.random.get_state()
     assert np.array_equal(state[1], after2[1]) and c.loss_ >= 0
 
@@ -146,7 +164,9 @@ def test_fit_does_not_modify_inputs(gmc_tests):
 
 def test_optimizer_instance_as_solver(gmc_tests):
     X, y = gmc_tests[SENSORS], gmc_tests["dz_um"]
-    model = GMC(solver=ParticleSwarm(n_particles=10, max_iter=30), random_state=0).fit(X, y)
+    model = GMC(solver=ParticleSwarm(n_particles=10, max_iter=30), random_state=0).fit(
+        X, y
+    )
     # 10 × 31 population evaluations, then the Brent polish
     assert model.optimizer_result_.nfev > 10 * 31 and model.n_iter_ == 30
 
@@ -169,10 +189,22 @@ def _frame(gmc_tests):
 @pytest.mark.parametrize(
     "corrupt, match",
     [
-        (lambda X, y: X.iloc.__setitem__((85, 2), np.nan), r"column 'T3_C' has NaN in test 'II' at row 85"),
-        (lambda X, y: X.iloc.__setitem__((3, 0), np.inf), r"column 'T1_C' has infinity \(inf\) in test 'I' at row 3"),
-        (lambda X, y: y.iloc.__setitem__(200, np.nan), r"Input y contains NaN: the target y has NaN in test 'III'"),
-        (lambda X, y: X.__setitem__("T4_C", 21.5), r"Column 'T4_C' is constant \(21.5\) in every row of test 'I', test 'II'"),
+        (
+            lambda X, y: X.iloc.__setitem__((85, 2), np.nan),
+            r"column 'T3_C' has NaN in test 'II' at row 85",
+        ),
+        (
+            lambda X, y: X.iloc.__setitem__((3, 0), np.inf),
+            r"column 'T1_C' has infinity \(inf\) in test 'I' at row 3",
+        ),
+        (
+            lambda X, y: y.iloc.__setitem__(200, np.nan),
+            r"Input y contains NaN: the target y has NaN in test 'III'",
+        ),
+        (
+            lambda X, y: X.__setitem__("T4_C", 21.5),
+            r"Column 'T4_C' is constant \(21.5\) in every row of test 'I', test 'II'",
+        ),
     ],
 )
 def test_bad_values_name_column_and_test(solver, corrupt, match, gmc_tests):
@@ -184,14 +216,21 @@ def test_bad_values_name_column_and_test(solver, corrupt, match, gmc_tests):
 
 def test_test_with_one_row():
     idx = make_test_index(["A"] * 20 + ["B"], list(range(20)) + [0])
-    X = pd.DataFrame(np.random.default_rng(0).random((21, 2)), index=idx, columns=["T1_C", "T2_C"])
-    with pytest.raises(ValueError, match="Test 'B' has 1 sample; GMC needs at least 2 samples per test"):
+    X = pd.DataFrame(
+        np.random.default_rng(0).random((21, 2)), index=idx, columns=["T1_C", "T2_C"]
+    )
+    with pytest.raises(
+        ValueError, match="Test 'B' has 1 sample; GMC needs at least 2 samples per test"
+    ):
         GMC().fit(X, np.arange(21.0))
 
 
 def test_too_few_samples_for_coefficients():
     X = np.random.default_rng(0).random((5, 4))
-    with pytest.raises(ValueError, match=r"too few samples to fit 6 coefficients .* 5 samples in 1 test\(s\) give 4 equations"):
+    with pytest.raises(
+        ValueError,
+        match=r"too few samples to fit 6 coefficients .* 5 samples in 1 test\(s\) give 4 equations",
+    ):
         GMC().fit(X, np.arange(5.0))
 
 
@@ -214,7 +253,10 @@ def test_mismatched_columns(gmc_tests):
     "params, match",
     [
         ({"solver": "bfgs"}, "'solver' parameter of GMC must be"),
-        ({"solver": "pso", "n_population": 1}, r"'n_population' parameter of GMC must be an int in the range \[2, inf\)"),
+        (
+            {"solver": "pso", "n_population": 1},
+            r"'n_population' parameter of GMC must be an int in the range \[2, inf\)",
+        ),
         ({"solver": "pso", "bounds": (5, -5)}, "lower 5 is not below upper -5"),
         ({"response": "euler"}, "'response' parameter"),
         ({"search": "grid"}, "'search' parameter"),

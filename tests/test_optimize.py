@@ -18,7 +18,11 @@ def rastrigin(P):
 
 @pytest.mark.parametrize("make", OPTIMIZERS, ids=lambda c: c.__name__)
 def test_sphere_converges(make):
-    res = make().set_params(max_iter=300).minimize(sphere, (-5, 5), np.random.default_rng(0), n_dim=4)
+    res = (
+        make()
+        .set_params(max_iter=300)
+        .minimize(sphere, (-5, 5), np.random.default_rng(0), n_dim=4)
+    )
     np.testing.assert_allclose(res.x, 1.5, atol=1e-3)
     assert res.history.shape == (300,) and np.all(np.diff(res.history) <= 0)
 
@@ -41,12 +45,16 @@ def test_same_seed_same_result_and_global_state_untouched(make):
     b = opt.minimize(rastrigin, (-5.12, 5.12), np.random.default_rng(7), n_dim=5)
     after = np.random.get_state()
     assert a.fun == b.fun and np.array_equal(a.x, b.x)
-    assert all(np.array_equal(u, v) for u, v in zip(state[1:2], after[1:2])) and state[2:] == after[2:]
+    assert (
+        all(np.array_equal(u, v) for u, v in zip(state[1:2], after[1:2]))
+        and state[2:] == after[2:]
+    )
 
 
 @pytest.mark.parametrize("make", OPTIMIZERS, ids=lambda c: c.__name__)
 def test_nan_and_inf_losses_are_penalised(make):
     opt = make()
+
     def nasty(P):
         out = sphere(P)
         out[P[:, 0] < 0] = np.nan
@@ -59,13 +67,21 @@ def test_nan_and_inf_losses_are_penalised(make):
 
 @pytest.mark.parametrize("make", OPTIMIZERS, ids=lambda c: c.__name__)
 def test_x0_is_used(make):
-    res = make().set_params(max_iter=1).minimize(sphere, (-5, 5), np.random.default_rng(0), x0=[[1.5, 1.5]])
+    res = (
+        make()
+        .set_params(max_iter=1)
+        .minimize(sphere, (-5, 5), np.random.default_rng(0), x0=[[1.5, 1.5]])
+    )
     assert res.fun == 0.0
 
 
 @pytest.mark.parametrize(
     "bounds, match",
-    [((1.0, -1.0), "lower 1 is not below upper -1"), ((0, np.inf), "finite"), (3.0, "pair")],
+    [
+        ((1.0, -1.0), "lower 1 is not below upper -1"),
+        ((0, np.inf), "finite"),
+        (3.0, "pair"),
+    ],
 )
 def test_bad_bounds(bounds, match):
     with pytest.raises(ValueError, match=match):
@@ -75,10 +91,16 @@ def test_bad_bounds(bounds, match):
 @pytest.mark.parametrize(
     "opt, match",
     [
-        (ParticleSwarm(n_particles=0), r"'n_particles' parameter of ParticleSwarm must be an int in the range \[1, inf\). Got 0"),
+        (
+            ParticleSwarm(n_particles=0),
+            r"'n_particles' parameter of ParticleSwarm must be an int in the range \[1, inf\). Got 0",
+        ),
         (ParticleSwarm(max_iter=0), "'max_iter'"),
         (ParticleSwarm(inertia=0.5), "'inertia'"),
-        (CuckooSearch(pa=1.5), r"'pa' parameter of CuckooSearch must be a float in the range \[0, 1\]"),
+        (
+            CuckooSearch(pa=1.5),
+            r"'pa' parameter of CuckooSearch must be a float in the range \[0, 1\]",
+        ),
         (CuckooSearch(n_nests=1), "'n_nests'"),
         (CuckooSearch(beta=3.0), "'beta'"),
     ],
@@ -95,7 +117,9 @@ def test_rng_must_be_generator():
 
 def test_objective_must_return_one_value_per_row():
     with pytest.raises(ValueError, match="one loss per row"):
-        ParticleSwarm().minimize(lambda P: np.zeros(3), (-1, 1), np.random.default_rng(0), n_dim=2)
+        ParticleSwarm().minimize(
+            lambda P: np.zeros(3), (-1, 1), np.random.default_rng(0), n_dim=2
+        )
 
 
 def test_mantegna_sigma_closed_form():

@@ -12,8 +12,10 @@ ids_of = seq.test_ids
 
 
 def frame(tests, times):
-    return pd.DataFrame({"T1_C": np.arange(len(tests), dtype=float)},
-                        index=make_test_index(tests, times))
+    return pd.DataFrame(
+        {"T1_C": np.arange(len(tests), dtype=float)},
+        index=make_test_index(tests, times),
+    )
 
 
 def test_plain_array_is_one_test():
@@ -28,26 +30,38 @@ def test_segments_in_given_order():
 
 def test_split_test_is_rejected():
     X = frame(["A", "A", "B", "A"], [0, 10, 0, 20])
-    with pytest.raises(ValueError, match=r"Test 'A' appears in two separate runs of rows \(rows 0-1 and 3-3\)"):
+    with pytest.raises(
+        ValueError,
+        match=r"Test 'A' appears in two separate runs of rows \(rows 0-1 and 3-3\)",
+    ):
         segments_of(X)
 
 
-@pytest.mark.parametrize("times, word", [([0, 10, 10], "repeats"), ([0, 20, 10], "goes back")])
+@pytest.mark.parametrize(
+    "times, word", [([0, 10, 10], "repeats"), ([0, 20, 10], "goes back")]
+)
 def test_time_must_increase(times, word):
     X = frame(["A", "A", "A"], times)
-    with pytest.raises(ValueError, match=f"Time does not increase within test 'A'.*{word}.*row 2"):
+    with pytest.raises(
+        ValueError, match=f"Time does not increase within test 'A'.*{word}.*row 2"
+    ):
         segments_of(X)
 
 
 def test_missing_label():
-    X = pd.DataFrame({"a": [1.0, 2.0]},
-                     index=pd.MultiIndex.from_arrays([["A", None], [0, 1]], names=["test", "time_s"]))
+    X = pd.DataFrame(
+        {"a": [1.0, 2.0]},
+        index=pd.MultiIndex.from_arrays(
+            [["A", None], [0, 1]], names=["test", "time_s"]
+        ),
+    )
     with pytest.raises(ValueError, match="missing test label at row 1"):
         segments_of(X)
 
 
 def test_index_survives_sklearn_indexing():
     from sklearn.utils import _safe_indexing
+
     X = frame(["A", "A", "B", "B"], [0, 10, 0, 10])
     sub = _safe_indexing(X, np.array([2, 3]))
     assert segments_of(sub) == [Segment("B", 0, 2)]

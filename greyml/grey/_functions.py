@@ -5,13 +5,19 @@ from __future__ import annotations
 import warnings
 
 import numpy as np
-
 from sklearn.base import BaseEstimator
 
 from greyml._sequences import segment_label, test_segments
 from greyml._validation import validate_sequences
 from greyml.grey._gmc import GreyConditioningWarning
-from greyml.grey._kernels import ago, gm1n_lstsq, gmc_forcing, gmc_initial, gmc_response, iago
+from greyml.grey._kernels import (
+    ago,
+    gm1n_lstsq,
+    gmc_forcing,
+    gmc_initial,
+    gmc_response,
+    iago,
+)
 
 __all__ = ["fit_gm1n", "simulate_gmc"]
 
@@ -79,7 +85,9 @@ def fit_gm1n(X, y):
     return float(a), np.asarray(b, dtype=float)
 
 
-def simulate_gmc(X, development, driving, control=0.0, *, form="trapezoid", initial="model"):
+def simulate_gmc(
+    X, development, driving, control=0.0, *, form="trapezoid", initial="model"
+):
     """The GMC(1,N) prediction x̂₁⁽⁰⁾ for given coefficients, per test.
 
     Useful to make data with known coefficients, and to see what a calibrated
@@ -105,10 +113,13 @@ def simulate_gmc(X, development, driving, control=0.0, *, form="trapezoid", init
 
     Examples
     --------
+    With b₁ = 0 and one driver of ones (x⁽¹⁾ = 1, 2, 3), the trapezoid response
+    is 0, ½·1 + ½·2 = 1.5 and ½·1 + 2 + ½·3 = 4, whose IAGO is 0, 1.5, 2.5:
+
     >>> import numpy as np
     >>> from greyml.grey import simulate_gmc
     >>> simulate_gmc(np.ones((3, 1)), 0.0, [1.0], initial="zero").tolist()
-    [0.0, 1.5, 2.0]
+    [0.0, 1.5, 2.5]
     """
     X = np.asarray(X, dtype=float) if not hasattr(X, "columns") else X
     segments = test_segments(X)
@@ -123,7 +134,9 @@ def simulate_gmc(X, development, driving, control=0.0, *, form="trapezoid", init
     if not np.isfinite(Xa).all():
         r, c = np.argwhere(~np.isfinite(Xa))[0]
         seg = next(s for s in segments if s.start <= r < s.stop)
-        raise ValueError(f"X has a non-finite value in column {c} of {segment_label(seg)} at row {r}.")
+        raise ValueError(
+            f"X has a non-finite value in column {c} of {segment_label(seg)} at row {r}."
+        )
     out = np.empty(Xa.shape[0])
     X1 = ago(Xa, [(s.start, s.stop) for s in segments])
     for seg in segments:
@@ -132,4 +145,3 @@ def simulate_gmc(X, development, driving, control=0.0, *, form="trapezoid", init
         with np.errstate(over="ignore", invalid="ignore"):
             out[seg.slice] = iago(gmc_response(f, float(development), x0, form))
     return out
-

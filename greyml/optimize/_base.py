@@ -66,7 +66,11 @@ def check_bounds(bounds, n_dim=None, x0=None):
 
 
 def _check_count(owner, name, value, low=1):
-    if not isinstance(value, numbers.Integral) or isinstance(value, bool) or value < low:
+    if (
+        not isinstance(value, numbers.Integral)
+        or isinstance(value, bool)
+        or value < low
+    ):
         raise ValueError(
             f"The {name!r} parameter of {type(owner).__name__} must be an int in "
             f"the range [{low}, inf). Got {value!r} instead."
