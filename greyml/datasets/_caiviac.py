@@ -1,0 +1,160 @@
+"""The real CAIVIAC FL_THERMAL recording, read in place into greyml's layout."""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from greyml._sequences import make_test_index
+from greyml.datasets._simulated import _X_y, bunch_from_frame
+
+__all__ = ["load_caiviac", "caiviac_candidates"]
+
+_RELATIVE = Path("..") / "shared" / "realdata" / "caiviac"
+_FILE = "cycles.csv"
+_PROBES = [f"ch{k}_um" for k in range(1, 6)]
+_TEMPS = [f"t{k}_C" for k in range(1, 17)]
+_SPEEDS = {1: 1250, 2: 2500, 3: 3750, 4: 5000, 5: 3500}
+
+
+def caiviac_candidates():
+    """Folders :func:`load_caiviac` looks in when no path is given, in order.
+
+    ``$GREYML_CAIVIAC`` if set, then ``../shared/realdata/caiviac`` relative
+    to the repository root (the folder holding the ``greyml`` package) and to
+    the current directory.
+    """
+    out = []
+    env = os.environ.get("GREYML_CAIVIAC")
+    if env:
+        out.append(Path(env))
+    repo = Path(__file__).resolve().parents[2]
+    out.append((repo / _RELATIVE).resolve())
+    here = (Path.cwd() / _RELATIVE).resolve()
+    if here not in out:
+        out.append(here)
+    return out
+
+
+def _resolve(path):
+    if path is not None:
+        p = Path(path)
+        p = p / _FILE if p.is_dir() or p.suffix != ".csv" else p
+        if not p.is_file():
+            raise FileNotFoundError(f"No CAIVIAC recording at {os.fspath(p)!r}.")
+        return p
+    tried = []
+    for folder in caiviac_candidates():
+        p = folder / _FILE
+        tried.append(os.fspath(p))
+        if p.is_file():
+            return p
+    raise FileNotFoundError(
+        "The CAIVIAC recording was not found; looked for " + ", ".join(tried) + ". "
+        "Pass path= or set GREYML_CAIVIAC to the folder holding cycles.csv."
+    )
+
+
+def load_caiviac(path=None, *, reference="cycle", return_X_y=False, target="ch1_um"):
+    """Read the real CAIVIAC heating/cooling recording into greyml's layout.
+
+    Five cycles of 4 h spindle on and 4 h off (1250, 2500, 3750, 5000 and
+    3500 rpm) measured on a real machine tool, 15 s sampling, published by
+    CAIVIAC/FL_THERMAL under the MIT licence; the first 40.1 h are read from
+    ``../shared/realdata/caiviac/cycles.csv`` where it lies (the data is not
+    part of greyml).
+
+    Each cycle becomes a test labelled ``"cycle1"`` … ``"cycle5"`` with
+    ``time_s`` from the cycle's first row. Columns: ``spindle_rpm``,
+    ``T1_C`` … ``T16_C`` (the recording's t1 … t16) and the five displacement
+    probes ``ch1_um`` … ``ch5_um``. The upstream data does not say which
+    probe measures which axis, so they keep their channel names instead of
+    ``dx_um``/``dy_um``/``dz_um``; nor does it say where the temperature
+    sensors are or whether any reads the air, so every sensor's group is
+    ``"undocumented"``. There is no ``ambient_C`` column.
+
+    Parameters
+    ----------
+    path : str or path-like, optional
+        ``cycles.csv`` or the folder holding it. By default the folders of
+        :func:`caiviac_candidates`.
+    reference : {"cycle", "recording"}, default="cycle"
+        ``"cycle"``: probe readings relative to each cycle's first row (like
+        the simulated tests, whose displacement starts at 0). ``"recording"``:
+        as recorded, relative to the start of the whole recording. Each cycle
+        starts in the thermal state the previous one left either way.
+    return_X_y : bool, default=False
+        Return the 16 temperature columns and one probe channel.
+    target : str, default="ch1_um"
+
+    Returns
+    -------
+    data : Bunch or (X, y)
+        As :func:`make_tests`, with ``license`` (the MIT notice text) added.
+
+    Raises
+    ------
+    FileNotFoundError
+        If the recording is not where it is looked for; the message lists the
+        places.
+    ValueError
+        If the file lacks one of the expected columns.
+
+    Examples
+    --------
+    >>> data = load_caiviac()  # doctest: +SKIP
+    >>> data.tests  # doctest: +SKIP
+    ['cycle1', 'cycle2', 'cycle3', 'cycle4', 'cycle5']
+    """
+    if reference not in ("cycle", "recording"):
+        raise ValueError(f"reference must be 'cycle' or 'recording'; got {reference!r}.")
+    file = _resolve(path)
+    raw = pd.read_csv(file)
+    expected = ["time_s", "cycle", "spindle_rpm", *_PROBES, *_TEMPS]
+    missing = [c for c in expected if c not in raw.columns]
+    if missing:
+        raise ValueError(
+            f"{os.fspath(file)!r} lacks the column(s) {missing}; is it the CAIVIAC cycles.csv?"
+        )
+    cycle = raw["cycle"].to_numpy()
+    time = raw["time_s"].to_numpy(dtype=float)
+    start = pd.Series(time).groupby(cycle).transform("min").to_numpy()
+    frame = pd.DataFrame({"spindle_rpm": raw["spindle_rpm"].to_numpy(dtype=float)})
+    sensors = []
+    for k, col in enumerate(_TEMPS, start=1):
+        frame[f"T{k}_C"] = raw[col].to_numpy(dtype=float)
+        sensors.append(f"T{k}_C")
+    for col in _PROBES:
+        values = raw[col].to_numpy(dtype=float)
+        if reference == "cycle":
+            first = pd.Series(values).groupby(cycle).transform("first").to_numpy()
+            values = values - first
+        frame[col] = values
+    labels = np.array([f"cycle{int(c)}" for c in cycle], dtype=object)
+    frame.index = make_test_index(labels, time - start)
+    licence = file.with_name("LICENSE.txt")
+    description = (
+        "Real heating/cooling recording of a machine tool, CAIVIAC/FL_THERMAL "
+        "(data/data.xlsx, MIT licence), first 40.1 h: five cycles of 4 h spindle "
+        "on at " + ", ".join(f"{v} rpm" for v in _SPEEDS.values()) + " and 4 h off, "
+        "15 s sampling. Probe channels ch1/ch2 and ch3/ch4 move together; their "
+        "axes and the sensor positions are not documented upstream. Displacements "
+        + (
+            "relative to each cycle's first row."
+            if reference == "cycle"
+            else "relative to the start of the recording."
+        )
+    )
+    data = bunch_from_frame(
+        frame,
+        sensors=sensors,
+        targets=_PROBES,
+        sensor_groups=dict.fromkeys(sensors, "undocumented"),
+        description=description,
+        inputs=["spindle_rpm"],
+    )
+    data["license"] = licence.read_text(encoding="utf-8") if licence.is_file() else ""
+    return _X_y(data, target) if return_X_y else data

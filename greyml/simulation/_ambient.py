@@ -1,0 +1,214 @@
+"""Ambient air temperature profiles around the machine.
+
+A profile is a callable of the time in s from the test start returning °C,
+with the times at which it jumps (:meth:`AmbientProfile.breakpoints`) so that
+the simulator can place step boundaries there and stay exact.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = [
+    "AmbientProfile",
+    "constant",
+    "linear_drift",
+    "diurnal",
+    "door_openings",
+    "as_profile",
+]
+
+
+class AmbientProfile:
+    """Base class: ``profile(t)`` gives the air temperature at times ``t`` (s)."""
+
+    def __call__(self, t):  # pragma: no cover - abstract
+        raise NotImplementedError
+
+    def breakpoints(self) -> np.ndarray:
+        """Times (s) at which the profile jumps."""
+        return np.empty(0)
+
+    def __add__(self, other):
+        return _Sum(self, as_profile(other))
+
+    __radd__ = __add__
+
+
+@dataclass(frozen=True)
+class _Constant(AmbientProfile):
+    temperature_C: float
+
+    def __call__(self, t):
+        return np.full(np.shape(t), float(self.temperature_C))
+
+    def __repr__(self):
+        return f"constant({self.temperature_C:g} °C)"
+
+
+@dataclass(frozen=True)
+class _Linear(AmbientProfile):
+    start_C: float
+    rate_C_per_h: float
+
+    def __call__(self, t):
+        return self.start_C + self.rate_C_per_h * np.asarray(t, dtype=float) / 3600.0
+
+    def __repr__(self):
+        return f"linear drift from {self.start_C:g} °C at {self.rate_C_per_h:+g} °C/h"
+
+
+@dataclass(frozen=True)
+class _Diurnal(AmbientProfile):
+    mean_C: float
+    amplitude_C: float
+    peak_hour: float
+    start_hour: float
+    period_h: float
+
+    def __call__(self, t):
+        hour = self.start_hour + np.asarray(t, dtype=float) / 3600.0
+        phase = 2.0 * np.pi * (hour - self.peak_hour) / self.period_h
+        return self.mean_C + self.amplitude_C * np.cos(phase)
+
+    def __repr__(self):
+        return (
+            f"diurnal {self.mean_C:g} ± {self.amplitude_C:g} °C, peak at "
+            f"{self.peak_hour:g} h, test starting at {self.start_hour:g} h"
+        )
+
+
+@dataclass(frozen=True)
+class _Doors(AmbientProfile):
+    base: AmbientProfile
+    at_s: tuple
+    drop_C: float
+    duration_s: float
+
+    def __call__(self, t):
+        t = np.asarray(t, dtype=float)
+        out = np.asarray(self.base(t), dtype=float).copy()
+        for t0 in self.at_s:
+            out = out - self.drop_C * ((t >= t0) & (t < t0 + self.duration_s))
+        return out
+
+    def breakpoints(self):
+        own = [t for t0 in self.at_s for t in (t0, t0 + self.duration_s)]
+        return np.unique(np.concatenate([self.base.breakpoints(), own]))
+
+    def __repr__(self):
+        return (
+            f"{self.base!r} with {len(self.at_s)} door opening(s) of "
+            f"-{self.drop_C:g} °C for {self.duration_s / 60:g} min"
+        )
+
+
+@dataclass(frozen=True)
+class _Sum(AmbientProfile):
+    a: AmbientProfile
+    b: AmbientProfile
+
+    def __call__(self, t):
+        return self.a(t) + self.b(t)
+
+    def breakpoints(self):
+        return np.unique(np.concatenate([self.a.breakpoints(), self.b.breakpoints()]))
+
+    def __repr__(self):
+        return f"{self.a!r} + {self.b!r}"
+
+
+def as_profile(ambient) -> AmbientProfile:
+    """A profile from a profile or a number (a constant temperature)."""
+    if isinstance(ambient, AmbientProfile):
+        return ambient
+    try:
+        value = float(ambient)
+    except (TypeError, ValueError):
+        raise ValueError(
+            "ambient must be an AmbientProfile (constant, linear_drift, diurnal, "
+            f"door_openings) or a temperature in °C; got {ambient!r}."
+        ) from None
+    if not np.isfinite(value):
+        raise ValueError(f"The ambient temperature must be finite; got {value!r}.")
+    return _Constant(value)
+
+
+def constant(temperature_C=20.0) -> AmbientProfile:
+    """Constant ambient temperature.
+
+    Examples
+    --------
+    >>> constant(21.0)([0, 3600]).tolist()
+    [21.0, 21.0]
+    """
+    return as_profile(temperature_C)
+
+
+def linear_drift(start_C=20.0, rate_C_per_h=0.3) -> AmbientProfile:
+    """Ambient temperature changing at a constant rate.
+
+    Parameters
+    ----------
+    start_C : float
+        Temperature at the start of the test.
+    rate_C_per_h : float
+        Change per hour (a workshop warming up in the morning: a few tenths
+        of a kelvin per hour).
+
+    Examples
+    --------
+    >>> linear_drift(20.0, 0.5)([0, 7200]).tolist()
+    [20.0, 21.0]
+    """
+    return _Linear(float(start_C), float(rate_C_per_h))
+
+
+def diurnal(mean_C=20.0, amplitude_C=2.0, *, peak_hour=15.0, start_hour=8.0, period_h=24.0):
+    """Daily cycle of a workshop without air conditioning.
+
+    Parameters
+    ----------
+    mean_C, amplitude_C : float
+        Mean and half the peak-to-peak swing.
+    peak_hour : float, default=15.0
+        Hour of the day with the warmest air.
+    start_hour : float, default=8.0
+        Hour of the day at which the test starts.
+    period_h : float, default=24.0
+
+    Examples
+    --------
+    >>> round(float(diurnal(20.0, 2.0, peak_hour=15.0, start_hour=15.0)(0)), 6)
+    22.0
+    """
+    return _Diurnal(
+        float(mean_C), float(amplitude_C), float(peak_hour), float(start_hour), float(period_h)
+    )
+
+
+def door_openings(base=20.0, at_s=(3600.0,), *, drop_C=1.0, duration_s=600.0):
+    """Steps of colder air while a workshop door stands open.
+
+    Parameters
+    ----------
+    base : AmbientProfile or float
+        Profile without the openings.
+    at_s : sequence of float
+        Times (s from the test start) at which the door opens.
+    drop_C : float, default=1.0
+        How much colder the air is while the door is open.
+    duration_s : float, default=600.0
+        How long the door stays open.
+
+    Examples
+    --------
+    >>> door_openings(20.0, [60.0], drop_C=2.0, duration_s=60.0)([0, 60, 119, 120]).tolist()
+    [20.0, 18.0, 18.0, 20.0]
+    """
+    at = tuple(float(t) for t in np.atleast_1d(at_s))
+    if duration_s <= 0:
+        raise ValueError(f"duration_s must be positive; got {duration_s!r}.")
+    return _Doors(as_profile(base), at, float(drop_C), float(duration_s))

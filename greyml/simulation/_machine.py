@@ -1,0 +1,287 @@
+"""Description of a machine tool as a thermal network with sensors.
+
+A :class:`ThermalMachine` is plain data: nodes, conductances, heat sources and
+output maps (temperature sensors, FBG strain sensors, tool-point displacement).
+The presets in :mod:`greyml.simulation._presets` build two of them; the
+simulator in :mod:`greyml.simulation._simulate` turns one into test data.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from greyml.simulation._network import network_matrices
+
+__all__ = [
+    "AMBIENT",
+    "OPERATING_INPUTS",
+    "FBG_TEMPERATURE_SENSITIVITY_UE_PER_C",
+    "HeatSource",
+    "TemperatureSensor",
+    "FBGSensor",
+    "ThermalMachine",
+]
+
+#: Pseudo-node name for the ambient air in sensor weights.
+AMBIENT = "ambient"
+
+#: Operating inputs a programme can command, in column order.
+OPERATING_INPUTS = ("spindle_rpm", "feed_mm_min", "c_rpm")
+
+#: Apparent strain of a bare fibre Bragg grating per °C (seed 000, Sec. 3).
+FBG_TEMPERATURE_SENSITIVITY_UE_PER_C = 8.64
+
+
+@dataclass(frozen=True)
+class HeatSource:
+    """A heat input driven by one operating input.
+
+    The power is ``power_W * (|u| / reference) ** exponent`` for the commanded
+    value ``u`` of ``input``, shared between ``nodes`` in the given fractions.
+
+    Parameters
+    ----------
+    name : str
+        What dissipates the heat, e.g. ``"spindle bearings"``.
+    input : {"spindle_rpm", "feed_mm_min", "c_rpm"}
+        The operating input that drives it.
+    nodes : mapping of str to float
+        Fraction of the heat flowing into each node; the fractions sum to 1.
+    power_W : float
+        Power at ``u = reference``, in W.
+    reference : float
+        Input value at which ``power_W`` applies.
+    exponent : float, default=1.0
+        Exponent of the speed law (1 for losses proportional to speed; 5/3 for
+        the viscous friction torque of a rolling bearing, which Palmgren's
+        formula makes proportional to ``n^(2/3)``).
+    extra : bool, default=False
+        Whether the source is the optional extra heat source switched by
+        ``Effects.extra_heat_source``.
+    note : str, default=""
+        Where the numbers come from.
+    """
+
+    name: str
+    input: str
+    nodes: Mapping[str, float]
+    power_W: float
+    reference: float
+    exponent: float = 1.0
+    extra: bool = False
+    note: str = ""
+
+    def power(self, u):
+        """Heat flow in W for commanded values ``u`` (array-like)."""
+        u = np.abs(np.asarray(u, dtype=float))
+        return self.power_W * (u / self.reference) ** self.exponent
+
+
+@dataclass(frozen=True)
+class TemperatureSensor:
+    """A temperature sensor reading a weighted mean of node temperatures.
+
+    Parameters
+    ----------
+    name : str
+        Column name, ``"T<k>_C"``.
+    category : str
+        Where it sits, e.g. ``"spindle carrier strip 1"`` or ``"ambient"``.
+    nodes : mapping of str to float
+        Weights (summing to 1) of the node temperatures it reads; the key
+        ``"ambient"`` stands for the ambient air.
+    lag_s : float, default=0.0
+        Time constant of the first-order delay of a surface-mounted sensor
+        (thermal contact resistance and the sensor's own mass).
+    offset_C : float, default=0.0
+        Fixed difference from the weighted node temperature (local position on
+        the node, stratification of the air, calibration).
+    noise_C : float, default=0.05
+        Standard deviation of the white measurement noise.
+    """
+
+    name: str
+    category: str
+    nodes: Mapping[str, float]
+    lag_s: float = 0.0
+    offset_C: float = 0.0
+    noise_C: float = 0.05
+
+
+@dataclass(frozen=True)
+class FBGSensor:
+    """A fibre Bragg grating strain sensor bonded to the structure.
+
+    The reading (µε, relative to the start of the test) is the mechanical
+    strain ``Σ strain[node] ΔT_node`` plus, with the cross-sensitivity effect,
+    8.64 µε/°C times the change of the grating temperature
+    ``Σ nodes[node] ΔT_node``.
+
+    Parameters
+    ----------
+    name : str
+        Column name, ``"FBG<k>_ue"``.
+    category : str
+        Where it sits, e.g. ``"ram"`` or ``"cross-beam"``.
+    strain : mapping of str to float
+        Mechanical strain per kelvin of each node, in µε/K (free expansion of
+        the member it is bonded to, plus bending from gradients).
+    nodes : mapping of str to float
+        Weights of the node temperatures the grating itself is at.
+    noise_ue : float, default=0.2
+        Standard deviation of the white measurement noise in µε.
+    """
+
+    name: str
+    category: str
+    strain: Mapping[str, float]
+    nodes: Mapping[str, float]
+    noise_ue: float = 0.2
+
+
+@dataclass(frozen=True)
+class ThermalMachine:
+    """A machine tool as a lumped thermal network with its measurement set-up.
+
+    Parameters
+    ----------
+    name : str
+        Short name, e.g. ``"vmc"``.
+    nodes : tuple of str
+        Node names.
+    capacity : tuple of float
+        Heat capacity of each node in J/K.
+    links : tuple of (str, str, float)
+        Conductances in W/K between pairs of nodes.
+    convection : mapping of str to float
+        Conductance in W/K from a node to the ambient air (missing nodes: 0).
+    sources : tuple of HeatSource
+        Heat inputs.
+    temperature_sensors : tuple of TemperatureSensor
+    fbg_sensors : tuple of FBGSensor
+    displacement : mapping of str to mapping of str to float
+        For each target column (``"dx_um"``, …) the displacement of the tool
+        relative to the workpiece per kelvin of each node, in µm/K.
+    probe_noise_um : mapping of str to float
+        Standard deviation of the displacement measurement noise per target.
+    probe_drift_um_per_h : mapping of str to float
+        Slow drift of the displacement transducers per target, in µm/h.
+    inputs : tuple of str
+        Operating input columns this machine reports.
+    max_input : mapping of str to float
+        Largest value each operating input may take.
+    sample_s : float
+        Default sampling interval of its tests in s.
+    description : str
+        Where the machine and its numbers come from.
+    """
+
+    name: str
+    nodes: tuple
+    capacity: tuple
+    links: tuple
+    convection: Mapping[str, float]
+    sources: tuple
+    temperature_sensors: tuple
+    fbg_sensors: tuple = ()
+    displacement: Mapping[str, Mapping[str, float]] = field(default_factory=dict)
+    probe_noise_um: Mapping[str, float] = field(default_factory=dict)
+    probe_drift_um_per_h: Mapping[str, float] = field(default_factory=dict)
+    inputs: tuple = ("spindle_rpm", "feed_mm_min")
+    max_input: Mapping[str, float] = field(default_factory=dict)
+    sample_s: float = 10.0
+    description: str = ""
+
+    # ------------------------------------------------------------------ names
+    @property
+    def n_nodes(self) -> int:
+        return len(self.nodes)
+
+    @property
+    def temperature_names(self) -> list:
+        return [s.name for s in self.temperature_sensors]
+
+    @property
+    def fbg_names(self) -> list:
+        return [s.name for s in self.fbg_sensors]
+
+    @property
+    def sensor_names(self) -> list:
+        """Temperature then FBG sensor columns."""
+        return self.temperature_names + self.fbg_names
+
+    @property
+    def target_names(self) -> list:
+        return list(self.displacement)
+
+    @property
+    def sensor_groups(self) -> dict:
+        """Category of every sensor column."""
+        groups = {s.name: s.category for s in self.temperature_sensors}
+        groups.update({s.name: s.category for s in self.fbg_sensors})
+        return groups
+
+    def node_index(self, name: str) -> int:
+        try:
+            return self.nodes.index(name)
+        except ValueError:
+            raise ValueError(
+                f"Machine {self.name!r} has no node {name!r}; its nodes are {list(self.nodes)}."
+            ) from None
+
+    # --------------------------------------------------------------- matrices
+    def node_vector(self, weights: Mapping[str, float]) -> tuple:
+        """Node weights as a vector plus the weight of the ambient air."""
+        w = np.zeros(self.n_nodes)
+        w_amb = 0.0
+        for node, value in weights.items():
+            if node == AMBIENT:
+                w_amb += value
+            else:
+                w[self.node_index(node)] += value
+        return w, w_amb
+
+    def link_array(self) -> np.ndarray:
+        """Links as rows ``(i, j, G)``."""
+        return np.array(
+            [(self.node_index(a), self.node_index(b), g) for a, b, g in self.links],
+            dtype=float,
+        ).reshape(-1, 3)
+
+    def convection_vector(self) -> np.ndarray:
+        h, _ = self.node_vector(self.convection)
+        return h
+
+    def state_matrices(self):
+        """``A``, ``B`` of the network; inputs are node powers then ambient."""
+        return network_matrices(
+            np.asarray(self.capacity, dtype=float),
+            self.link_array(),
+            self.convection_vector(),
+        )
+
+    def source_matrix(self, extra: bool = True) -> np.ndarray:
+        """``(n_sources, n_nodes)`` share of each source's heat per node."""
+        S = np.zeros((len(self.sources), self.n_nodes))
+        for k, src in enumerate(self.sources):
+            if src.extra and not extra:
+                continue
+            S[k], _ = self.node_vector(src.nodes)
+        return S
+
+    def output_matrix(self, maps) -> np.ndarray:
+        """Stack node-weight mappings into a ``(len(maps), n_nodes)`` matrix."""
+        M = np.zeros((len(maps), self.n_nodes))
+        for k, weights in enumerate(maps):
+            M[k], _ = self.node_vector(weights)
+        return M
+
+    def scaled(self, heat: float) -> ThermalMachine:
+        """A copy with every heat source's power multiplied by ``heat``."""
+        return replace(
+            self,
+            sources=tuple(replace(s, power_W=s.power_W * heat) for s in self.sources),
+        )

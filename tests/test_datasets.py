@@ -1,0 +1,165 @@
+"""Embedded data sets and the CAIVIAC loader (issue 3)."""
+
+import time
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from greyml._sequences import test_segments as segments_of
+from greyml.datasets import (
+    caiviac_candidates,
+    load_caiviac,
+    load_gantry_tests,
+    load_probe_test,
+    load_vmc_tests,
+    make_tests,
+)
+from greyml.simulation import Effects, HeatingTest, Programme, linear_drift, vmc
+
+LOADERS = [load_vmc_tests, load_probe_test, load_gantry_tests]
+
+
+@pytest.mark.parametrize("loader", LOADERS)
+def test_loader_layout_speed_and_determinism(loader):
+    t0 = time.perf_counter()
+    data = loader()
+    assert time.perf_counter() - t0 < 2.0
+    frame = data.frame
+    assert frame.index.names == ["test", "time_s"]
+    segments = segments_of(frame)
+    assert [s.label for s in segments] == data.tests
+    for seg in segments:
+        assert frame.index.get_level_values("time_s")[seg.start] == 0.0
+    assert set(data.sensor_groups) == set(data.sensors)
+    assert all(c.endswith(("_C", "_ue")) for c in data.sensors)
+    assert set(data.targets) <= {"dx_um", "dy_um", "dz_um"}
+    assert "ambient_C" in data.inputs
+    assert list(frame.columns) == data.inputs + data.sensors + data.targets
+    assert np.isfinite(frame.to_numpy()).all()
+    assert loader().frame.equals(frame)
+    X, y = loader(return_X_y=True)
+    assert list(X.columns) == data.sensors and y.name in data.targets
+
+
+def test_vmc_sensor_layout_matches_seed_001():
+    data = load_vmc_tests()
+    assert len(data.sensors) == 76
+    groups = data.sensor_groups
+    assert groups["T18_C"] == "spindle carrier strip 1"
+    assert groups["T55_C"] == "spindle carrier strip 2"
+    assert groups["T63_C"] == "spindle boss"
+    assert groups["T68_C"] == "ambient near the column"
+    assert groups["T71_C"] == "ambient near the base"
+    assert sum("ambient" in g for g in groups.values()) >= 4
+    assert data.tests == ["I", "II", "III", "IV", "V", "VI"]
+    iv = data.frame.xs("IV", level="test")
+    assert iv.index[-1] == 8 * 3600
+    rpm = iv["spindle_rpm"].to_numpy()
+    assert rpm[:120].min() == 4000 and rpm[121:180].max() == 0 and rpm[181:300].min() == 4000
+
+
+def test_gantry_and_probe_sensor_counts():
+    g = load_gantry_tests()
+    assert sum(c.startswith("T") for c in g.sensors) == 12
+    assert sum(c.startswith("FBG") for c in g.sensors) == 7
+    assert sum(v == "ambient" for v in g.sensor_groups.values()) == 6
+    p = load_probe_test()
+    assert len(p.sensors) == 9 and p.frame.index[1][1] == 10.0
+
+
+def test_effects_reach_the_loaders():
+    plain = load_probe_test(effects=Effects().without("noise"))
+    noisy = load_probe_test()
+    assert not plain.frame.equals(noisy.frame)
+    assert "noise" in plain.description
+
+
+def test_make_tests_inputs():
+    p = Programme(name="warm-up").run(30, spindle_rpm=5000).dwell(30)
+    by_dict = make_tests(
+        "vmc", {"a": p, "b": p}, {"a": 20.0, "b": linear_drift(20, 2)}, random_state=1
+    )
+    assert by_dict.tests == ["a", "b"]
+    assert not by_dict.frame.xs("a", level="test").equals(by_dict.frame.xs("b", level="test"))
+    by_list = make_tests("vmc", [p], random_state=1)
+    assert by_list.tests == ["warm-up"]
+    spec = HeatingTest("x", p, 19.0, history=Programme().run(20, spindle_rpm=8000))
+    assert make_tests(vmc(), spec, random_state=0).tests == ["x"]
+    # same random_state, same data
+    assert make_tests("gantry", random_state=3).frame.equals(
+        make_tests("gantry", random_state=3).frame
+    )
+
+
+@pytest.mark.parametrize(
+    "kwargs, match",
+    [
+        ({"machine": "lathe"}, "machine must be"),
+        ({"programmes": []}, "empty"),
+        ({"programmes": [42]}, "expected a Programme"),
+        ({"programmes": {"a": Programme().dwell(5)}, "ambient": "cold"}, "ambient"),
+        ({"programmes": [Programme(name="p").dwell(5)] * 2}, "unique"),
+        ({"return_X_y": True, "target": "dw_um"}, "target must be"),
+    ],
+)
+def test_make_tests_errors(kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        make_tests(**kwargs)
+
+
+# ------------------------------------------------------------------ CAIVIAC
+def _caiviac_or_skip():
+    try:
+        return load_caiviac()
+    except FileNotFoundError:
+        pytest.skip("the CAIVIAC recording (../shared/realdata/caiviac) is absent")
+
+
+def test_caiviac_layout():
+    data = _caiviac_or_skip()
+    frame = data.frame
+    assert data.tests == [f"cycle{k}" for k in range(1, 6)]
+    assert frame.shape == (9631, 22)
+    assert len(data.sensors) == 16 and data.targets == [f"ch{k}_um" for k in range(1, 6)]
+    for seg in segments_of(frame):
+        part = frame.iloc[seg.slice]
+        assert part.index[0][1] == 0.0
+        np.testing.assert_array_equal(part[data.targets].iloc[0].to_numpy(), 0.0)
+    speeds = frame.groupby(level="test", sort=False)["spindle_rpm"].max().tolist()
+    assert speeds == [1250, 2500, 3750, 5000, 3500]
+    assert "MIT" in data.license
+
+
+def test_caiviac_reference_recording():
+    _caiviac_or_skip()
+    rec = load_caiviac(reference="recording").frame
+    raw = pd.read_csv(caiviac_candidates_file())
+    np.testing.assert_array_equal(rec["ch3_um"].to_numpy(), raw["ch3_um"].to_numpy())
+    np.testing.assert_array_equal(rec["T5_C"].to_numpy(), raw["t5_C"].to_numpy())
+
+
+def caiviac_candidates_file():
+    for folder in caiviac_candidates():
+        if (folder / "cycles.csv").is_file():
+            return folder / "cycles.csv"
+    pytest.skip("the CAIVIAC recording is absent")
+
+
+def test_caiviac_missing_gives_clear_error(tmp_path, monkeypatch):
+    with pytest.raises(FileNotFoundError, match="No CAIVIAC recording"):
+        load_caiviac(tmp_path)
+    # with nothing where the default search looks, the message lists the places
+    monkeypatch.setenv("GREYML_CAIVIAC", str(tmp_path))
+    monkeypatch.setattr(
+        "greyml.datasets._caiviac.caiviac_candidates", lambda: [tmp_path / "a", tmp_path / "b"]
+    )
+    with pytest.raises(FileNotFoundError, match="looked for .*a.cycles.csv.*b.cycles.csv"):
+        load_caiviac()
+
+
+def test_caiviac_wrong_file(tmp_path):
+    bad = tmp_path / "cycles.csv"
+    bad.write_text("time_s,cycle\n0,1\n")
+    with pytest.raises(ValueError, match="lacks the column"):
+        load_caiviac(tmp_path)
