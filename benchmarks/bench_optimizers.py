@@ -147,9 +147,7 @@ def make_peak_fit(seed=20240611, n_samples=201, noise=0.02):
     window = 10.0 / n_peaks
     lower = np.array([[0.0, k * window, 0.1] for k in range(n_peaks)]).ravel()
     upper = np.array([[3.0, (k + 1) * window, 2.0] for k in range(n_peaks)]).ravel()
-    fit = least_squares(
-        peaks_residual, truth.ravel(), bounds=(lower, upper), args=(t, y)
-    )
+    fit = least_squares(peaks_residual, truth.ravel(), bounds=(lower, upper), args=(t, y))
     reference = float(peaks_ssr(fit.x, t, y))
     return Problem(
         name=f"peaks{truth.size}",
@@ -161,9 +159,7 @@ def make_peak_fit(seed=20240611, n_samples=201, noise=0.02):
         lower=lower,
         upper=upper,
         reference=reference,
-        reference_note=(
-            f"least_squares from the generating parameters reaches {reference:.4g}"
-        ),
+        reference_note=(f"least_squares from the generating parameters reaches {reference:.4g}"),
     )
 
 
@@ -229,9 +225,7 @@ def run_greyml_pso(problem, seed, max_iter):
 def run_greyml_cs(problem, seed, max_iter):
     from greyml.optimize import CuckooSearch
 
-    optimiser = CuckooSearch(
-        n_nests=POPULATION, max_iter=max_iter, pa=PA, alpha=ALPHA, beta=BETA
-    )
+    optimiser = CuckooSearch(n_nests=POPULATION, max_iter=max_iter, pa=PA, alpha=ALPHA, beta=BETA)
     objective = VectorObjective(problem.fun)
     rng = np.random.default_rng(seed)
     start = time.perf_counter()
@@ -471,9 +465,7 @@ def targets(records):
     return [
         (
             "PSO at pyswarms' speed (time greyml / pyswarms)",
-            ratio(
-                greyml_pso.median("seconds"), records["pyswarms-pso"].median("seconds")
-            ),
+            ratio(greyml_pso.median("seconds"), records["pyswarms-pso"].median("seconds")),
             PSO_TIME_RATIO_MAX,
         ),
         (
@@ -518,9 +510,7 @@ def objective_cost(problem, n_calls=100, seed=0):
     points = problem.lower + rng.random((n_calls, POPULATION, problem.dim)) * span
     return {
         "vector": _seconds_per_call(VectorObjective(problem.fun), points, n_calls),
-        "scalar": _seconds_per_call(
-            ScalarObjective(problem.fun), points[:, 0], n_calls
-        ),
+        "scalar": _seconds_per_call(ScalarObjective(problem.fun), points[:, 0], n_calls),
     }
 
 
@@ -635,9 +625,7 @@ def parse_args(argv=None):
             "and mealpy on 10-D Rastrigin and a 12-parameter least-squares fit."
         )
     )
-    parser.add_argument(
-        "--seeds", type=int, default=5, help="number of seeds (default: 5)"
-    )
+    parser.add_argument("--seeds", type=int, default=5, help="number of seeds (default: 5)")
     parser.add_argument(
         "--quick",
         action="store_true",
@@ -646,9 +634,7 @@ def parse_args(argv=None):
             "the targets are then not judged"
         ),
     )
-    parser.add_argument(
-        "--json", metavar="PATH", help="also write the raw numbers to PATH"
-    )
+    parser.add_argument("--json", metavar="PATH", help="also write the raw numbers to PATH")
     args = parser.parse_args(argv)
     if args.seeds < 1:
         parser.error("--seeds must be at least 1")
@@ -682,10 +668,7 @@ def main(argv=None):
         "  overhead: median time minus the objective's own share, estimated by "
         "timing the objective alone"
     )
-    print(
-        "  nfev: points evaluated, counted in the objective; "
-        "lib nfev: the library's own count"
-    )
+    print("  nfev: points evaluated, counted in the objective; lib nfev: the library's own count")
     print(
         "  "
         + ", ".join(f"{name} {version}" for name, version in env["versions"].items())
@@ -698,9 +681,7 @@ def main(argv=None):
     for problem in problems:
         costs[problem.name] = cost = objective_cost(problem)
         records = {
-            optimiser.key: benchmark(
-                problem, optimiser, seeds, max_iter, warm_up=not args.quick
-            )
+            optimiser.key: benchmark(problem, optimiser, seeds, max_iter, warm_up=not args.quick)
             for optimiser in OPTIMISERS
         }
         results[problem.name] = records

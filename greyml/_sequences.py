@@ -86,9 +86,7 @@ def _first_runs(labels: np.ndarray):
         return np.array([], dtype=int)
     change = np.ones(n, dtype=bool)
     # pandas-aware inequality so that NaN labels are caught separately
-    change[1:] = ~(
-        pd.Series(labels[1:]).to_numpy() == pd.Series(labels[:-1]).to_numpy()
-    )
+    change[1:] = ~(pd.Series(labels[1:]).to_numpy() == pd.Series(labels[:-1]).to_numpy())
     return np.flatnonzero(change)
 
 

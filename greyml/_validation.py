@@ -32,19 +32,14 @@ def _upper_first(text: str) -> str:
 
 
 def _where(seg: Segment, row: int) -> str:
-    return (
-        f"{segment_label(seg)} at row {row} (sample {row - seg.start + 1} of that test)"
-    )
+    return f"{segment_label(seg)} at row {row} (sample {row - seg.start + 1} of that test)"
 
 
 def _check_numeric_frame(X, what="X"):
     if isinstance(X, pd.DataFrame):
         for col in X.columns:
             dtype = X[col].dtype
-            if not (
-                pd.api.types.is_numeric_dtype(dtype)
-                or pd.api.types.is_bool_dtype(dtype)
-            ):
+            if not (pd.api.types.is_numeric_dtype(dtype) or pd.api.types.is_bool_dtype(dtype)):
                 raise ValueError(
                     f"Column {str(col)!r} of {what} has non-numeric dtype {dtype}; "
                     "greyml models need numeric sensor values."
@@ -132,9 +127,7 @@ def validate_sequences(
             y = y.iloc[:, 0]
         y_arr = np.asarray(y)
         if y_arr.dtype.kind in "fc" and y_arr.size:
-            y_flat = (
-                y_arr.reshape(-1) if y_arr.ndim == 2 and 1 in y_arr.shape else y_arr
-            )
+            y_flat = y_arr.reshape(-1) if y_arr.ndim == 2 and 1 in y_arr.shape else y_arr
             if y_flat.ndim == 1:
                 segs = segments or [Segment(None, 0, len(y_flat))]
                 _check_finite(y_flat, None, segs, "y")
@@ -149,9 +142,7 @@ def validate_sequences(
         )
         ya = np.asarray(ya, dtype=np.float64)
     else:
-        Xa = validate_data(
-            estimator, X, reset=reset, ensure_all_finite=False, dtype=np.float64
-        )
+        Xa = validate_data(estimator, X, reset=reset, ensure_all_finite=False, dtype=np.float64)
         ya = None
     if segments is None:
         segments = [Segment(None, 0, Xa.shape[0])]

@@ -57,9 +57,7 @@ def test_does_not_modify_input():
 def test_nan_names_column_and_test():
     X = two_tests()
     X.iloc[4, 1] = np.nan
-    with pytest.raises(
-        ValueError, match=r"column 'T2_C' has NaN in test 'II' at row 4"
-    ):
+    with pytest.raises(ValueError, match=r"column 'T2_C' has NaN in test 'II' at row 4"):
         AGO().fit(X)
 
 
@@ -83,9 +81,7 @@ def test_iago_inverts_ago_per_test(data, cuts):
     n = data.shape[0]
     edges = sorted({0, n, *[c for c in cuts if c < n]})
     bounds = list(zip(edges[:-1], edges[1:]))
-    np.testing.assert_allclose(
-        iago(ago(data, bounds), bounds), data, rtol=1e-9, atol=1e-6
-    )
+    np.testing.assert_allclose(iago(ago(data, bounds), bounds), data, rtol=1e-9, atol=1e-6)
     # accumulation restarts at every boundary
     acc = ago(data, bounds)
     for a, _ in bounds:

@@ -64,9 +64,7 @@ def test_midpoint_response_is_recovered():
     rng = np.random.default_rng(0)
     X = exciting_drivers(rng, 80)
     y = simulate_gmc(X, 0.2, TRUE_B, 1.0, form="midpoint", initial="zero")
-    model = GMC(solver="pso", response="midpoint", initial="zero", random_state=0).fit(
-        X, y
-    )
+    model = GMC(solver="pso", response="midpoint", initial="zero", random_state=0).fit(X, y)
     np.testing.assert_allclose(model.predict(X), y, atol=1e-6 * np.abs(y).max())
 
 
@@ -107,16 +105,12 @@ def test_no_accumulation_crosses_a_test_boundary(gmc_tests):
 def test_new_test_starts_from_its_own_first_drivers(gmc_tests):
     """predict needs no target: a test's response starts at f(1)/(1 + b₁) (initial="model")."""
     X, y = gmc_tests[SENSORS], gmc_tests["dz_um"]
-    model = GMC(solver="pso", random_state=0).fit(
-        X.drop(index="IV"), y.drop(index="IV")
-    )
+    model = GMC(solver="pso", random_state=0).fit(X.drop(index="IV"), y.drop(index="IV"))
     new = X.loc[["IV"]]
     pred = model.predict(new)
     f1 = new.iloc[0].to_numpy() @ model.driving_coef_ + model.control_
     assert pred[0] == pytest.approx(f1 / (1 + model.development_coef_), rel=1e-12)
-    np.testing.assert_allclose(
-        pred, y.loc["IV"].to_numpy(), atol=1e-6 * np.abs(y).max()
-    )
+    np.testing.assert_allclose(pred, y.loc["IV"].to_numpy(), atol=1e-6 * np.abs(y).max())
     zero = GMC(solver="ls", initial="zero").fit(X, y)
     assert zero.predict(new)[0] == 0.0
 
@@ -147,9 +141,7 @@ def test_bit_identical_and_global_state_untouched(solver, gmc_tests):
     after = np.random.get_state()
     assert np.array_equal(a, b)
     assert np.array_equal(state[1], after[1]) and state[2:] == after[2:]
-    c = GMC(solver=solver, random_state=None).fit(
-        X, y
-    )  # fresh OS entropy, not the global state
+    c = GMC(solver=solver, random_state=None).fit(X, y)  # fresh OS entropy, not the global state
     after2 = np.random.get_state()
     assert np.array_equal(state[1], after2[1]) and c.loss_ >= 0
 
@@ -164,9 +156,7 @@ def test_fit_does_not_modify_inputs(gmc_tests):
 
 def test_optimizer_instance_as_solver(gmc_tests):
     X, y = gmc_tests[SENSORS], gmc_tests["dz_um"]
-    model = GMC(solver=ParticleSwarm(n_particles=10, max_iter=30), random_state=0).fit(
-        X, y
-    )
+    model = GMC(solver=ParticleSwarm(n_particles=10, max_iter=30), random_state=0).fit(X, y)
     # 10 × 31 population evaluations, then the Brent polish
     assert model.optimizer_result_.nfev > 10 * 31 and model.n_iter_ == 30
 
@@ -216,9 +206,7 @@ def test_bad_values_name_column_and_test(solver, corrupt, match, gmc_tests):
 
 def test_test_with_one_row():
     idx = make_test_index(["A"] * 20 + ["B"], list(range(20)) + [0])
-    X = pd.DataFrame(
-        np.random.default_rng(0).random((21, 2)), index=idx, columns=["T1_C", "T2_C"]
-    )
+    X = pd.DataFrame(np.random.default_rng(0).random((21, 2)), index=idx, columns=["T1_C", "T2_C"])
     with pytest.raises(
         ValueError, match="Test 'B' has 1 sample; GMC needs at least 2 samples per test"
     ):

@@ -38,10 +38,7 @@ def literal_midpoint(f, b1, x0):
     out = [x0]
     for k in range(2, n + 1):
         s = x0 * np.exp(-b1 * (k - 1))
-        s += sum(
-            0.5 * np.exp(-b1 * (k - t + 0.5)) * (f[t - 1] + f[t - 2])
-            for t in range(2, k + 1)
-        )
+        s += sum(0.5 * np.exp(-b1 * (k - t + 0.5)) * (f[t - 1] + f[t - 2]) for t in range(2, k + 1))
         out.append(s)
     return np.array(out)
 
@@ -149,12 +146,8 @@ def test_population_matches_single_and_basis_is_linear():
     params = np.array([[0.3, 0.5, -0.2, 0.1, 0.05], [1.2, -0.3, 0.4, 0.2, -1.0]])
     pop = gmc_predict_population(X1, params)
     for i, p in enumerate(params):
-        np.testing.assert_allclose(
-            pop[:, i], gmc_predict(X1, p[0], p[1:-1], p[-1]), rtol=1e-13
-        )
-        np.testing.assert_allclose(
-            gmc_basis(X1, p[0]) @ p[1:], pop[:, i], rtol=1e-12, atol=1e-12
-        )
+        np.testing.assert_allclose(pop[:, i], gmc_predict(X1, p[0], p[1:-1], p[-1]), rtol=1e-13)
+        np.testing.assert_allclose(gmc_basis(X1, p[0]) @ p[1:], pop[:, i], rtol=1e-12, atol=1e-12)
 
 
 def test_separable_finds_exact_linear_part():
@@ -183,6 +176,4 @@ def test_exploding_trajectories_are_large_finite_losses():
 
 
 def test_iago_first_value():
-    np.testing.assert_array_equal(
-        iago(np.array([[2.0], [5.0], [9.0]])).ravel(), [2.0, 3.0, 4.0]
-    )
+    np.testing.assert_array_equal(iago(np.array([[2.0], [5.0], [9.0]])).ravel(), [2.0, 3.0, 4.0])

@@ -158,9 +158,7 @@ def test_units(pair):
     # µm → mm: errors scale by 1e-3, dimensionless measures do not change.
     y, y_hat = pair
     assert rmse(y / 1e3, y_hat / 1e3) == pytest.approx(rmse(y, y_hat) / 1e3)
-    assert residual_band(y / 1e3, y_hat / 1e3) == pytest.approx(
-        residual_band(y, y_hat) / 1e3
-    )
+    assert residual_band(y / 1e3, y_hat / 1e3) == pytest.approx(residual_band(y, y_hat) / 1e3)
     for metric in (correlation, nash_sutcliffe, improvement):
         assert metric(y / 1e3, y_hat / 1e3) == pytest.approx(metric(y, y_hat))
 
@@ -179,14 +177,10 @@ def test_extreme_magnitudes_no_overflow():
     assert residual_band(y, y_hat) == pytest.approx(2e300)
     assert improvement(y, y_hat) == pytest.approx(-1.0)
     assert correlation(y, y_hat) == pytest.approx(correlation([2, -2, 1], [-2, 2, 1]))
-    assert nash_sutcliffe(y, y_hat) == pytest.approx(
-        nash_sutcliffe([2, -2, 1], [-2, 2, 1])
-    )
+    assert nash_sutcliffe(y, y_hat) == pytest.approx(nash_sutcliffe([2, -2, 1], [-2, 2, 1]))
     # Tiny values are not flushed to zero by a common scale factor.
     tiny = np.array([1e-300, 3e-300, 2e-300])
-    assert nash_sutcliffe(tiny, tiny * 2.0) == pytest.approx(
-        nash_sutcliffe([1, 3, 2], [2, 6, 4])
-    )
+    assert nash_sutcliffe(tiny, tiny * 2.0) == pytest.approx(nash_sutcliffe([1, 3, 2], [2, 6, 4]))
     assert improvement(tiny, [0.0, 0.0, 1e300]) == pytest.approx(1 - 1e300 / 3e-300)
     # A result beyond the float64 range is infinite, not NaN and not a warning.
     assert rmse([1.7e308], [-1.7e308]) == math.inf
@@ -250,9 +244,7 @@ def test_read_only_inputs(metric):
 
 @pytest.mark.parametrize("metric", METRICS)
 def test_different_lengths(metric):
-    with pytest.raises(
-        ValueError, match=r"different lengths.*y_true has 4.*y_pred has 3"
-    ):
+    with pytest.raises(ValueError, match=r"different lengths.*y_true has 4.*y_pred has 3"):
         metric([1, 2, 3, 4], [1, 2, 3])
 
 
@@ -482,21 +474,13 @@ def test_cross_validate_single_metric(regression):
 def test_cross_validate_multi_metric(regression):
     X, y = regression
     cv = KFold(n_splits=3, shuffle=True, random_state=0)
-    result = cross_validate(
-        Ridge(alpha=0.5), X, y, cv=cv, scoring=scoring(), return_estimator=True
-    )
+    result = cross_validate(Ridge(alpha=0.5), X, y, cv=cv, scoring=scoring(), return_estimator=True)
     for i, (_, test) in enumerate(cv.split(X, y)):
         y_test, y_hat = y[test], result["estimator"][i].predict(X[test])
         assert result["test_neg_rmse"][i] == pytest.approx(-rmse(y_test, y_hat))
-        assert result["test_neg_residual_band"][i] == pytest.approx(
-            -np.max(np.abs(y_test - y_hat))
-        )
-        assert result["test_nash_sutcliffe"][i] == pytest.approx(
-            r2_score(y_test, y_hat)
-        )
-        assert result["test_correlation"][i] == pytest.approx(
-            np.corrcoef(y_test, y_hat)[0, 1]
-        )
+        assert result["test_neg_residual_band"][i] == pytest.approx(-np.max(np.abs(y_test - y_hat)))
+        assert result["test_nash_sutcliffe"][i] == pytest.approx(r2_score(y_test, y_hat))
+        assert result["test_correlation"][i] == pytest.approx(np.corrcoef(y_test, y_hat)[0, 1])
         assert result["test_improvement"][i] == pytest.approx(
             1 - np.max(np.abs(y_test - y_hat)) / np.max(np.abs(y_test))
         )
@@ -520,9 +504,9 @@ def test_grid_search_minimises_rmse(regression):
     X, y = regression
     cv = KFold(n_splits=3, shuffle=True, random_state=0)
     alphas = [0.01, 100.0, 10000.0]
-    search = GridSearchCV(
-        Ridge(), {"alpha": alphas}, cv=cv, scoring=get_scorer("neg_rmse")
-    ).fit(X, y)
+    search = GridSearchCV(Ridge(), {"alpha": alphas}, cv=cv, scoring=get_scorer("neg_rmse")).fit(
+        X, y
+    )
     by_hand = {a: _mean_cv_rmse(a, X, y, cv) for a in alphas}
     assert search.best_params_["alpha"] == min(by_hand, key=by_hand.get) == 0.01
     assert search.best_score_ == pytest.approx(-by_hand[0.01], rel=1e-12)

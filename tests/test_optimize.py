@@ -19,9 +19,7 @@ def rastrigin(P):
 @pytest.mark.parametrize("make", OPTIMIZERS, ids=lambda c: c.__name__)
 def test_sphere_converges(make):
     res = (
-        make()
-        .set_params(max_iter=300)
-        .minimize(sphere, (-5, 5), np.random.default_rng(0), n_dim=4)
+        make().set_params(max_iter=300).minimize(sphere, (-5, 5), np.random.default_rng(0), n_dim=4)
     )
     np.testing.assert_allclose(res.x, 1.5, atol=1e-3)
     assert res.history.shape == (300,) and np.all(np.diff(res.history) <= 0)
@@ -46,8 +44,7 @@ def test_same_seed_same_result_and_global_state_untouched(make):
     after = np.random.get_state()
     assert a.fun == b.fun and np.array_equal(a.x, b.x)
     assert (
-        all(np.array_equal(u, v) for u, v in zip(state[1:2], after[1:2]))
-        and state[2:] == after[2:]
+        all(np.array_equal(u, v) for u, v in zip(state[1:2], after[1:2])) and state[2:] == after[2:]
     )
 
 
@@ -117,9 +114,7 @@ def test_rng_must_be_generator():
 
 def test_objective_must_return_one_value_per_row():
     with pytest.raises(ValueError, match="one loss per row"):
-        ParticleSwarm().minimize(
-            lambda P: np.zeros(3), (-1, 1), np.random.default_rng(0), n_dim=2
-        )
+        ParticleSwarm().minimize(lambda P: np.zeros(3), (-1, 1), np.random.default_rng(0), n_dim=2)
 
 
 def test_mantegna_sigma_closed_form():

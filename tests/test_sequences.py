@@ -37,23 +37,17 @@ def test_split_test_is_rejected():
         segments_of(X)
 
 
-@pytest.mark.parametrize(
-    "times, word", [([0, 10, 10], "repeats"), ([0, 20, 10], "goes back")]
-)
+@pytest.mark.parametrize("times, word", [([0, 10, 10], "repeats"), ([0, 20, 10], "goes back")])
 def test_time_must_increase(times, word):
     X = frame(["A", "A", "A"], times)
-    with pytest.raises(
-        ValueError, match=f"Time does not increase within test 'A'.*{word}.*row 2"
-    ):
+    with pytest.raises(ValueError, match=f"Time does not increase within test 'A'.*{word}.*row 2"):
         segments_of(X)
 
 
 def test_missing_label():
     X = pd.DataFrame(
         {"a": [1.0, 2.0]},
-        index=pd.MultiIndex.from_arrays(
-            [["A", None], [0, 1]], names=["test", "time_s"]
-        ),
+        index=pd.MultiIndex.from_arrays([["A", None], [0, 1]], names=["test", "time_s"]),
     )
     with pytest.raises(ValueError, match="missing test label at row 1"):
         segments_of(X)

@@ -85,9 +85,7 @@ def fit_gm1n(X, y):
     return float(a), np.asarray(b, dtype=float)
 
 
-def simulate_gmc(
-    X, development, driving, control=0.0, *, form="trapezoid", initial="model"
-):
+def simulate_gmc(X, development, driving, control=0.0, *, form="trapezoid", initial="model"):
     """The GMC(1,N) prediction x̂₁⁽⁰⁾ for given coefficients, per test.
 
     Useful to make data with known coefficients, and to see what a calibrated

@@ -215,11 +215,7 @@ class GMC(RegressorMixin, BaseEstimator):
         for name in ("n_population", "max_iter"):
             value = getattr(self, name)
             low = 2 if name == "n_population" else 1
-            if (
-                not isinstance(value, numbers.Integral)
-                or isinstance(value, bool)
-                or value < low
-            ):
+            if not isinstance(value, numbers.Integral) or isinstance(value, bool) or value < low:
                 raise ValueError(
                     f"The {name!r} parameter of GMC must be an int in the range "
                     f"[{low}, inf). Got {value!r} instead."
@@ -282,11 +278,7 @@ class GMC(RegressorMixin, BaseEstimator):
         elif self.search == "full":
             lower, upper = check_bounds(self.bounds, n_theta)
             rng = make_generator(self.random_state)
-            x0 = (
-                theta_ls[None, :]
-                if self.warm_start_ls and np.isfinite(theta_ls).all()
-                else None
-            )
+            x0 = theta_ls[None, :] if self.warm_start_ls and np.isfinite(theta_ls).all() else None
             result = optimizer.minimize(
                 _GMCObjective(X1, ya, bounds, self.response, self.initial),
                 (lower, upper),
@@ -297,9 +289,7 @@ class GMC(RegressorMixin, BaseEstimator):
             self.optimizer_result_ = result
             self.n_iter_ = result.nit
         else:
-            lower, upper = check_bounds(
-                self.bounds, n_theta if np.ndim(self.bounds[0]) else 1
-            )
+            lower, upper = check_bounds(self.bounds, n_theta if np.ndim(self.bounds[0]) else 1)
             # b1 is searched on an arcsinh scale: fine near 0, where the stable,
             # physically meaningful development coefficients lie, coarse far out
             lower, upper = np.arcsinh(lower[:1]), np.arcsinh(upper[:1])
@@ -309,16 +299,12 @@ class GMC(RegressorMixin, BaseEstimator):
                 if self.warm_start_ls and np.isfinite(b1)
                 else None
             )
-            objective = _GMCSeparableObjective(
-                X1, ya, bounds, self.response, self.initial
-            )
+            objective = _GMCSeparableObjective(X1, ya, bounds, self.response, self.initial)
             result = optimizer.minimize(objective, (lower, upper), rng, x0=x0)
             if self.polish:
                 _polish(objective, result, lower[0], upper[0])
             result.x = np.sinh(result.x)
-            _, lin = gmc_separable(
-                X1, ya, result.x, bounds, self.response, self.initial
-            )
+            _, lin = gmc_separable(X1, ya, result.x, bounds, self.response, self.initial)
             theta = np.concatenate([result.x, lin[0]])
             self.optimizer_result_ = result
             self.n_iter_ = result.nit
@@ -327,9 +313,7 @@ class GMC(RegressorMixin, BaseEstimator):
         self.driving_coef_ = np.asarray(theta[1:-1], dtype=float)
         self.control_ = float(theta[-1])
         self.loss_ = float(
-            gmc_sse_population(
-                X1, ya, theta[None, :], bounds, self.response, self.initial
-            )[0]
+            gmc_sse_population(X1, ya, theta[None, :], bounds, self.response, self.initial)[0]
         )
         if self.loss_ >= LARGE_LOSS:
             raise ValueError(
@@ -353,9 +337,7 @@ class GMC(RegressorMixin, BaseEstimator):
         y_pred : ndarray of shape (n_samples,)
         """
         check_is_fitted(self)
-        Xa, _, segments = validate_sequences(
-            self, X, reset=False, min_samples_per_test=1
-        )
+        Xa, _, segments = validate_sequences(self, X, reset=False, min_samples_per_test=1)
         bounds = _bounds_list(segments)
         pred = gmc_predict(
             ago(Xa, bounds),
@@ -416,9 +398,7 @@ class _GMCObjective:
         self.initial = initial
 
     def __call__(self, params):
-        return gmc_sse_population(
-            self.X1, self.y, params, self.bounds, self.form, self.initial
-        )
+        return gmc_sse_population(self.X1, self.y, params, self.bounds, self.form, self.initial)
 
 
 class _GMCSeparableObjective(_GMCObjective):

@@ -75,9 +75,7 @@ def background(x1, bounds=None):
     Returns the rows k = 2..n of every test stacked (``n − n_tests`` rows).
     """
     x1 = np.asarray(x1, dtype=float)
-    parts = [
-        0.5 * (x1[a + 1 : b] + x1[a : b - 1]) for a, b in _as_bounds(bounds, len(x1))
-    ]
+    parts = [0.5 * (x1[a + 1 : b] + x1[a : b - 1]) for a, b in _as_bounds(bounds, len(x1))]
     return np.concatenate(parts, axis=0)
 
 
@@ -152,9 +150,7 @@ def gmc_initial(f1, b1, initial):
         return np.zeros_like(f1)
     denom = 1.0 + np.asarray(b1, dtype=float)
     with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        return np.where(
-            np.abs(denom) > 1e-12, f1 / np.where(denom == 0, 1.0, denom), np.inf
-        )
+        return np.where(np.abs(denom) > 1e-12, f1 / np.where(denom == 0, 1.0, denom), np.inf)
 
 
 def gmc_response(f, b1, x0, form="trapezoid"):
@@ -304,9 +300,7 @@ def gmc_basis(X1, b1, bounds=None, form="trapezoid", initial="model"):
             x0 = gmc_initial(F[0], b1, initial)
             decay = np.exp(-b1)
             if form == "trapezoid":
-                p, _ = lfilter(
-                    [1.0], [1.0, -decay], F, axis=0, zi=(x0 - 0.5 * F[0])[None, :]
-                )
+                p, _ = lfilter([1.0], [1.0, -decay], F, axis=0, zi=(x0 - 0.5 * F[0])[None, :])
                 x1_hat = p - 0.5 * F
             else:
                 G = np.zeros_like(F)

@@ -64,15 +64,12 @@ def _as_real_1d(y, name):
             arr = arr.astype(np.float64)
         except (TypeError, ValueError) as exc:
             raise ValueError(
-                f"{name} must contain real numbers; some of its elements are "
-                f"not numbers ({exc})."
+                f"{name} must contain real numbers; some of its elements are not numbers ({exc})."
             ) from exc
     elif kind in "biuf":
         arr = arr.astype(np.float64, copy=False)
     else:
-        raise ValueError(
-            f"{name} must contain real numbers; got an array of dtype {arr.dtype}."
-        )
+        raise ValueError(f"{name} must contain real numbers; got an array of dtype {arr.dtype}.")
 
     if arr.ndim == 0:
         raise ValueError(
@@ -82,8 +79,7 @@ def _as_real_1d(y, name):
         arr = arr.ravel()
     if arr.ndim != 1:
         raise ValueError(
-            f"{name} must be 1-D (or a single column); got an array of shape "
-            f"{arr.shape}."
+            f"{name} must be 1-D (or a single column); got an array of shape {arr.shape}."
         )
     return arr
 
@@ -341,12 +337,8 @@ def correlation(y_true, y_pred):
     1.0
     """
     y_true, y_pred = _check_pair(y_true, y_pred)
-    _check_not_constant(
-        y_true, "y_true", "the correlation", "its standard deviation is 0"
-    )
-    _check_not_constant(
-        y_pred, "y_pred", "the correlation", "its standard deviation is 0"
-    )
+    _check_not_constant(y_true, "y_true", "the correlation", "its standard deviation is 0")
+    _check_not_constant(y_pred, "y_pred", "the correlation", "its standard deviation is 0")
     cy, _ = _scaled_deviations(y_true)
     cp, _ = _scaled_deviations(y_pred)
     # Normalise first, then take the dot product: every factor is O(1).

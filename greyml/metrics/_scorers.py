@@ -152,7 +152,6 @@ def scoring(*names):
     for name in names:
         if not isinstance(name, str):
             raise TypeError(
-                f"scorer names must be strings; got {name!r} of type "
-                f"{type(name).__name__}."
+                f"scorer names must be strings; got {name!r} of type {type(name).__name__}."
             )
     return {name: get_scorer(name) for name in (names or tuple(SCORERS))}

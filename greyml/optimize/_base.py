@@ -36,9 +36,7 @@ def check_bounds(bounds, n_dim=None, x0=None):
     try:
         lower, upper = bounds
     except (TypeError, ValueError):
-        raise ValueError(
-            f"bounds must be a pair (lower, upper); got {bounds!r}."
-        ) from None
+        raise ValueError(f"bounds must be a pair (lower, upper); got {bounds!r}.") from None
     lower = np.asarray(lower, dtype=float)
     upper = np.asarray(upper, dtype=float)
     if n_dim is None:
@@ -66,11 +64,7 @@ def check_bounds(bounds, n_dim=None, x0=None):
 
 
 def _check_count(owner, name, value, low=1):
-    if (
-        not isinstance(value, numbers.Integral)
-        or isinstance(value, bool)
-        or value < low
-    ):
+    if not isinstance(value, numbers.Integral) or isinstance(value, bool) or value < low:
         raise ValueError(
             f"The {name!r} parameter of {type(owner).__name__} must be an int in "
             f"the range [{low}, inf). Got {value!r} instead."
@@ -145,8 +139,7 @@ class PopulationOptimizer:
             x0 = np.atleast_2d(np.asarray(x0, dtype=float))
             if x0.shape[1] != lower.size:
                 raise ValueError(
-                    f"x0 has {x0.shape[1]} columns but the problem has {lower.size} "
-                    "parameters."
+                    f"x0 has {x0.shape[1]} columns but the problem has {lower.size} parameters."
                 )
             k = min(len(x0), n)
             pop[:k] = np.clip(x0[:k], lower, upper)

@@ -117,9 +117,7 @@ class CuckooSearch(PopulationOptimizer):
         for t in range(iters):
             # 1. Lévy flights around the current nests, scaled by the distance to the best
             steps = levy_steps(nests.shape, beta, rng, sigma)
-            eggs = nests + alpha * steps * (nests - best) * rng.standard_normal(
-                nests.shape
-            )
+            eggs = nests + alpha * steps * (nests - best) * rng.standard_normal(nests.shape)
             np.clip(eggs, lower, upper, out=eggs)
             f_eggs = self._evaluate(fun, eggs)
             keep = f_eggs <= fit
@@ -128,9 +126,7 @@ class CuckooSearch(PopulationOptimizer):
 
             # 2. a fraction pa of the eggs is discovered and the nest moves
             found = rng.random(nests.shape) < pa
-            shift = rng.random((n, 1)) * (
-                nests[rng.permutation(n)] - nests[rng.permutation(n)]
-            )
+            shift = rng.random((n, 1)) * (nests[rng.permutation(n)] - nests[rng.permutation(n)])
             eggs = nests + shift * found
             np.clip(eggs, lower, upper, out=eggs)
             f_eggs = self._evaluate(fun, eggs)
@@ -143,6 +139,4 @@ class CuckooSearch(PopulationOptimizer):
                 best, best_f = nests[b].copy(), fit[b]
             history[t] = best_f
 
-        return self._result(
-            best, best_f, n * (1 + 2 * iters), iters, history, "Cuckoo search"
-        )
+        return self._result(best, best_f, n * (1 + 2 * iters), iters, history, "Cuckoo search")

@@ -97,9 +97,7 @@ class ParticleSwarm(PopulationOptimizer):
             ) from None
         w0 = _check_real(self, "inertia[0]", w0, 0.0, 2.0)
         w1 = _check_real(self, "inertia[1]", w1, 0.0, 2.0)
-        kappa = _check_real(
-            self, "velocity_clamp", self.velocity_clamp, 0.0, None, (False, True)
-        )
+        kappa = _check_real(self, "velocity_clamp", self.velocity_clamp, 0.0, None, (False, True))
         return n, iters, c1, c2, w0, w1, kappa
 
     def minimize(self, fun, bounds, rng, x0=None, n_dim=None):
