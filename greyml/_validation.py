@@ -182,9 +182,9 @@ def check_int_param(estimator, name, value, low, high=None):
     ok = isinstance(value, numbers.Integral) and not isinstance(value, bool)
     ok = ok and value >= low and (high is None or value <= high)
     if not ok:
-        hi = "inf" if high is None else str(high)
+        upper = "inf)" if high is None else f"{high}]"
         raise ValueError(
             f"The {name!r} parameter of {type(estimator).__name__} must be an int "
-            f"in the range [{low}, {hi}]. Got {value!r} instead."
+            f"in the range [{low}, {upper}. Got {value!r} instead."
         )
     return int(value)

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import numbers
 import warnings
 
 import numpy as np
@@ -12,7 +11,7 @@ from sklearn.utils.validation import check_is_fitted
 
 from greyml._rng import make_generator
 from greyml._sequences import segment_label
-from greyml._validation import validate_sequences
+from greyml._validation import check_int_param, validate_sequences
 from greyml.grey._kernels import (
     LARGE_LOSS,
     ago,
@@ -212,14 +211,8 @@ class GMC(RegressorMixin, BaseEstimator):
             )
         if self.solver == "ls":
             return None
-        for name in ("n_population", "max_iter"):
-            value = getattr(self, name)
-            low = 2 if name == "n_population" else 1
-            if not isinstance(value, numbers.Integral) or isinstance(value, bool) or value < low:
-                raise ValueError(
-                    f"The {name!r} parameter of GMC must be an int in the range "
-                    f"[{low}, inf). Got {value!r} instead."
-                )
+        check_int_param(self, "n_population", self.n_population, 2)
+        check_int_param(self, "max_iter", self.max_iter, 1)
         if self.solver == "pso":
             return ParticleSwarm(n_particles=self.n_population, max_iter=self.max_iter)
         return CuckooSearch(n_nests=self.n_population, max_iter=self.max_iter)

@@ -21,6 +21,8 @@ import numbers
 import numpy as np
 from scipy.optimize import OptimizeResult
 
+from greyml._validation import check_int_param
+
 __all__ = ["PopulationOptimizer", "PENALTY", "check_bounds"]
 
 #: Loss that replaces NaN or infinite objective values.
@@ -64,12 +66,7 @@ def check_bounds(bounds, n_dim=None, x0=None):
 
 
 def _check_count(owner, name, value, low=1):
-    if not isinstance(value, numbers.Integral) or isinstance(value, bool) or value < low:
-        raise ValueError(
-            f"The {name!r} parameter of {type(owner).__name__} must be an int in "
-            f"the range [{low}, inf). Got {value!r} instead."
-        )
-    return int(value)
+    return check_int_param(owner, name, value, low)
 
 
 def _check_real(owner, name, value, low=None, high=None, closed=(True, True)):
