@@ -282,7 +282,8 @@ class GMC(RegressorMixin, BaseEstimator):
             self.optimizer_result_ = result
             self.n_iter_ = result.nit
         else:
-            lower, upper = check_bounds(self.bounds, n_theta if np.ndim(self.bounds[0]) else 1)
+            # validated for every coefficient as documented; only b1's entry is used
+            lower, upper = check_bounds(self.bounds, n_theta)
             # b1 is searched on an arcsinh scale: fine near 0, where the stable,
             # physically meaningful development coefficients lie, coarse far out
             lower, upper = np.arcsinh(lower[:1]), np.arcsinh(upper[:1])
