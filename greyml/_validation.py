@@ -111,6 +111,7 @@ def validate_sequences(
     min_rows: int | None = None,
     n_params_msg: str | None = None,
     reject_constant: bool = False,
+    static: bool = False,
 ):
     """Validate ``X`` (and ``y``) and find the test boundaries.
 
@@ -118,7 +119,8 @@ def validate_sequences(
     array (or ``None``) and ``segments`` the list of :class:`Segment`.
     ``min_rows`` is the number of equations the estimator needs (an int, or a
     function of the number of columns), counted as rows minus one per test (the
-    first sample of each test only starts it).
+    first sample of each test only starts it). ``static=True`` is for models
+    whose rows are independent equations (ANFIS, MLP): every row counts.
     """
     segments = _segments_of(X, y)
     _check_numeric_frame(X)
@@ -164,7 +166,7 @@ def validate_sequences(
     if callable(n_params_msg):
         n_params_msg = n_params_msg(Xa.shape[1])
     if min_rows is not None:
-        n_eq = Xa.shape[0] - len(segments)
+        n_eq = Xa.shape[0] - (0 if static else len(segments))
         if n_eq < min_rows:
             what = n_params_msg or f"{min_rows} coefficients"
             raise ValueError(

@@ -247,7 +247,10 @@ def test_mismatched_columns(gmc_tests):
         ),
         ({"solver": "pso", "bounds": (5, -5)}, "lower 5 is not below upper -5"),
         ({"solver": "cs", "bounds": 5.0}, "bounds must be a pair"),
-        ({"solver": "pso", "bounds": ([0, 1], [1, 2])}, "bounds must be scalars or arrays of length 6"),
+        (
+            {"solver": "pso", "bounds": ([0, 1], [1, 2])},
+            "bounds must be scalars or arrays of length 6",
+        ),
         ({"response": "euler"}, "'response' parameter"),
         ({"search": "grid"}, "'search' parameter"),
     ],

@@ -11,6 +11,7 @@ from sklearn.utils.validation import check_is_fitted
 
 from greyml._rng import make_generator
 from greyml._sequences import segment_label
+from greyml._threads import blas_threads_for
 from greyml._validation import check_int_param, validate_sequences
 from greyml.grey._kernels import (
     LARGE_LOSS,
@@ -37,7 +38,163 @@ def _bounds_list(segments):
     return [(s.start, s.stop) for s in segments]
 
 
-class GMC(RegressorMixin, BaseEstimator):
+class _GreyConvolutionModel(RegressorMixin, BaseEstimator):
+    """fit/predict shared by GMC and GNNMCI: both calibrate the GMC(1,N) time
+    response (one implementation, :mod:`greyml.grey._kernels`); they differ in
+    their defaults and optimiser. Subclasses define ``_check_params``, which
+    returns the population optimiser (or ``None`` for least squares)."""
+
+    # -- fit / predict ----------------------------------------------------
+    def fit(self, X, y):
+        """Calibrate b₁, b₂…b_N and u on one or more tests.
+
+        Parameters
+        ----------
+        X : array-like or DataFrame of shape (n_samples, n_features)
+            Drivers (sensor readings), rows in time order within each test.
+        y : array-like or Series of shape (n_samples,)
+            The target (e.g. displacement in µm).
+
+        Returns
+        -------
+        self
+        """
+        optimizer = self._check_params()
+        if y is None:
+            raise ValueError(
+                f"{type(self).__name__} requires y to be passed, but the target y is "
+                "None: give the measured target (e.g. the displacement) of every row."
+            )
+        Xa, ya, segments = validate_sequences(
+            self,
+            X,
+            y,
+            reset=True,
+            min_samples_per_test=2,
+            min_rows=lambda p: p + 2,
+            n_params_msg=lambda p: f"{p + 2} coefficients (b1, one b per column, u)",
+            reject_constant=True,
+        )
+        bounds = _bounds_list(segments)
+        self.n_tests_ = len(segments)
+        with blas_threads_for(Xa.size * (Xa.shape[1] + 2)):
+            return self._calibrate(Xa, ya, bounds, optimizer)
+
+    def _calibrate(self, Xa, ya, bounds, optimizer):
+
+        b1, b, u, rank, sv = gmc_lstsq(ya, Xa, bounds)
+        n_theta = Xa.shape[1] + 2
+        if rank < n_theta:
+            warnings.warn(
+                f"{type(self).__name__} least-squares system is rank deficient (rank {rank} < "
+                f"{n_theta} coefficients): some drivers are linear combinations of "
+                "others; the minimum-norm solution is used.",
+                GreyConditioningWarning,
+                stacklevel=2,
+            )
+        theta_ls = np.concatenate([[b1], b, [u]])
+        X1 = ago(Xa, bounds)
+
+        if optimizer is None:
+            theta = theta_ls
+            self.optimizer_result_ = None
+            self.n_iter_ = 1
+        elif self.search == "full":
+            lower, upper = check_bounds(self.bounds, n_theta)
+            rng = make_generator(self.random_state)
+            x0 = theta_ls[None, :] if self.warm_start_ls and np.isfinite(theta_ls).all() else None
+            result = optimizer.minimize(
+                _GMCObjective(X1, ya, bounds, self.response, self.initial),
+                (lower, upper),
+                rng,
+                x0=x0,
+            )
+            theta = result.x
+            self.optimizer_result_ = result
+            self.n_iter_ = result.nit
+        else:
+            # validated for every coefficient as documented; only b1's entry is used
+            lower, upper = check_bounds(self.bounds, n_theta)
+            # b1 is searched on an arcsinh scale: fine near 0, where the stable,
+            # physically meaningful development coefficients lie, coarse far out
+            lower, upper = np.arcsinh(lower[:1]), np.arcsinh(upper[:1])
+            rng = make_generator(self.random_state)
+            x0 = (
+                np.arcsinh(np.clip([[b1]], np.sinh(lower), np.sinh(upper)))
+                if self.warm_start_ls and np.isfinite(b1)
+                else None
+            )
+            objective = _GMCSeparableObjective(X1, ya, bounds, self.response, self.initial)
+            result = optimizer.minimize(objective, (lower, upper), rng, x0=x0)
+            if self.polish:
+                _polish(objective, result, lower[0], upper[0])
+            result.x = np.sinh(result.x)
+            _, lin = gmc_separable(X1, ya, result.x, bounds, self.response, self.initial)
+            theta = np.concatenate([result.x, lin[0]])
+            self.optimizer_result_ = result
+            self.n_iter_ = result.nit
+
+        self.development_coef_ = float(theta[0])
+        self.driving_coef_ = np.asarray(theta[1:-1], dtype=float)
+        self.control_ = float(theta[-1])
+        self.loss_ = float(
+            gmc_sse_population(X1, ya, theta[None, :], bounds, self.response, self.initial)[0]
+        )
+        if self.loss_ >= LARGE_LOSS:
+            raise ValueError(
+                f"{type(self).__name__} calibration failed: every candidate trajectory diverged on "
+                "the training tests. Check the drivers' scale or narrow `bounds`."
+            )
+        return self
+
+    def predict(self, X):
+        """Predict the target of every test in ``X``.
+
+        Each test's response starts from that test's first driver values
+        (see ``initial``); its target is not needed.
+
+        Parameters
+        ----------
+        X : array-like or DataFrame of shape (n_samples, n_features)
+
+        Returns
+        -------
+        y_pred : ndarray of shape (n_samples,)
+        """
+        check_is_fitted(self)
+        Xa, _, segments = validate_sequences(self, X, reset=False, min_samples_per_test=1)
+        bounds = _bounds_list(segments)
+        pred = gmc_predict(
+            ago(Xa, bounds),
+            self.development_coef_,
+            self.driving_coef_,
+            self.control_,
+            bounds,
+            self.response,
+            self.initial,
+        )
+        bad = ~np.isfinite(pred)
+        if bad.any():
+            row = int(np.flatnonzero(bad)[0])
+            seg = next(s for s in segments if s.start <= row < s.stop)
+            raise ValueError(
+                f"{type(self).__name__} prediction diverges in {segment_label(seg)} "
+                f"from row {row}: "
+                f"b1 = {self.development_coef_:g} makes the response grow like "
+                f"exp({-self.development_coef_:g}·k) over its {seg.n} samples."
+            )
+        return pred
+
+    def __sklearn_tags__(self):
+        tags = super().__sklearn_tags__()
+        # a grey convolution model is a dynamic model of accumulated series; on
+        # i.i.d. regression data (as in scikit-learn's generic checks) it is not
+        # expected to fit well.
+        tags.regressor_tags.poor_score = True
+        return tags
+
+
+class GMC(_GreyConvolutionModel):
     """Grey model with convolution integral, GMC(1,N).
 
     The target x₁ (e.g. a tool-point displacement) and the drivers x₂…x_N (the
@@ -216,149 +373,6 @@ class GMC(RegressorMixin, BaseEstimator):
         if self.solver == "pso":
             return ParticleSwarm(n_particles=self.n_population, max_iter=self.max_iter)
         return CuckooSearch(n_nests=self.n_population, max_iter=self.max_iter)
-
-    # -- fit / predict ----------------------------------------------------
-    def fit(self, X, y):
-        """Calibrate b₁, b₂…b_N and u on one or more tests.
-
-        Parameters
-        ----------
-        X : array-like or DataFrame of shape (n_samples, n_features)
-            Drivers (sensor readings), rows in time order within each test.
-        y : array-like or Series of shape (n_samples,)
-            The target (e.g. displacement in µm).
-
-        Returns
-        -------
-        self : GMC
-        """
-        optimizer = self._check_params()
-        if y is None:
-            raise ValueError(
-                "GMC requires y to be passed, but the target y is None: give the "
-                "measured target (e.g. the displacement) of every row."
-            )
-        Xa, ya, segments = validate_sequences(
-            self,
-            X,
-            y,
-            reset=True,
-            min_samples_per_test=2,
-            min_rows=lambda p: p + 2,
-            n_params_msg=lambda p: f"{p + 2} coefficients (b1, one b per column, u)",
-            reject_constant=True,
-        )
-        bounds = _bounds_list(segments)
-        self.n_tests_ = len(segments)
-
-        b1, b, u, rank, sv = gmc_lstsq(ya, Xa, bounds)
-        n_theta = Xa.shape[1] + 2
-        if rank < n_theta:
-            warnings.warn(
-                f"GMC least-squares system is rank deficient (rank {rank} < "
-                f"{n_theta} coefficients): some drivers are linear combinations of "
-                "others; the minimum-norm solution is used.",
-                GreyConditioningWarning,
-                stacklevel=2,
-            )
-        theta_ls = np.concatenate([[b1], b, [u]])
-        X1 = ago(Xa, bounds)
-
-        if optimizer is None:
-            theta = theta_ls
-            self.optimizer_result_ = None
-            self.n_iter_ = 1
-        elif self.search == "full":
-            lower, upper = check_bounds(self.bounds, n_theta)
-            rng = make_generator(self.random_state)
-            x0 = theta_ls[None, :] if self.warm_start_ls and np.isfinite(theta_ls).all() else None
-            result = optimizer.minimize(
-                _GMCObjective(X1, ya, bounds, self.response, self.initial),
-                (lower, upper),
-                rng,
-                x0=x0,
-            )
-            theta = result.x
-            self.optimizer_result_ = result
-            self.n_iter_ = result.nit
-        else:
-            # validated for every coefficient as documented; only b1's entry is used
-            lower, upper = check_bounds(self.bounds, n_theta)
-            # b1 is searched on an arcsinh scale: fine near 0, where the stable,
-            # physically meaningful development coefficients lie, coarse far out
-            lower, upper = np.arcsinh(lower[:1]), np.arcsinh(upper[:1])
-            rng = make_generator(self.random_state)
-            x0 = (
-                np.arcsinh(np.clip([[b1]], np.sinh(lower), np.sinh(upper)))
-                if self.warm_start_ls and np.isfinite(b1)
-                else None
-            )
-            objective = _GMCSeparableObjective(X1, ya, bounds, self.response, self.initial)
-            result = optimizer.minimize(objective, (lower, upper), rng, x0=x0)
-            if self.polish:
-                _polish(objective, result, lower[0], upper[0])
-            result.x = np.sinh(result.x)
-            _, lin = gmc_separable(X1, ya, result.x, bounds, self.response, self.initial)
-            theta = np.concatenate([result.x, lin[0]])
-            self.optimizer_result_ = result
-            self.n_iter_ = result.nit
-
-        self.development_coef_ = float(theta[0])
-        self.driving_coef_ = np.asarray(theta[1:-1], dtype=float)
-        self.control_ = float(theta[-1])
-        self.loss_ = float(
-            gmc_sse_population(X1, ya, theta[None, :], bounds, self.response, self.initial)[0]
-        )
-        if self.loss_ >= LARGE_LOSS:
-            raise ValueError(
-                "GMC calibration failed: every candidate trajectory diverged on "
-                "the training tests. Check the drivers' scale or narrow `bounds`."
-            )
-        return self
-
-    def predict(self, X):
-        """Predict the target of every test in ``X``.
-
-        Each test's response starts from that test's first driver values
-        (see ``initial``); its target is not needed.
-
-        Parameters
-        ----------
-        X : array-like or DataFrame of shape (n_samples, n_features)
-
-        Returns
-        -------
-        y_pred : ndarray of shape (n_samples,)
-        """
-        check_is_fitted(self)
-        Xa, _, segments = validate_sequences(self, X, reset=False, min_samples_per_test=1)
-        bounds = _bounds_list(segments)
-        pred = gmc_predict(
-            ago(Xa, bounds),
-            self.development_coef_,
-            self.driving_coef_,
-            self.control_,
-            bounds,
-            self.response,
-            self.initial,
-        )
-        bad = ~np.isfinite(pred)
-        if bad.any():
-            row = int(np.flatnonzero(bad)[0])
-            seg = next(s for s in segments if s.start <= row < s.stop)
-            raise ValueError(
-                f"GMC prediction diverges in {segment_label(seg)} from row {row}: "
-                f"b1 = {self.development_coef_:g} makes the response grow like "
-                f"exp({-self.development_coef_:g}·k) over its {seg.n} samples."
-            )
-        return pred
-
-    def __sklearn_tags__(self):
-        tags = super().__sklearn_tags__()
-        # GMC is a dynamic model of accumulated series; on i.i.d. regression data
-        # (as in scikit-learn's generic checks) it is not expected to fit well.
-        tags.regressor_tags.poor_score = True
-        return tags
 
 
 def _polish(objective, result, lower, upper):
