@@ -1,0 +1,304 @@
+"""Numerical kernels of first-order Takagi–Sugeno ANFIS (pure NumPy/SciPy).
+
+A model with ``R`` rules over ``p`` inputs is held as
+
+- ``mf_centres``, ``mf_widths``: 1-D arrays, the centre and the standard
+  deviation of every Gaussian membership function (MF);
+- ``mf_of_rule``: an int array of shape ``(R, p)``, which MF rule ``r`` uses for
+  input ``j``. A grid partition shares each MF between many rules; a clustered
+  partition gives every rule its own MFs. The kernels below do not care which;
+- ``consequents``: shape ``(R, p + 1)``, the intercept and the slopes of each
+  rule's linear consequent.
+
+Layer by layer: Gaussian membership, product T-norm (a sum of logs), normalised
+firing strengths (a softmax of the log firing strengths, so that no sample far
+from every rule underflows to 0/0), linear consequents, weighted sum. Every
+function is vectorised over samples and rules; there is no Python loop over
+either.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.linalg import LinAlgError, cho_factor, cho_solve, lstsq
+
+__all__ = [
+    "log_firing",
+    "normalised_firing",
+    "anfis_forward",
+    "solve_consequents",
+    "premise_gradient",
+    "JangStepSize",
+    "hybrid_learning",
+    "CHUNK_ROWS",
+]
+
+#: Rows per block when the least-squares system is accumulated, which bounds
+#: memory at ``CHUNK_ROWS × R(p + 1)`` floats whatever the number of samples.
+CHUNK_ROWS = 4096
+
+
+def log_firing(X, centres, widths):
+    """Log firing strength of every rule at every sample.
+
+    Product T-norm of Gaussian MFs: log w_r(x) = −½ Σⱼ ((xⱼ − c_rj) / σ_rj)².
+
+    Parameters
+    ----------
+    X : ndarray of shape (n, p)
+    centres, widths : ndarray of shape (R, p)
+
+    Returns
+    -------
+    ndarray of shape (n, R)
+    """
+    inv2 = 1.0 / widths**2
+    # expanded square: three matrix products instead of an (n, R, p) tensor
+    quad = (X**2) @ inv2.T - 2.0 * X @ (centres * inv2).T + np.sum(centres**2 * inv2, axis=1)
+    return -0.5 * np.maximum(quad, 0.0)
+
+
+def normalised_firing(logw):
+    """Normalised firing strengths w̄ = w / Σ w, computed as a softmax."""
+    shifted = logw - logw.max(axis=1, keepdims=True)
+    w = np.exp(shifted)
+    w /= w.sum(axis=1, keepdims=True)
+    return w
+
+
+def _rule_arrays(mf_centres, mf_widths, mf_of_rule):
+    return mf_centres[mf_of_rule], mf_widths[mf_of_rule]
+
+
+def anfis_forward(X, mf_centres, mf_widths, mf_of_rule, consequents):
+    """Output of the network and its normalised firing strengths.
+
+    Returns
+    -------
+    y : ndarray of shape (n,)
+    wbar : ndarray of shape (n, R)
+    rule_out : ndarray of shape (n, R)
+        Each rule's consequent f_r(x) = θ_r0 + Σⱼ θ_rj xⱼ.
+    """
+    C, S = _rule_arrays(mf_centres, mf_widths, mf_of_rule)
+    wbar = normalised_firing(log_firing(X, C, S))
+    rule_out = consequents[:, 0] + X @ consequents[:, 1:].T
+    return np.einsum("nr,nr->n", wbar, rule_out), wbar, rule_out
+
+
+def _design_block(wbar, X):
+    """Rows of the consequent design matrix: w̄_r · [1, x] for every rule."""
+    n, R = wbar.shape
+    Xe = np.empty((n, X.shape[1] + 1))
+    Xe[:, 0] = 1.0
+    Xe[:, 1:] = X
+    return (wbar[:, :, None] * Xe[:, None, :]).reshape(n, -1)
+
+
+def solve_consequents(wbar, X, y, alpha):
+    """Ridge least squares for the linear consequents (the forward half of Jang's
+    hybrid learning).
+
+    Minimises ‖Aθ − y‖² + λ‖θ‖² with A the design matrix of w̄_r·[1, x] and
+    λ = ``alpha`` × (mean diagonal of AᵀA), so ``alpha`` is free of the data's
+    scale. The system is solved by Cholesky on whichever is smaller, the
+    normal equations (AᵀA + λI, accumulated in row blocks so A is never held
+    whole) or the dual system (AAᵀ + λI, when there are more consequent
+    parameters than samples: hundreds of rules on a short test; AAᵀ is then
+    formed as (w̄w̄ᵀ)∘(x̃x̃ᵀ) without A). If the
+    factorisation fails (``alpha`` = 0 and A rank deficient) the minimum-norm
+    least-squares solution (SVD) is used.
+
+    Returns
+    -------
+    consequents : ndarray of shape (R, p + 1)
+    """
+    n, R = wbar.shape
+    q = X.shape[1] + 1
+    P = R * q
+    if P <= n:
+        G = np.zeros((P, P))
+        b = np.zeros(P)
+        for start in range(0, n, CHUNK_ROWS):
+            A = _design_block(wbar[start : start + CHUNK_ROWS], X[start : start + CHUNK_ROWS])
+            G += A.T @ A
+            b += A.T @ y[start : start + CHUNK_ROWS]
+        lam = alpha * np.trace(G) / P
+        try:
+            theta = cho_solve(cho_factor(G + lam * np.eye(P)), b)
+        except LinAlgError:
+            theta = _min_norm(_design_block(wbar, X), y)
+    else:
+        # A[n, (r, a)] = w̄[n, r]·x̃[n, a] (x̃ = [1, x]), so AAᵀ is the elementwise
+        # product (w̄w̄ᵀ)∘(x̃x̃ᵀ) and Aᵀv = w̄ᵀ(x̃∘v): O(n²(R + p)), A never formed
+        Xe = np.column_stack([np.ones(n), X])
+        K = (wbar @ wbar.T) * (Xe @ Xe.T)
+        lam = alpha * np.trace(K) / n
+        try:
+            dual = cho_solve(cho_factor(K + lam * np.eye(n)), y)
+        except LinAlgError:
+            return _min_norm(_design_block(wbar, X), y).reshape(R, q)
+        return wbar.T @ (Xe * dual[:, None])
+    return theta.reshape(R, q)
+
+
+def _min_norm(A, y):
+    return lstsq(A, y, lapack_driver="gelsd")[0]
+
+
+def premise_gradient(X, err, wbar, rule_out, y_hat, mf_centres, mf_widths, mf_of_rule):
+    """Gradient of ½Σe² with respect to every MF centre and width.
+
+    With g_r = log w_r and ŷ = Σ_r w̄_r f_r: ∂ŷ/∂g_r = w̄_r (f_r − ŷ),
+    ∂g_r/∂c_rj = (xⱼ − c_rj)/σ_rj², ∂g_r/∂σ_rj = (xⱼ − c_rj)²/σ_rj³. The
+    per-rule gradients are summed into the MFs the rules share.
+
+    Returns
+    -------
+    grad_centres, grad_widths : ndarray, shaped like ``mf_centres``
+    """
+    C, S = _rule_arrays(mf_centres, mf_widths, mf_of_rule)
+    G = err[:, None] * wbar * (rule_out - y_hat[:, None])  # (n, R): ∂E/∂g_r
+    g_sum = G.sum(axis=0)[:, None]  # (R, 1)
+    GX = G.T @ X  # (R, p)
+    GX2 = G.T @ (X**2)
+    d_c = (GX - g_sum * C) / S**2
+    d_s = (GX2 - 2.0 * C * GX + g_sum * C**2) / S**3
+    n_mf = mf_centres.size
+    idx = mf_of_rule.ravel()
+    grad_c = np.bincount(idx, weights=d_c.ravel(), minlength=n_mf)
+    grad_s = np.bincount(idx, weights=d_s.ravel(), minlength=n_mf)
+    return grad_c, grad_s
+
+
+class JangStepSize:
+    """Jang's heuristic step-size rule (Jang 1993; MATLAB ``anfis``).
+
+    The step size k is the Euclidean length of each gradient step on the premise
+    parameters. After each epoch, over the last five training errors: four
+    consecutive reductions grow k by ``increase``; two consecutive
+    increase-then-reduction pairs (the error alternating) shrink it by
+    ``decrease``. The window slides, as in MATLAB's implementation, so a long
+    run of reductions grows k on every epoch.
+    """
+
+    def __init__(self, initial=0.01, increase=1.1, decrease=0.9):
+        self.size = float(initial)
+        self.increase = float(increase)
+        self.decrease = float(decrease)
+        self._errors: list[float] = []
+
+    def update(self, error: float) -> float:
+        self._errors.append(float(error))
+        e = self._errors[-5:]
+        if len(e) == 5:
+            d = np.diff(e)
+            if np.all(d < 0):
+                self.size *= self.increase
+            elif (d[0] > 0 > d[1] and d[2] > 0 > d[3]) or (d[0] < 0 < d[1] and d[2] < 0 < d[3]):
+                self.size *= self.decrease
+        return self.size
+
+
+def _rmse(a, b):
+    return float(np.sqrt(np.mean((a - b) ** 2)))
+
+
+def hybrid_learning(
+    X,
+    y,
+    mf_centres,
+    mf_widths,
+    mf_of_rule,
+    *,
+    n_epochs,
+    alpha,
+    step,
+    min_width,
+    X_check=None,
+    y_check=None,
+    error_goal=0.0,
+):
+    """Jang's hybrid learning: per epoch, least squares for the consequents with
+    the premise fixed, then one normalised gradient step on the premise with the
+    consequents fixed.
+
+    The parameters returned are those of the epoch with the lowest checking
+    error when checking data is given, else of the lowest training error (as
+    MATLAB's ``anfis``). The gradient step on the widths is taken on log σ, so
+    they stay positive; they are also kept at or above ``min_width`` so no MF
+    collapses into a spike.
+
+    Parameters
+    ----------
+    X, y : ndarray
+        Training data (already scaled).
+    mf_centres, mf_widths : ndarray
+        Initial premise parameters; not modified.
+    mf_of_rule : ndarray of int, shape (R, p)
+    n_epochs : int
+    alpha : float
+        Ridge strength of :func:`solve_consequents`.
+    step : JangStepSize
+    min_width : float
+    X_check, y_check : ndarray or None
+    error_goal : float
+        Stop once the training RMSE reaches it.
+
+    Returns
+    -------
+    dict with ``mf_centres``, ``mf_widths``, ``consequents`` (the kept epoch's),
+    ``best_epoch`` (1-based), ``train_error`` and ``check_error`` (RMSE per
+    epoch; the latter empty without checking data) and ``step_size`` per epoch.
+    """
+    c = np.array(mf_centres, dtype=float)
+    s = np.array(mf_widths, dtype=float)
+    checking = X_check is not None and len(X_check) > 0
+    train_err, check_err, steps = [], [], []
+    best = (np.inf, None)
+    for epoch in range(n_epochs):
+        C, S = _rule_arrays(c, s, mf_of_rule)
+        wbar = normalised_firing(log_firing(X, C, S))
+        theta = solve_consequents(wbar, X, y, alpha)
+        rule_out = theta[:, 0] + X @ theta[:, 1:].T
+        y_hat = np.einsum("nr,nr->n", wbar, rule_out)
+        err = y_hat - y
+        e_train = _rmse(y_hat, y)
+        train_err.append(e_train)
+        if checking:
+            y_chk = anfis_forward(X_check, c, s, mf_of_rule, theta)[0]
+            e_check = _rmse(y_chk, y_check)
+            check_err.append(e_check)
+            score = e_check
+        else:
+            score = e_train
+        if not np.isfinite(score):
+            break
+        if score < best[0]:
+            best = (score, (c.copy(), s.copy(), theta, epoch + 1))
+        steps.append(step.size)
+        if e_train <= error_goal or epoch == n_epochs - 1:
+            break
+        gc, gs = premise_gradient(X, err, wbar, rule_out, y_hat, c, s, mf_of_rule)
+        # widths are descended on a log scale (∂E/∂log σ = σ ∂E/∂σ): they stay
+        # positive by construction and a step changes them relatively
+        gs *= s
+        norm = np.sqrt(np.sum(gc**2) + np.sum(gs**2))
+        step.update(e_train)
+        if not norm > 0 or not np.isfinite(norm):
+            break
+        eta = step.size / norm
+        c -= eta * gc
+        s = np.maximum(s * np.exp(-eta * gs), min_width)
+    if best[1] is None:
+        raise FloatingPointError("ANFIS training produced no finite error")
+    c_best, s_best, theta_best, epoch_best = best[1]
+    return {
+        "mf_centres": c_best,
+        "mf_widths": s_best,
+        "consequents": theta_best,
+        "best_epoch": epoch_best,
+        "train_error": np.asarray(train_err),
+        "check_error": np.asarray(check_err),
+        "step_size": np.asarray(steps),
+    }
