@@ -1,8 +1,9 @@
-"""Grey models: AGO, GM(1,N) and GMC(1,N)."""
+"""Grey models: AGO, GM(1,N), GMC(1,N) and the grey neural network GNNMCI(1,N)."""
 
 from greyml.grey._ago import AGO
 from greyml.grey._functions import fit_gm1n, simulate_gmc
 from greyml.grey._gmc import GMC, GreyConditioningWarning
+from greyml.grey._gnnmci import GNNMCI
 from greyml.grey._kernels import (
     ago,
     background,
@@ -16,12 +17,14 @@ from greyml.grey._kernels import (
     gmc_response,
     gmc_separable,
     gmc_sse_population,
+    gnnmci_layers,
     iago,
 )
 
 __all__ = [
     "AGO",
     "GMC",
+    "GNNMCI",
     "GreyConditioningWarning",
     "ago",
     "background",
@@ -36,6 +39,7 @@ __all__ = [
     "gmc_response",
     "gmc_separable",
     "gmc_sse_population",
+    "gnnmci_layers",
     "iago",
     "simulate_gmc",
 ]

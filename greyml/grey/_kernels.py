@@ -30,6 +30,7 @@ __all__ = [
     "gmc_sse_population",
     "gmc_basis",
     "gmc_separable",
+    "gnnmci_layers",
     "LARGE_LOSS",
 ]
 
@@ -346,3 +347,54 @@ def gmc_separable(X1, y, b1, bounds=None, form="trapezoid", initial="model"):
             sse[i] = min(value, LARGE_LOSS)
             theta[i] = coef
     return sse, theta
+
+
+def gnnmci_layers(X1, b1, coef, control, x0):
+    """Layer outputs of seed 000's grey neural network GNNMCI(1,N) for one test.
+
+    The network maps the midpoint time response of GMC(1,N) onto four layers,
+    evaluated for k = 1..n−1 (the output is x̂₁⁽¹⁾(k+1)):
+
+    - A: a = w₁₁k with w₁₁ = b₁;
+    - B: b = 1 / (1 + e^{−a}), the sigmoid;
+    - C: c₁ = b·w₂₁ with w₂₁ = −x̂₁⁽¹⁾(1); cⱼ = Gⱼ(k)·b·w₂ⱼ with w₂ⱼ = bⱼ and
+      Gⱼ the convolution of the accumulated input j (midpoint form); the last
+      unit carries u with G_u the convolution of a constant 1;
+    - D: d = Σ w₃ⱼcⱼ − θ with every w₃ⱼ = 1 + e^{−b₁k} and the bias
+      θ = −x̂₁⁽¹⁾(1)(1 + e^{−b₁k}).
+
+    Since w₃·b = 1, d = x̂₁⁽¹⁾(1)e^{−b₁k} + Σⱼ bⱼGⱼ(k) + uG_u(k): the GMC
+    midpoint response (:func:`gmc_response`), which is how the network is
+    evaluated in training and prediction. This function exists to show and
+    test that mapping; for large |b₁k| its products overflow where the
+    response does not.
+
+    Parameters
+    ----------
+    X1 : ndarray of shape (n, N-1)
+        Accumulated inputs of one test.
+    b1, coef, control, x0 : float, ndarray, float, float
+        w₁₁, the driving weights, u and the starting value x̂₁⁽¹⁾(1).
+
+    Returns
+    -------
+    dict of ndarray
+        ``"A"``, ``"B"`` (shape (n−1,)), ``"C"`` (shape (n−1, N+1): c₁, the
+        inputs' units, u's unit) and ``"D"`` (shape (n−1,)).
+    """
+    X1 = np.asarray(X1, dtype=float)
+    n = X1.shape[0]
+    k = np.arange(1, n, dtype=float)
+    series = np.column_stack([X1, np.ones(n)])
+    G = np.column_stack(
+        [gmc_response(series[:, j], b1, 0.0, "midpoint")[1:] for j in range(series.shape[1])]
+    )
+    w2 = np.concatenate([[-x0], np.asarray(coef, dtype=float), [control]])
+    with np.errstate(over="ignore", invalid="ignore"):
+        A = b1 * k
+        B = 1.0 / (1.0 + np.exp(-A))
+        C = np.column_stack([B, G * B[:, None]]) * w2
+        w3 = 1.0 + np.exp(-b1 * k)
+        theta = -x0 * w3
+        D = w3 * C.sum(axis=1) - theta
+    return {"A": A, "B": B, "C": C, "D": D}

@@ -1,0 +1,191 @@
+"""GNNMCI(1,N): seed 000's grey neural network, trained by particle swarm."""
+
+from __future__ import annotations
+
+import numbers
+
+import numpy as np
+from sklearn.utils.validation import check_is_fitted
+
+from greyml._sequences import segment_label
+from greyml._validation import check_int_param, validate_sequences
+from greyml.grey._gmc import _GreyConvolutionModel
+from greyml.grey._kernels import ago, gmc_forcing, gmc_initial, gnnmci_layers
+from greyml.optimize import ParticleSwarm
+
+__all__ = ["GNNMCI"]
+
+
+class GNNMCI(_GreyConvolutionModel):
+    """Grey neural network model with convolution integral, GNNMCI(1,N).
+
+    Seed 000 writes the GMC(1,N) time response (midpoint form) as a four-layer
+    network: A, w₁₁k; B, a sigmoid; C, products with the (convolved)
+    accumulated inputs; D, a weighted sum minus a bias θ. Inputs are
+    accumulated (AGO) per test on the way in and the output is differenced
+    (IAGO) on the way out. The weights (w₁₁ = b₁, the driving weights and u)
+    are trained by particle swarm optimisation minimising Σ(x̂⁽⁰⁾ − x⁽⁰⁾)² over
+    the training tests, with seed 000's swarm: 90 particles, c₁ = 1.5,
+    c₂ = 2, inertia 0.9 → 0.4, 100 epochs.
+
+    Parameters
+    ----------
+    n_particles : int, default=90
+    max_iter : int, default=100
+        Swarm size and epochs (seed 000).
+    c1, c2 : float, default=1.5, 2.0
+        Cognitive and social coefficients (seed 000).
+    inertia : (float, float), default=(0.9, 0.4)
+        Inertia weight, decreased linearly over the epochs (seed 000).
+    search : {"separable", "full"}, default="separable"
+        ``"full"``: the swarm searches every weight, as in seed 000.
+        ``"separable"``: it searches w₁₁ = b₁ only, and for each particle the
+        remaining weights, on which the output depends linearly, are solved
+        exactly by least squares; see :class:`GMC` for why this is the default.
+    bounds : (float, float) or (array, array), default=(-100, 100)
+        Search box of the weights (as :class:`GMC`).
+    initial : {"model", "zero"}, default="model"
+        The starting value x̂₁⁽¹⁾(1) of each test (w₂₁ = −x̂₁⁽¹⁾(1)), as in
+        :class:`GMC`: the target of a new test is unknown when it is predicted.
+    polish, warm_start_ls : bool, default=True
+        As in :class:`GMC`.
+    random_state : int, Generator, RandomState or None, default=None
+        Seeds the swarm. The global NumPy state is never used.
+
+    Attributes
+    ----------
+    development_coef_ : float
+        w₁₁ = b₁.
+    driving_coef_ : ndarray of shape (n_features_in_,)
+        The driving weights w₂ⱼ = bⱼ.
+    control_ : float
+        u.
+    loss_ : float
+        Σ(x̂⁽⁰⁾ − x⁽⁰⁾)² on the training tests.
+    optimizer_result_ : scipy.optimize.OptimizeResult
+        The swarm's result (with ``history``).
+    n_iter_, n_tests_, n_features_in_, feature_names_in_
+        As in :class:`GMC`.
+
+    See Also
+    --------
+    GMC : the same time response calibrated by least squares, PSO or cuckoo
+        search with seed 004's settings.
+
+    Notes
+    -----
+    Layer C multiplies by the sigmoid b = 1/(1 + e^{−b₁k}) and layer D
+    multiplies by w₃ = 1 + e^{−b₁k}, so the layers multiply out exactly to the
+    GMC midpoint response (:func:`greyml.grey.gnnmci_layers` shows each layer;
+    a test checks they agree). greyml therefore evaluates the network through
+    the shared O(n) response of :mod:`greyml.grey`, which cannot overflow in
+    the layer products when |b₁k| is large. What distinguishes GNNMCI from
+    ``GMC(solver="ls")`` is its training: the weights minimise the error of
+    the whole trajectory rather than of the grey differential equation.
+
+    References
+    ----------
+    Abdulshahed, A. M., Longstaff, A. P., Fletcher, S. and Potdar, A. (2016).
+    Thermal error modelling of a gantry-type 5-axis machine tool using a Grey
+    Neural Network Model. Journal of Manufacturing Systems 41, 130-142.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from greyml import GNNMCI
+    >>> from greyml.grey import simulate_gmc
+    >>> rng = np.random.default_rng(0)
+    >>> X = 1 + rng.random((60, 2))
+    >>> y = simulate_gmc(X, development=0.4, driving=[0.5, -0.2], control=0.1,
+    ...                  form="midpoint")
+    >>> model = GNNMCI(max_iter=30, random_state=0).fit(X, y)
+    >>> round(model.development_coef_, 3)
+    0.4
+    """
+
+    response = "midpoint"
+
+    def __init__(
+        self,
+        n_particles=90,
+        *,
+        max_iter=100,
+        c1=1.5,
+        c2=2.0,
+        inertia=(0.9, 0.4),
+        search="separable",
+        bounds=(-100.0, 100.0),
+        initial="model",
+        polish=True,
+        warm_start_ls=True,
+        random_state=None,
+    ):
+        self.n_particles = n_particles
+        self.max_iter = max_iter
+        self.c1 = c1
+        self.c2 = c2
+        self.inertia = inertia
+        self.search = search
+        self.bounds = bounds
+        self.initial = initial
+        self.polish = polish
+        self.warm_start_ls = warm_start_ls
+        self.random_state = random_state
+
+    def _check_params(self):
+        for name in ("initial", "search"):
+            allowed = ("model", "zero") if name == "initial" else ("separable", "full")
+            value = getattr(self, name)
+            if value not in allowed:
+                raise ValueError(
+                    f"The {name!r} parameter of GNNMCI must be a str among "
+                    f"{set(allowed)}. Got {value!r} instead."
+                )
+        check_int_param(self, "n_particles", self.n_particles, 2)
+        check_int_param(self, "max_iter", self.max_iter, 1)
+        for name in ("c1", "c2"):
+            value = getattr(self, name)
+            if not (
+                isinstance(value, numbers.Real)
+                and not isinstance(value, bool)
+                and np.isfinite(value)
+                and value >= 0
+            ):
+                raise ValueError(
+                    f"The {name!r} parameter of GNNMCI must be a float in the range "
+                    f"[0.0, inf). Got {value!r} instead."
+                )
+        return ParticleSwarm(
+            n_particles=self.n_particles,
+            max_iter=self.max_iter,
+            c1=self.c1,
+            c2=self.c2,
+            inertia=self.inertia,
+        )
+
+    def layer_outputs(self, X):
+        """Outputs of layers A–D for every test of ``X``.
+
+        Parameters
+        ----------
+        X : array-like or DataFrame of shape (n_samples, n_features)
+
+        Returns
+        -------
+        list of dict
+            One dict per test with the test's label under ``"test"`` and the
+            layers as :func:`greyml.grey.gnnmci_layers` returns them.
+        """
+        check_is_fitted(self)
+        Xa, _, segments = validate_sequences(self, X, reset=False, min_samples_per_test=1)
+        out = []
+        for seg in segments:
+            X1 = ago(Xa[seg.slice])
+            f = gmc_forcing(X1, self.driving_coef_, self.control_)
+            x0 = float(gmc_initial(f[0], self.development_coef_, self.initial))
+            layers = gnnmci_layers(
+                X1, self.development_coef_, self.driving_coef_, self.control_, x0
+            )
+            layers["test"] = seg.label if seg.label is not None else segment_label(seg)
+            out.append(layers)
+        return out
