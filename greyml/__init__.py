@@ -1,14 +1,20 @@
 """greyml: thermal-error models of CNC machine tools, scikit-learn compatible."""
 
 from greyml._sequences import TEST_LEVEL, TIME_LEVEL, make_test_index, test_ids
-from greyml.grey import AGO, GMC, GreyConditioningWarning, fit_gm1n, simulate_gmc
+from greyml.fuzzy import ANFISFCM, ANFISGrid
+from greyml.grey import AGO, GMC, GNNMCI, GreyConditioningWarning, fit_gm1n, simulate_gmc
+from greyml.neural import MLPBaseline
 
 __version__ = "0.1.0.dev0"
 
 __all__ = [
     "AGO",
+    "ANFISFCM",
+    "ANFISGrid",
     "GMC",
+    "GNNMCI",
     "GreyConditioningWarning",
+    "MLPBaseline",
     "TEST_LEVEL",
     "TIME_LEVEL",
     "fit_gm1n",

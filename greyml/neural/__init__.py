@@ -1,0 +1,31 @@
+"""Neural models: the multilayer-perceptron baseline of seed 000."""
+
+from greyml.neural._kernels import (
+    ACTIVATIONS,
+    LMResult,
+    hidden,
+    init_nguyen_widrow,
+    levenberg_marquardt,
+    mlp_forward,
+    mlp_jacobian,
+    mlp_residuals,
+    n_params,
+    pack,
+    unpack,
+)
+from greyml.neural._mlp import MLPBaseline
+
+__all__ = [
+    "ACTIVATIONS",
+    "LMResult",
+    "MLPBaseline",
+    "hidden",
+    "init_nguyen_widrow",
+    "levenberg_marquardt",
+    "mlp_forward",
+    "mlp_jacobian",
+    "mlp_residuals",
+    "n_params",
+    "pack",
+    "unpack",
+]
