@@ -127,8 +127,11 @@ class _ANFISBase(RegressorMixin, BaseEstimator):
 
         c0, s0, mf_of_rule, mf_input = self._initial_premise(Xs, ys, rng)
         step = JangStepSize(self.step_size, self.step_increase, self.step_decrease)
-        n_unknowns = mf_of_rule.shape[0] * (Xs.shape[1] + 1)
-        work = len(ys) * n_unknowns * min(n_unknowns, len(ys))
+        n_rules, q = mf_of_rule.shape[0], Xs.shape[1] + 1
+        n = len(ys)
+        # flops of the consequent system: normal equations n·P², or the dual n²(R + q)
+        P = n_rules * q
+        work = n * P * P if P <= n else n * n * (n_rules + q)
         with blas_threads_for(work):
             result = self._train(Xs, ys, Xc, yc, c0, s0, mf_of_rule, step)
         self._mf_centres = result["mf_centres"]
