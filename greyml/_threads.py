@@ -14,17 +14,27 @@ from __future__ import annotations
 
 from contextlib import nullcontext
 
-from threadpoolctl import threadpool_limits
+from threadpoolctl import ThreadpoolController
 
 __all__ = ["blas_threads_for"]
 
 #: Floating-point operations per product below which one thread is used.
 SMALL_WORK = 5e7
 
+_controller = None
+
+
+def _get_controller():
+    # scanning the loaded libraries costs ~2 ms: do it once, not per predict
+    global _controller
+    if _controller is None:
+        _controller = ThreadpoolController()
+    return _controller
+
 
 def blas_threads_for(flops: float):
     """Context manager: one BLAS thread if a product costs fewer than
     :data:`SMALL_WORK` flops, else leave the thread count alone."""
     if flops < SMALL_WORK:
-        return threadpool_limits(limits=1, user_api="blas")
+        return _get_controller().limit(limits=1, user_api="blas")
     return nullcontext()

@@ -352,3 +352,23 @@ def test_bad_fcm_and_grid_parameters():
         ANFISGrid(n_mfs=[2, 0]).fit(X, y)
     with pytest.raises(ValueError, match="'mf_overlap' parameter"):
         ANFISGrid(mf_overlap=1.0).fit(X, y)
+
+
+def test_clustering_a_subset_keeps_memberships_of_every_row():
+    from greyml.fuzzy._anfis import _memberships
+
+    rng = np.random.default_rng(8)
+    data = np.vstack([rng.normal(0, 0.3, (60, 2)), rng.normal(3, 0.3, (60, 2))])
+    centres = np.array([[0.0, 0.0], [3.0, 3.0]])
+    u = _memberships(data, centres, 2.0)
+    np.testing.assert_allclose(u.sum(axis=0), 1.0)
+    # by hand for one row: u_1 = 1 / (1 + (d1/d2)^2) with m = 2
+    d1, d2 = np.linalg.norm(data[0] - centres[0]), np.linalg.norm(data[0] - centres[1])
+    assert u[0, 0] == pytest.approx(1 / (1 + (d1 / d2) ** 2))
+    X, y = data[:, :1], data[:, 1]
+    full = ANFISFCM(n_clusters=2, n_epochs=5, random_state=0).fit(X, y)
+    part = ANFISFCM(n_clusters=2, n_epochs=5, fcm_max_samples=40, random_state=0).fit(X, y)
+    # the two well-separated clusters are found from a third of the rows too
+    np.testing.assert_allclose(
+        np.sort(part.cluster_centres_[:, 0]), np.sort(full.cluster_centres_[:, 0]), atol=0.15
+    )
