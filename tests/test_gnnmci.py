@@ -143,3 +143,22 @@ def test_bad_input_names_column_and_test():
         GNNMCI().fit(X.assign(T1_C=3.0), y)
     with pytest.raises(ValueError, match="too few samples"):
         GNNMCI().fit(X.iloc[:4], y.iloc[:4])
+
+
+def test_stable_default_keeps_b1_non_negative_where_unconstrained_diverges():
+    from greyml.datasets import load_gantry_tests
+
+    frame = load_gantry_tests().frame
+    cols = ["FBG1_ue", "FBG2_ue", "FBG3_ue", "FBG4_ue", "T2_C"]
+    X = frame[cols] - frame[cols].groupby(level="test").transform("first")
+    y = frame["dz_um"]
+    train = groups_of(X) != "helical"
+    free = GNNMCI(bounds=(-100, 100), max_iter=30, random_state=0).fit(X[train], y[train])
+    assert free.development_coef_ < 0  # fits Z and C, then grows without bound
+    assert np.abs(free.predict(X[~train])).max() > 1e6
+    stable = GNNMCI(max_iter=30, random_state=0).fit(X[train], y[train])
+    assert stable.development_coef_ >= 0
+    err = stable.predict(X[~train]) - y[~train].to_numpy()
+    assert np.sqrt(np.mean(err**2)) < 0.25 * np.abs(y[~train]).max()
+    with pytest.raises(ValueError, match="'bounds' parameter of GNNMCI"):
+        GNNMCI(bounds="loose").fit(X[train], y[train])

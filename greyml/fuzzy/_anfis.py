@@ -423,7 +423,7 @@ class ANFISGrid(_ANFISBase):
                 f"ANFISGrid with n_mfs={self.n_mfs} on {n_features} inputs would have "
                 f"{' × '.join(map(str, mfs))} = {n_rules:,} rules, more than "
                 f"max_rules={self.max_rules:,}. Use ANFISFCM (one rule per cluster), "
-                "fewer MFs, or select fewer inputs (GreyInfluenceSelector)."
+                "fewer MFs, or fewer inputs."
             )
         return n_features + 2
 

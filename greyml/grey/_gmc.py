@@ -100,7 +100,7 @@ class _GreyConvolutionModel(RegressorMixin, BaseEstimator):
             self.optimizer_result_ = None
             self.n_iter_ = 1
         elif self.search == "full":
-            lower, upper = check_bounds(self.bounds, n_theta)
+            lower, upper = check_bounds(self._search_bounds(n_theta), n_theta)
             rng = make_generator(self.random_state)
             x0 = theta_ls[None, :] if self.warm_start_ls and np.isfinite(theta_ls).all() else None
             result = optimizer.minimize(
@@ -114,7 +114,7 @@ class _GreyConvolutionModel(RegressorMixin, BaseEstimator):
             self.n_iter_ = result.nit
         else:
             # validated for every coefficient as documented; only b1's entry is used
-            lower, upper = check_bounds(self.bounds, n_theta)
+            lower, upper = check_bounds(self._search_bounds(n_theta), n_theta)
             # b1 is searched on an arcsinh scale: fine near 0, where the stable,
             # physically meaningful development coefficients lie, coarse far out
             lower, upper = np.arcsinh(lower[:1]), np.arcsinh(upper[:1])
@@ -184,6 +184,10 @@ class _GreyConvolutionModel(RegressorMixin, BaseEstimator):
                 f"exp({-self.development_coef_:g}·k) over its {seg.n} samples."
             )
         return pred
+
+    def _search_bounds(self, n_theta):
+        """The optimiser's box for (b₁, b₂…b_N, u); subclasses may derive it."""
+        return self.bounds
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()
@@ -293,7 +297,10 @@ class GMC(_GreyConvolutionModel):
     accumulation, convolution and differencing restart at each test, and each
     test's prediction depends on that test's rows only. A trajectory that grows
     without bound (b₁ ≪ 0) is a large finite loss for the optimisers; ``predict``
-    raises rather than return it.
+    raises rather than return one that overflows. A mildly negative b₁ (e.g.
+    −0.03) grows without overflowing: on a test longer than the training tests
+    it can predict absurd values, so check ``development_coef_ >= 0`` or give
+    ``bounds`` with a lower limit of 0 for b₁ (as :class:`GNNMCI` does).
 
     References
     ----------

@@ -1,0 +1,742 @@
+"""Seed 001's and seed 000's validation tables, reproduced on greyml's simulated data.
+
+Two parts, both printed by one run:
+
+* **(a) seed 001, the VMC** (``greyml.datasets.load_vmc_tests``): models trained
+  on Test IV (4000 rpm, 120 min, 60 min pause, 120 min, 180 min stopped) and
+  validated on Tests I, II, III (4000 rpm) and V, VI (8000 rpm), predicting the
+  Y error ``dy_um`` (seed 001 Sec. 4.3: "the thermal displacement in the
+  Y-direction was chosen as a target variable"). Models: ``ANFISGrid`` with
+  3 MFs per input (243 rules), ``ANFISFCM`` with 3 clusters (3 rules), both with
+  the last 15 % of Test IV as checking data (seed 001 splits Test IV into
+  training, checking and testing parts; here the validation tests are the
+  testing data), and a ridge regression on the same inputs as a reference.
+  Per validation test: RMSE, residual band ±max|y - ŷ|, R, E (Nash-Sutcliffe),
+  improvement 1 - max|y - ŷ| / max|y|, and the share of rows with an input
+  outside its Test IV range. Three configurations:
+
+  1. ``seed001`` (the headline): seed 001's five sensors T18, T55, T63, T68,
+     T71 as temperature *rises* from each test's first reading. The seed models
+     "the relationship between the thermal errors and the temperature changes",
+     and the simulated displacement is measured from each test's start.
+  2. ``seed001-absolute`` (diagnostic): the same sensors as absolute
+     temperatures. A map from absolute temperature to a displacement that is
+     zeroed at each test's start cannot hold across tests that start at other
+     ambient temperatures or warm from an earlier run (Tests III and V).
+  3. ``physics-groups`` (diagnostic, *not* seed 001's method): five inputs that
+     observe what bends the spindle in Y in the simulator: means of the
+     carrier-front (T20-T23), carrier-rear (T43-T46), column-front (T5, T6),
+     column-rear (T9, T10) and column-air (T68-T70) sensors, as rises from the
+     mean of each test's first three readings. The groups are read off the
+     simulator's displacement map (oracle knowledge of the machine), and this
+     configuration and its extra model (ANFISFCM, 2 rules, 10 epochs) were
+     chosen after looking at the validation tests, so its numbers are an
+     optimistic bound, not a validation result. It shows what it takes to
+     reach ±5 µm on all five tests, and why seed 001's sensors cannot.
+
+* **(b) seed 000, the gantry** (``greyml.datasets.load_gantry_tests``): models
+  trained on the Z-axis and C-axis tests and validated on the helical test,
+  predicting the Z error ``dz_um`` from seed 000's five inputs FBG-1..4 and the
+  ram-rear temperature T2 (seed 000 Sec. 3.2), all as rises from each test's
+  first reading (seed 000's Table 1 starts every input at 0). Printed as seed
+  000's Table 4 (R, RMSE, E, ±residual) beside the paper's numbers:
+
+  - ``GNNMCI(1,N)``: seed 000's swarm (90 particles, c1 = 1.5, c2 = 2,
+    inertia 0.9 -> 0.4, 100 epochs), with the development coefficient b1 kept
+    in [0, 100] (a stable first-order response). greyml's default box
+    [-100, 100] lets the swarm pick b1 < 0 on these data: it fits the two
+    training tests by cancelling an exponentially growing mode, which does not
+    cancel on the helical test (a diagnostic row shows it).
+  - ``MLP 5-10-1``: ``MLPBaseline`` (log-sigmoid, Levenberg-Marquardt, goal
+    1e-4, up to 5000 epochs) with a validation stop on a random 15 % of the
+    training rows, as MATLAB's default ``dividerand`` (rows shuffled with a
+    fixed seed and passed without test labels, so the checking rows are the
+    last 15 % of the shuffled order).
+  - ``GMC(1,N) LS``: ``GMC(solver="ls")``, seed 000's "GMC-LS" baseline.
+  - ``ridge`` (reference, not in seed 000): a static linear map of the inputs.
+
+  The spread of GNNMCI and the MLP over ``--seeds`` random states is printed
+  under the table.
+
+Every fit runs with ``--threads`` BLAS threads (1 by default: on a busy 2-core
+machine the 243-rule ANFISGrid fit took 12-38 s with two OpenBLAS threads and
+0.4 s with one). Fit times are wall times of ``fit`` alone.
+
+Run ``python benchmarks/bench_seed_tables.py --help`` for the options;
+``--json PATH`` also writes every number. ``--ablation`` adds two diagnostic
+tables: the seed001 configuration with the simulator's effects switched off one
+at a time (``greyml.simulation.Effects``), and least squares on seed 001's
+inputs, trained on Test IV, applied to extra programmes at 4000, 6000 and
+8000 rpm at a constant 20 °C (is it the temperature range or the spindle speed
+that the five sensors cannot extrapolate to?).
+
+The grey rows of table (b) print the development coefficient b1 as well:
+b1 < 0 is a response that grows like exp(-b1·k), so its prediction on a new
+test is meaningless however well it fitted the training tests.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import platform
+import sys
+import time
+import warnings
+from collections.abc import Callable
+from dataclasses import dataclass
+from importlib import metadata
+
+import numpy as np
+import pandas as pd
+
+# -- (a) seed 001 on the VMC -----------------------------------------------------
+VMC_TARGET = "dy_um"
+TRAIN_TEST = "IV"
+VALIDATION_TESTS = ("I", "II", "III", "V", "VI")
+SEED001_SENSORS = ("T18_C", "T55_C", "T63_C", "T68_C", "T71_C")
+#: Five sensor groups that observe the nodes whose temperatures bend the
+#: spindle in Y in greyml's VMC (carrier front/rear, column front/rear) and the
+#: air near the column. Read off ``greyml.simulation.vmc``'s layout.
+PHYSICS_GROUPS = {
+    "carrier front T20-23": ("T20_C", "T21_C", "T22_C", "T23_C"),
+    "carrier rear T43-46": ("T43_C", "T44_C", "T45_C", "T46_C"),
+    "column front T5-6": ("T5_C", "T6_C"),
+    "column rear T9-10": ("T9_C", "T10_C"),
+    "column air T68-70": ("T68_C", "T69_C", "T70_C"),
+}
+PHYSICS_REFERENCE_ROWS = 3  # rises from the mean of each test's first 3 readings
+CHECKING_FRACTION = 0.15  # tail of Test IV held out as ANFIS checking data
+ANFIS_EPOCHS = 100
+GRID_MFS = 3  # 3 MFs x 5 inputs = 243 rules (seed 001's best)
+FCM_RULES = 3  # seed 001's best
+RIDGE_ALPHA = 1e-3  # on standardised inputs
+BAND_GOAL = 5.0  # µm: seed 001 "less than ±5 µm for each test"
+RANDOM_STATE = 0
+
+# -- (b) seed 000 on the gantry ----------------------------------------------------
+GANTRY_TARGET = "dz_um"
+GANTRY_TRAIN = ("Z-axis", "C-axis")
+GANTRY_VALIDATION = "helical"
+GANTRY_INPUTS = ("FBG1_ue", "FBG2_ue", "FBG3_ue", "FBG4_ue", "T2_C")
+STABLE_B1 = "stable"  # GNNMCI's default: b1 in [0, 100], the other weights in [-100, 100]
+FREE_B1 = (-100.0, 100.0)  # seed 000's unconstrained search
+MLP_HIDDEN = 10
+MLP_CHECKING = 0.15
+N_SEEDS = 5
+
+#: Seed 000, Table 4: the three models on the unseen helical test.
+SEED000_TABLE4 = {
+    "GNNMCI": {"R": 0.98, "RMSE": 4.60, "E": 0.94, "band": 9.0},
+    "MLP": {"R": 0.95, "RMSE": 6.82, "E": 0.92, "band": 15.0},
+    "GMC-LS": {"R": 0.83, "RMSE": 15.26, "E": 0.60, "band": 26.0},
+}
+
+PACKAGES = ("greyml", "numpy", "scipy", "scikit-learn", "pandas", "scikit-fuzzy")
+
+
+# ------------------------------------------------------------------------------
+# Inputs
+# ------------------------------------------------------------------------------
+
+
+def rises(X, n_ref=1):
+    """``X`` minus, in each test, the mean of that test's first ``n_ref`` rows."""
+    grouped = X.groupby(level="test", sort=False)
+    if n_ref == 1:
+        return X - grouped.transform("first")
+    return X - grouped.transform(lambda col: col.iloc[:n_ref].mean())
+
+
+def seed001_rises(frame):
+    return rises(frame[list(SEED001_SENSORS)])
+
+
+def seed001_absolute(frame):
+    return frame[list(SEED001_SENSORS)]
+
+
+def physics_group_rises(frame):
+    means = pd.DataFrame(
+        {name: frame[list(cols)].mean(axis=1) for name, cols in PHYSICS_GROUPS.items()}
+    )
+    return rises(means, PHYSICS_REFERENCE_ROWS)
+
+
+def gantry_rises(frame):
+    return rises(frame[list(GANTRY_INPUTS)])
+
+
+# ------------------------------------------------------------------------------
+# Models
+# ------------------------------------------------------------------------------
+
+
+def make_ridge(random_state=None):
+    from sklearn.linear_model import Ridge
+    from sklearn.pipeline import make_pipeline
+    from sklearn.preprocessing import StandardScaler
+
+    return make_pipeline(StandardScaler(), Ridge(alpha=RIDGE_ALPHA))
+
+
+def make_anfis_grid(random_state=RANDOM_STATE):
+    from greyml import ANFISGrid
+
+    return ANFISGrid(
+        GRID_MFS,
+        n_epochs=ANFIS_EPOCHS,
+        validation_fraction=CHECKING_FRACTION,
+        random_state=random_state,
+    )
+
+
+def make_anfis_fcm(n_rules=FCM_RULES, n_epochs=ANFIS_EPOCHS):
+    def make(random_state=RANDOM_STATE):
+        from greyml import ANFISFCM
+
+        return ANFISFCM(
+            n_rules,
+            n_epochs=n_epochs,
+            validation_fraction=CHECKING_FRACTION,
+            random_state=random_state,
+        )
+
+    return make
+
+
+def make_gnnmci(bounds=STABLE_B1):
+    def make(random_state=RANDOM_STATE):
+        from greyml import GNNMCI
+
+        kwargs = {} if bounds is None else {"bounds": bounds}
+        return GNNMCI(random_state=random_state, **kwargs)
+
+    return make
+
+
+def make_gmc_ls(random_state=None):
+    from greyml import GMC
+
+    return GMC(solver="ls")
+
+
+def make_mlp(random_state=RANDOM_STATE):
+    from greyml import MLPBaseline
+
+    return MLPBaseline(
+        hidden_layer_sizes=MLP_HIDDEN,
+        validation_fraction=MLP_CHECKING,
+        random_state=random_state,
+    )
+
+
+@dataclass(frozen=True)
+class ModelSpec:
+    label: str
+    make: Callable
+    #: fit on the rows shuffled with ``random_state`` and without test labels
+    #: (static models only: MATLAB's random division of the checking rows)
+    shuffle_rows: bool = False
+    #: key of the seed's table row this model is compared with
+    seed_row: str | None = None
+    #: whether the model uses its random_state (worth a spread over seeds)
+    random: bool = False
+
+
+@dataclass(frozen=True)
+class VMCConfig:
+    key: str
+    title: str
+    inputs: Callable
+    models: tuple
+    note: str = ""
+
+
+VMC_MODELS = (
+    ModelSpec(f"ANFISGrid {GRID_MFS} MFs (243 rules)", make_anfis_grid),
+    ModelSpec(f"ANFISFCM {FCM_RULES} rules", make_anfis_fcm()),
+    ModelSpec("ridge (reference)", make_ridge),
+)
+
+VMC_CONFIGS = {
+    "seed001": VMCConfig(
+        "seed001",
+        "seed 001 (headline): T18, T55, T63, T68, T71 as rises from each test's first reading",
+        seed001_rises,
+        VMC_MODELS,
+    ),
+    "seed001-absolute": VMCConfig(
+        "seed001-absolute",
+        "diagnostic: the same five sensors as absolute temperatures",
+        seed001_absolute,
+        VMC_MODELS,
+        note="displacement is zeroed at each test's start; absolute temperatures are not",
+    ),
+    "physics-groups": VMCConfig(
+        "physics-groups",
+        "diagnostic, oracle inputs: means of carrier front/rear, column front/rear and "
+        "column-air sensors, rises from the mean of the first 3 readings",
+        physics_group_rises,
+        (
+            *VMC_MODELS,
+            ModelSpec("ANFISFCM 2 rules, 10 epochs", make_anfis_fcm(2, 10)),
+        ),
+        note="inputs read off the simulator and chosen after seeing the validation "
+        "tests: an optimistic bound",
+    ),
+}
+
+GANTRY_MODELS = (
+    ModelSpec(
+        "GNNMCI(1,N), default (b1 in [0, 100])",
+        make_gnnmci(STABLE_B1),
+        seed_row="GNNMCI",
+        random=True,
+    ),
+    ModelSpec("MLP 5-10-1 (LM)", make_mlp, shuffle_rows=True, seed_row="MLP", random=True),
+    ModelSpec("GMC(1,N) LS", make_gmc_ls, seed_row="GMC-LS"),
+    ModelSpec("GNNMCI(1,N), free b1 in [-100, 100]", make_gnnmci(FREE_B1)),
+    ModelSpec("ridge (reference)", make_ridge),
+)
+
+
+# ------------------------------------------------------------------------------
+# Fitting and scoring
+# ------------------------------------------------------------------------------
+
+
+def scores(y_true, y_pred):
+    """The seeds' figures; a figure that cannot be computed is NaN."""
+    from greyml import metrics
+
+    out = {}
+    for key, fn in (
+        ("RMSE", metrics.rmse),
+        ("band", metrics.residual_band),
+        ("R", metrics.correlation),
+        ("E", metrics.nash_sutcliffe),
+        ("improvement", metrics.improvement),
+    ):
+        try:
+            out[key] = float(fn(y_true, y_pred))
+        except (ValueError, FloatingPointError):
+            out[key] = float("nan")
+    return out
+
+
+def fit_model(spec, X, y, random_state):
+    """Fit ``spec``'s model; returns (model, fit seconds, warning messages)."""
+    model = spec.make(random_state)
+    if spec.shuffle_rows:
+        perm = np.random.default_rng(random_state).permutation(len(y))
+        Xf, yf = np.asarray(X, dtype=float)[perm], np.asarray(y, dtype=float)[perm]
+    else:
+        Xf, yf = X, y
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        start = time.perf_counter()
+        model.fit(Xf, yf)
+        seconds = time.perf_counter() - start
+    messages = sorted({f"{w.category.__name__}: {w.message}" for w in caught})
+    return model, seconds, messages
+
+
+def predict(spec, model, X):
+    Xp = np.asarray(X, dtype=float) if spec.shuffle_rows else X
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return np.asarray(model.predict(Xp), dtype=float)
+
+
+def grey_coefficients(model):
+    b1 = getattr(model, "development_coef_", None)
+    return {} if b1 is None else {"b1": float(b1)}
+
+
+def evaluate_vmc(frame, config, random_state=RANDOM_STATE):
+    """One record per (model, validation test) of ``config``."""
+    X = config.inputs(frame)
+    y = frame[VMC_TARGET]
+    tests = X.index.get_level_values("test")
+    train = tests == TRAIN_TEST
+    low, high = X[train].min(), X[train].max()
+    records = []
+    for spec in config.models:
+        base = {"part": "vmc", "config": config.key, "model": spec.label}
+        try:
+            model, seconds, messages = fit_model(spec, X[train], y[train], random_state)
+        except Exception as exc:  # a failing model still gets its rows
+            for test in VALIDATION_TESTS:
+                records.append({**base, "test": test, "error": f"{type(exc).__name__}: {exc}"})
+            continue
+        extra = {"fit_s": seconds, "warnings": messages}
+        if hasattr(model, "best_epoch_"):
+            extra["best_epoch"] = int(model.best_epoch_)
+        for test in VALIDATION_TESTS:
+            rows = tests == test
+            y_true = y[rows].to_numpy()
+            outside = ((X[rows] < low) | (X[rows] > high)).any(axis=1).mean()
+            record = {
+                **base,
+                **extra,
+                "test": test,
+                "max_abs_y": float(np.max(np.abs(y_true))),
+                "outside_training_range": float(outside),
+            }
+            try:
+                record.update(scores(y_true, predict(spec, model, X[rows])))
+            except Exception as exc:
+                record["error"] = f"{type(exc).__name__}: {exc}"
+            records.append(record)
+    return records
+
+
+def gantry_split(frame):
+    X = gantry_rises(frame)
+    y = frame[GANTRY_TARGET]
+    tests = X.index.get_level_values("test")
+    train = np.isin(tests, GANTRY_TRAIN)
+    valid = tests == GANTRY_VALIDATION
+    return X, y, train, valid
+
+
+def evaluate_gantry_model(spec, frame, random_state=RANDOM_STATE):
+    X, y, train, valid = gantry_split(frame)
+    record = {"part": "gantry", "model": spec.label, "seed_row": spec.seed_row}
+    record["random_state"] = random_state
+    try:
+        model, seconds, messages = fit_model(spec, X[train], y[train], random_state)
+        record.update(fit_s=seconds, warnings=messages, **grey_coefficients(model))
+        y_true = y[valid].to_numpy()
+        y_pred = predict(spec, model, X[valid])
+        record["max_abs_y"] = float(np.max(np.abs(y_true)))
+        record.update(scores(y_true, y_pred))
+        if np.all(np.isfinite(y_pred)):
+            times = X[valid].index.get_level_values("time_s")
+            worst = int(np.argmax(np.abs(y_true - y_pred)))
+            record["band_at_min"] = float((times[worst] - times[0]) / 60.0)
+    except Exception as exc:
+        record["error"] = f"{type(exc).__name__}: {exc}"
+    return record
+
+
+def evaluate_gantry(frame, n_seeds=N_SEEDS):
+    records = [evaluate_gantry_model(spec, frame) for spec in GANTRY_MODELS]
+    spread = {}
+    for spec in GANTRY_MODELS:
+        if spec.random and n_seeds > 1:
+            runs = [evaluate_gantry_model(spec, frame, rs) for rs in range(n_seeds)]
+            spread[spec.label] = runs
+    return records, spread
+
+
+def make_least_squares(random_state=None):
+    from sklearn.linear_model import LinearRegression
+
+    return LinearRegression()
+
+
+#: Models of the ablation, on the seed001 configuration.
+ABLATION_MODELS = (
+    ModelSpec(f"ANFISFCM {FCM_RULES} rules", make_anfis_fcm()),
+    ModelSpec("ridge (reference)", make_ridge),
+    ModelSpec("least squares", make_least_squares),
+)
+
+
+def ablation():
+    """Seed001 configuration with each effect of the simulator switched off."""
+    from greyml.datasets import load_vmc_tests
+    from greyml.simulation import Effects
+
+    cases = {"all effects on": Effects()}
+    for name in Effects.names():
+        if name in ("fbg_cross_sensitivity", "extra_heat_source"):
+            continue  # no FBGs and no feed in the VMC tests
+        cases[f"without {name}"] = Effects().without(name)
+    cases["all effects off"] = Effects.none()
+    base = VMC_CONFIGS["seed001"]
+    config = VMCConfig(base.key, base.title, base.inputs, ABLATION_MODELS)
+    rows = []
+    for case, effects in cases.items():
+        frame = load_vmc_tests(effects=effects).frame
+        rows += [{"effects": case, **rec} for rec in evaluate_vmc(frame, config)]
+    return rows
+
+
+#: Extra VMC programmes at a constant 20 °C: is it the temperature range or
+#: the spindle speed that the seed-001 sensors cannot extrapolate to?
+EXTRAPOLATION_PROGRAMMES = {
+    "4000 rpm 5 h, 1 h cooling": ((300, 4000.0), 60),
+    "6000 rpm 1 h, 1 h cooling": ((60, 6000.0), 60),
+    "8000 rpm 1 h, 1 h cooling": ((60, 8000.0), 60),
+    "8000 rpm 20 min, 100 min cooling": ((20, 8000.0), 100),
+}
+
+
+def extrapolation():
+    """Least squares on seed 001's five rises, trained on Test IV, on other speeds."""
+    from greyml import metrics
+    from greyml.datasets import make_tests
+    from greyml.simulation import Effects, Programme, vmc_tests
+
+    programmes = {"IV": next(t for t in vmc_tests() if t.label == TRAIN_TEST)}
+    for label, ((minutes, rpm), cooling) in EXTRAPOLATION_PROGRAMMES.items():
+        programmes[label] = Programme().run(minutes, spindle_rpm=rpm).dwell(cooling)
+    rows = []
+    for case, effects in (("all effects off", Effects.none()), ("all effects on", Effects())):
+        frame = make_tests("vmc", programmes, ambient=20.0, effects=effects, random_state=0).frame
+        X, y = seed001_rises(frame), frame[VMC_TARGET]
+        tests = X.index.get_level_values("test")
+        train = tests == TRAIN_TEST
+        low, high = X[train].min(), X[train].max()
+        model = make_least_squares().fit(X[train], y[train])
+        for label in EXTRAPOLATION_PROGRAMMES:
+            rows_ = tests == label
+            y_true = y[rows_].to_numpy()
+            rows.append(
+                {
+                    "effects": case,
+                    "programme": label,
+                    "max_abs_y": float(np.max(np.abs(y_true))),
+                    "band": float(metrics.residual_band(y_true, model.predict(X[rows_]))),
+                    "outside_training_range": float(
+                        ((X[rows_] < low) | (X[rows_] > high)).any(axis=1).mean()
+                    ),
+                }
+            )
+    return rows
+
+
+# ------------------------------------------------------------------------------
+# Printing
+# ------------------------------------------------------------------------------
+
+
+def fmt(x, digits=2, width=7):
+    if x is None or (isinstance(x, float) and np.isnan(x)):
+        return "-".rjust(width)
+    if abs(x) >= 1e5:
+        return f"{x:.1e}".rjust(width)
+    return f"{x:.{digits}f}".rjust(width)
+
+
+def print_vmc(records, config):
+    print(f"\n[{config.key}] {config.title}")
+    if config.note:
+        print(f"  note: {config.note}")
+    header = (
+        f"  {'model':32s} {'fit s':>6s} {'test':>4s} {'max|y|':>7s} {'RMSE':>7s} "
+        f"{'±resid':>7s} {'R':>6s} {'E':>7s} {'impr %':>7s} {'out of IV range':>15s}"
+    )
+    print(header)
+    print("  " + "-" * (len(header) - 2))
+    for spec in config.models:
+        rows = [r for r in records if r["config"] == config.key and r["model"] == spec.label]
+        for i, r in enumerate(rows):
+            name = spec.label if i == 0 else ""
+            fit_s = fmt(r.get("fit_s"), 2, 6) if i == 0 else " " * 6
+            if "error" in r:
+                print(f"  {name:32s} {fit_s} {r['test']:>4s}  {r['error']}")
+                continue
+            print(
+                f"  {name:32s} {fit_s} {r['test']:>4s} {fmt(r['max_abs_y'], 1)} "
+                f"{fmt(r['RMSE'])} {fmt(r['band'])} {fmt(r['R'], 3, 6)} {fmt(r['E'], 3)} "
+                f"{fmt(100 * r['improvement'], 1)} {100 * r['outside_training_range']:14.0f}%"
+            )
+        bands = [r.get("band", np.nan) for r in rows]
+        worst = np.nanmax(bands) if not np.all(np.isnan(bands)) else np.nan
+        verdict = "yes" if worst <= BAND_GOAL else "no"
+        notes = []
+        if rows and "best_epoch" in rows[0]:
+            notes.append(f"best epoch {rows[0]['best_epoch']}")
+        if rows and rows[0].get("warnings"):
+            notes.append("warnings: " + "; ".join(rows[0]["warnings"]))
+        extra = f" ({', '.join(notes)})" if notes else ""
+        print(
+            f"  {'':32s} worst residual {fmt(worst, 1).strip()} µm; within ±{BAND_GOAL:g} µm "
+            f"on all five tests: {verdict}{extra}"
+        )
+
+
+def print_gantry(records, spread):
+    print(
+        "\n(b) Seed 000, Table 4: trained on the Z-axis and C-axis tests, validated on the "
+        "helical test\n    inputs FBG1-4 and T2 as rises from each test's first reading; "
+        "target dz_um"
+    )
+    header = (
+        f"  {'model':40s} | {'seed 000':^29s} | {'greyml (simulated)':^44s}\n"
+        f"  {'':40s} | {'R':>6s} {'RMSE':>7s} {'E':>6s} {'±res':>6s} | "
+        f"{'R':>6s} {'RMSE':>7s} {'E':>7s} {'±res':>7s} {'impr%':>6s} {'fit s':>6s}"
+    )
+    print(header)
+    print("  " + "-" * 116)
+    for r in records:
+        seed = SEED000_TABLE4.get(r.get("seed_row") or "")
+        if seed:
+            left = (
+                f"{seed['R']:6.2f} {seed['RMSE']:7.2f} {seed['E']:6.2f} "
+                f"{'±' + format(seed['band'], 'g'):>6s}"
+            )
+        else:
+            left = f"{'(not in seed 000)':>28s}"
+        if "error" in r:
+            right = r["error"]
+        else:
+            right = (
+                f"{fmt(r['R'], 3, 6)} {fmt(r['RMSE'])} {fmt(r['E'], 3)} {fmt(r['band'], 1)} "
+                f"{fmt(100 * r['improvement'], 1, 6)} {fmt(r['fit_s'], 2, 6)}"
+            )
+            if "band_at_min" in r:
+                right += f"  max at {r['band_at_min']:.0f} min"
+            if "b1" in r:
+                right += f", b1 = {r['b1']:.4g}"
+        print(f"  {r['model']:40s} | {left} | {right}")
+    if spread:
+        print("\n  spread over random states 0.." + str(len(next(iter(spread.values()))) - 1) + ":")
+        for label, runs in spread.items():
+            ok = [r for r in runs if "error" not in r]
+            if not ok:
+                print(f"    {label}: every run failed")
+                continue
+            rm = np.array([r["RMSE"] for r in ok])
+            bd = np.array([r["band"] for r in ok])
+            ee = np.array([r["E"] for r in ok])
+            print(
+                f"    {label:38s} RMSE {rm.min():.2f}-{rm.max():.2f} (median {np.median(rm):.2f}),"
+                f" ±res {bd.min():.1f}-{bd.max():.1f}, E {ee.min():.3f}-{ee.max():.3f}"
+            )
+
+
+def print_ablation(rows):
+    print(
+        "\nAblation, seed001 configuration: worst residual (µm) over Tests I-III / over V-VI "
+        "with one effect of the simulator off"
+    )
+    models = list(dict.fromkeys(r["model"] for r in rows))
+    print("  " + f"{'effects':34s}" + "".join(f"{m:>24s}" for m in models))
+    for case in dict.fromkeys(r["effects"] for r in rows):
+        cells = []
+        for model in models:
+            sel = [r for r in rows if r["effects"] == case and r["model"] == model]
+            low = max(r.get("band", np.nan) for r in sel if r["test"] in ("I", "II", "III"))
+            high = max(r.get("band", np.nan) for r in sel if r["test"] in ("V", "VI"))
+            cells.append(f"{fmt(low, 1)} / {fmt(high, 1)}".rjust(24))
+        print("  " + f"{case:34s}" + "".join(cells))
+
+
+def print_extrapolation(rows):
+    print(
+        "\nExtrapolation, least squares on the seed001 inputs trained on Test IV, other "
+        "programmes at 20 °C:"
+    )
+    print(
+        f"  {'effects':16s} {'programme':34s} {'max|y|':>7s} {'±resid':>7s} {'out of IV range':>16s}"
+    )
+    for r in rows:
+        print(
+            f"  {r['effects']:16s} {r['programme']:34s} {fmt(r['max_abs_y'], 1)} "
+            f"{fmt(r['band'], 1)} {100 * r['outside_training_range']:15.0f}%"
+        )
+
+
+def versions():
+    out = {}
+    for name in PACKAGES:
+        try:
+            out[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            out[name] = None
+    return out
+
+
+def run(n_seeds=N_SEEDS, with_ablation=False):
+    """Every number of the benchmark, as a dict (what ``--json`` writes)."""
+    from greyml.datasets import load_gantry_tests, load_vmc_tests
+
+    vmc = load_vmc_tests().frame
+    results = {"vmc": [], "vmc_configs": {}}
+    for config in VMC_CONFIGS.values():
+        results["vmc"] += evaluate_vmc(vmc, config)
+        results["vmc_configs"][config.key] = {"title": config.title, "note": config.note}
+    gantry = load_gantry_tests().frame
+    results["gantry"], results["gantry_spread"] = evaluate_gantry(gantry, n_seeds)
+    results["seed000_table4"] = SEED000_TABLE4
+    if with_ablation:
+        results["ablation"] = ablation()
+        results["extrapolation"] = extrapolation()
+    return results
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--json", metavar="PATH", help="also write every number as JSON")
+    parser.add_argument(
+        "--seeds",
+        type=int,
+        default=N_SEEDS,
+        help=f"random states for the spread of GNNMCI and the MLP (default {N_SEEDS}; 1: none)",
+    )
+    parser.add_argument(
+        "--threads",
+        type=int,
+        default=1,
+        help="BLAS threads during the fits (default 1; 0: the libraries' default)",
+    )
+    parser.add_argument(
+        "--ablation",
+        action="store_true",
+        help="also fit the VMC models with each simulated effect switched off, and "
+        "least squares on programmes at other spindle speeds",
+    )
+    args = parser.parse_args(argv)
+    if args.seeds < 1:
+        parser.error("--seeds must be at least 1")
+    if args.threads < 0:
+        parser.error("--threads must be 0 or more")
+
+    from threadpoolctl import threadpool_limits
+
+    start = time.perf_counter()
+    limits = None if args.threads == 0 else args.threads
+    with threadpool_limits(limits=limits):
+        results = run(args.seeds, args.ablation)
+    elapsed = time.perf_counter() - start
+
+    print(
+        "(a) Seed 001, Tables 6-7: trained on Test IV (last "
+        f"{CHECKING_FRACTION:.0%} as ANFIS checking data), validated on Tests "
+        f"{', '.join(VALIDATION_TESTS)}; target {VMC_TARGET}; "
+        f"residual goal ±{BAND_GOAL:g} µm"
+    )
+    for config in VMC_CONFIGS.values():
+        print_vmc(results["vmc"], config)
+    print_gantry(results["gantry"], results["gantry_spread"])
+    if args.ablation:
+        print_ablation(results["ablation"])
+        print_extrapolation(results["extrapolation"])
+    print(
+        f"\nTotal {elapsed:.1f} s with {args.threads or 'default'} BLAS thread(s); "
+        f"python {platform.python_version()}, "
+        + ", ".join(f"{k} {v}" for k, v in versions().items() if v)
+    )
+    if args.json:
+        results["meta"] = {
+            "elapsed_s": elapsed,
+            "threads": args.threads,
+            "seeds": args.seeds,
+            "python": platform.python_version(),
+            "platform": platform.platform(),
+            "versions": versions(),
+            "argv": sys.argv[1:] if argv is None else list(argv),
+        }
+        with open(args.json, "w", encoding="utf-8") as fh:
+            json.dump(results, fh, indent=1, default=float)
+        print(f"wrote {args.json}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
