@@ -4,6 +4,7 @@ from greyml._sequences import TEST_LEVEL, TIME_LEVEL, make_test_index, test_ids
 from greyml.fuzzy import ANFISFCM, ANFISGrid
 from greyml.grey import AGO, GMC, GNNMCI, GreyConditioningWarning, fit_gm1n, simulate_gmc
 from greyml.neural import MLPBaseline
+from greyml.selection import GreyInfluenceSelector, TrainOnOneTest
 
 __version__ = "0.1.0.dev0"
 
@@ -14,9 +15,11 @@ __all__ = [
     "GMC",
     "GNNMCI",
     "GreyConditioningWarning",
+    "GreyInfluenceSelector",
     "MLPBaseline",
     "TEST_LEVEL",
     "TIME_LEVEL",
+    "TrainOnOneTest",
     "fit_gm1n",
     "make_test_index",
     "simulate_gmc",

@@ -2,7 +2,7 @@
 
 from sklearn.utils.estimator_checks import parametrize_with_checks
 
-from greyml import AGO, ANFISFCM, GMC, GNNMCI, ANFISGrid, MLPBaseline
+from greyml import AGO, ANFISFCM, GMC, GNNMCI, ANFISGrid, GreyInfluenceSelector, MLPBaseline
 
 # A row's output depends on the rows before it in its test (accumulation,
 # convolution): that is the point of a sequence model, so scikit-learn's checks
@@ -29,11 +29,13 @@ ESTIMATORS = [
     ANFISGrid(),
     ANFISFCM(),
     MLPBaseline(),
+    GreyInfluenceSelector(n_clusters=2, random_state=0),
 ]
 
-# ANFIS and the MLP map each row to its output on its own (a static model):
-# they must pass every check, including subset and sample-order invariance.
-STATIC = (ANFISGrid, ANFISFCM, MLPBaseline)
+# ANFIS and the MLP map each row to its output on its own (a static model), and
+# the selector's transform keeps columns row by row: they must pass every
+# check, including subset and sample-order invariance.
+STATIC = (ANFISGrid, ANFISFCM, MLPBaseline, GreyInfluenceSelector)
 
 
 def _expected_failures(estimator):
