@@ -168,3 +168,33 @@ def test_train_on_one_test_errors():
         list(TrainOnOneTest().split(np.zeros((4, 1)), groups=["a"] * 4))
     with pytest.raises(ValueError, match=r"train_tests \['V'\] are not among"):
         list(TrainOnOneTest(train_tests=["V"]).split(np.zeros((4, 1)), groups=list("aabb")))
+
+
+def test_seed_metrics_as_multi_metric_scoring_with_the_right_signs():
+    from greyml.metrics import residual_band, rmse, scoring
+
+    X, y = _three_groups()
+    pipe = make_pipeline(GreyInfluenceSelector(3, cluster_on="series", random_state=0), Ridge())
+    res = cross_validate(
+        pipe,
+        X,
+        y,
+        cv=TrainOnOneTest(),
+        scoring=scoring("neg_rmse", "nash_sutcliffe", "neg_residual_band"),
+    )
+    # recompute the first split by hand: errors come back negated, E as is
+    train, test = next(TrainOnOneTest().split(X))
+    fitted = pipe.fit(X.iloc[train], y.iloc[train])
+    pred = fitted.predict(X.iloc[test])
+    assert res["test_neg_rmse"][0] == pytest.approx(-rmse(y.iloc[test], pred))
+    assert res["test_neg_residual_band"][0] == pytest.approx(-residual_band(y.iloc[test], pred))
+    assert np.all(res["test_nash_sutcliffe"] > 0.9)
+    search = GridSearchCV(
+        pipe,
+        {"greyinfluenceselector__n_clusters": [1, 3]},
+        cv=TrainOnOneTest(),
+        scoring=scoring("neg_rmse", "nash_sutcliffe"),
+        refit="neg_rmse",
+    )
+    search.fit(X, y)
+    assert search.best_params_ == {"greyinfluenceselector__n_clusters": 3}
