@@ -11,24 +11,11 @@ checking and testing parts in time order).
 
 from __future__ import annotations
 
-import numbers
-
 import numpy as np
 
 from greyml._sequences import Segment, segment_label
 
-__all__ = ["check_fraction", "checking_split"]
-
-
-def check_fraction(estimator, name, value):
-    """``value`` must be a real number in [0, 1)."""
-    ok = isinstance(value, numbers.Real) and not isinstance(value, bool)
-    if not ok or not 0.0 <= float(value) < 1.0:
-        raise ValueError(
-            f"The {name!r} parameter of {type(estimator).__name__} must be a float "
-            f"in the range [0.0, 1.0). Got {value!r} instead."
-        )
-    return float(value)
+__all__ = ["checking_split"]
 
 
 def checking_split(segments: list[Segment], fraction: float, rng: np.random.Generator):

@@ -16,7 +16,14 @@ from sklearn.utils.validation import validate_data
 
 from greyml._sequences import Segment, has_test_index, segment_label, test_segments
 
-__all__ = ["validate_sequences", "column_names", "check_int_param"]
+__all__ = [
+    "validate_sequences",
+    "column_names",
+    "check_int_param",
+    "check_real_param",
+    "require_y",
+    "standard_scaling",
+]
 
 
 def column_names(estimator, n_features: int) -> list[str]:
@@ -190,3 +197,52 @@ def check_int_param(estimator, name, value, low, high=None):
             f"in the range [{low}, {upper}. Got {value!r} instead."
         )
     return int(value)
+
+
+def check_real_param(estimator, name, value, low=None, high=None, closed=(True, True)):
+    """Raise the scikit-learn style message for a real parameter.
+
+    ``value`` must be a finite real within ``low``/``high`` (``None``: unbounded);
+    ``closed`` says whether each end is included. The ends are printed as given
+    (``0`` or ``0.0``), so callers choose the form of their message.
+    """
+    ok = isinstance(value, numbers.Real) and not isinstance(value, bool)
+    ok = ok and np.isfinite(value)
+    if ok and low is not None:
+        ok = value >= low if closed[0] else value > low
+    if ok and high is not None:
+        ok = value <= high if closed[1] else value < high
+    if not ok:
+        lo = "-inf" if low is None else str(low)
+        hi = "inf" if high is None else str(high)
+        lb = "[" if closed[0] else "("
+        rb = "]" if closed[1] else ")"
+        raise ValueError(
+            f"The {name!r} parameter of {type(estimator).__name__} must be a float in "
+            f"the range {lb}{lo}, {hi}{rb}. Got {value!r} instead."
+        )
+    return float(value)
+
+
+def require_y(estimator, y, why="give the measured target (e.g. the displacement) of every row"):
+    """A supervised greyml estimator got ``y=None``: say so, and why it needs y."""
+    if y is None:
+        raise ValueError(
+            f"{type(estimator).__name__} requires y to be passed, but the target y is None: {why}."
+        )
+
+
+def standard_scaling(X, y):
+    """Means and standard deviations that standardise ``X`` (per column) and ``y``.
+
+    A column (or a target) without spread keeps unit scale, so nothing is
+    divided by zero. Returns ``(x_mean, x_scale, y_mean, y_scale)``.
+    """
+    x_scale = X.std(axis=0)
+    y_scale = float(y.std())
+    return (
+        X.mean(axis=0),
+        np.where(x_scale > 0, x_scale, 1.0),
+        float(y.mean()),
+        y_scale if y_scale > 0 else 1.0,
+    )

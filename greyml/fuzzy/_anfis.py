@@ -10,10 +10,17 @@ import skfuzzy
 from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.utils.validation import check_is_fitted
 
-from greyml._checking import check_fraction, checking_split
+from greyml._checking import checking_split
 from greyml._rng import make_generator
 from greyml._threads import blas_threads_for
-from greyml._validation import check_int_param, column_names, validate_sequences
+from greyml._validation import (
+    check_int_param,
+    check_real_param,
+    column_names,
+    require_y,
+    standard_scaling,
+    validate_sequences,
+)
 from greyml.fuzzy._kernels import JangStepSize, anfis_forward, hybrid_learning
 
 __all__ = ["ANFISGrid", "ANFISFCM"]
@@ -23,38 +30,25 @@ __all__ = ["ANFISGrid", "ANFISFCM"]
 MIN_WIDTH = 1e-3
 
 
-def _check_positive_real(estimator, name, value, *, allow_zero=False, upper=None):
-    ok = isinstance(value, numbers.Real) and not isinstance(value, bool) and np.isfinite(value)
-    ok = ok and (value >= 0 if allow_zero else value > 0)
-    ok = ok and (upper is None or value < upper)
-    if not ok:
-        low = "[0.0" if allow_zero else "(0.0"
-        high = "inf)" if upper is None else f"{upper})"
-        raise ValueError(
-            f"The {name!r} parameter of {type(estimator).__name__} must be a float "
-            f"in the range {low}, {high}. Got {value!r} instead."
-        )
-    return float(value)
-
-
 class _ANFISBase(RegressorMixin, BaseEstimator):
     """Shared fit/predict of the two ANFIS partitions; subclasses build the
     initial premise (``_initial_premise``)."""
 
     def _check_common_params(self):
         check_int_param(self, "n_epochs", self.n_epochs, 1)
-        _check_positive_real(self, "step_size", self.step_size)
-        _check_positive_real(self, "step_increase", self.step_increase)
-        _check_positive_real(self, "step_decrease", self.step_decrease)
+        for name in ("step_size", "step_increase", "step_decrease"):
+            check_real_param(self, name, getattr(self, name), 0.0, closed=(False, False))
         if not self.step_increase >= 1.0 or not self.step_decrease <= 1.0:
             raise ValueError(
                 f"{type(self).__name__} needs step_increase >= 1 and step_decrease <= 1 "
                 f"(Jang's rule grows then shrinks the step); got {self.step_increase!r} "
                 f"and {self.step_decrease!r}."
             )
-        _check_positive_real(self, "alpha", self.alpha, allow_zero=True)
-        _check_positive_real(self, "error_goal", self.error_goal, allow_zero=True)
-        check_fraction(self, "validation_fraction", self.validation_fraction)
+        check_real_param(self, "alpha", self.alpha, 0.0, closed=(True, False))
+        check_real_param(self, "error_goal", self.error_goal, 0.0, closed=(True, False))
+        check_real_param(
+            self, "validation_fraction", self.validation_fraction, 0.0, 1.0, (True, False)
+        )
 
     def fit(self, X, y, X_val=None, y_val=None):
         """Hybrid learning on training data, keeping the epoch with the lowest
@@ -78,11 +72,7 @@ class _ANFISBase(RegressorMixin, BaseEstimator):
         self._check_params()
         self._check_common_params()
         name = type(self).__name__
-        if y is None:
-            raise ValueError(
-                f"{name} requires y to be passed, but the target y is None: give "
-                "the measured target (e.g. the displacement) of every row."
-            )
+        require_y(self, y)
         if (X_val is None) != (y_val is None):
             raise ValueError(f"{name}.fit needs X_val and y_val together; got only one.")
         if X_val is not None and self.validation_fraction > 0:
@@ -115,13 +105,8 @@ class _ANFISBase(RegressorMixin, BaseEstimator):
                     "row(s); lower validation_fraction or give more data."
                 )
 
-        self.x_mean_ = Xt.mean(axis=0)
-        scale = Xt.std(axis=0)
         # a column constant on the training rows (after a hold-out) keeps unit scale
-        self.x_scale_ = np.where(scale > 0, scale, 1.0)
-        self.y_mean_ = float(yt.mean())
-        y_scale = float(yt.std())
-        self.y_scale_ = y_scale if y_scale > 0 else 1.0
+        self.x_mean_, self.x_scale_, self.y_mean_, self.y_scale_ = standard_scaling(Xt, yt)
         Xs = (Xt - self.x_mean_) / self.x_scale_
         ys = (yt - self.y_mean_) / self.y_scale_
 
@@ -383,7 +368,7 @@ class ANFISGrid(_ANFISBase):
 
     def _check_params(self):
         check_int_param(self, "max_rules", self.max_rules, 1)
-        _check_positive_real(self, "mf_overlap", self.mf_overlap, upper=1.0)
+        check_real_param(self, "mf_overlap", self.mf_overlap, 0.0, 1.0, (False, False))
         n = self.n_mfs
         if isinstance(n, numbers.Integral) and not isinstance(n, bool):
             check_int_param(self, "n_mfs", n, 1)
@@ -571,15 +556,8 @@ feature_names_in_
         check_int_param(self, "n_clusters", self.n_clusters, 1)
         check_int_param(self, "fcm_max_iter", self.fcm_max_iter, 1)
         check_int_param(self, "fcm_max_samples", self.fcm_max_samples, 2)
-        _check_positive_real(self, "fcm_tol", self.fcm_tol)
-        m = self.m
-        if not (
-            isinstance(m, numbers.Real) and not isinstance(m, bool) and np.isfinite(m) and m > 1
-        ):
-            raise ValueError(
-                "The 'm' parameter of ANFISFCM must be a float in the range (1.0, inf). "
-                f"Got {m!r} instead."
-            )
+        check_real_param(self, "fcm_tol", self.fcm_tol, 0.0, closed=(False, False))
+        check_real_param(self, "m", self.m, 1.0, closed=(False, False))
 
     def _min_rows(self, n_features):
         return max(n_features + 2, self.n_clusters)

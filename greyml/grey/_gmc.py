@@ -12,7 +12,7 @@ from sklearn.utils.validation import check_is_fitted
 from greyml._rng import make_generator
 from greyml._sequences import segment_label
 from greyml._threads import blas_threads_for
-from greyml._validation import check_int_param, validate_sequences
+from greyml._validation import check_int_param, require_y, validate_sequences
 from greyml.grey._kernels import (
     LARGE_LOSS,
     ago,
@@ -60,11 +60,7 @@ class _GreyConvolutionModel(RegressorMixin, BaseEstimator):
         self
         """
         optimizer = self._check_params()
-        if y is None:
-            raise ValueError(
-                f"{type(self).__name__} requires y to be passed, but the target y is "
-                "None: give the measured target (e.g. the displacement) of every row."
-            )
+        require_y(self, y)
         Xa, ya, segments = validate_sequences(
             self,
             X,

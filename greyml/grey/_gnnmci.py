@@ -2,13 +2,11 @@
 
 from __future__ import annotations
 
-import numbers
-
 import numpy as np
 from sklearn.utils.validation import check_is_fitted
 
 from greyml._sequences import segment_label
-from greyml._validation import check_int_param, validate_sequences
+from greyml._validation import check_int_param, check_real_param, validate_sequences
 from greyml.grey._gmc import _GreyConvolutionModel
 from greyml.grey._kernels import ago, gmc_forcing, gmc_initial, gnnmci_layers
 from greyml.optimize import ParticleSwarm
@@ -150,17 +148,7 @@ class GNNMCI(_GreyConvolutionModel):
         check_int_param(self, "n_particles", self.n_particles, 2)
         check_int_param(self, "max_iter", self.max_iter, 1)
         for name in ("c1", "c2"):
-            value = getattr(self, name)
-            if not (
-                isinstance(value, numbers.Real)
-                and not isinstance(value, bool)
-                and np.isfinite(value)
-                and value >= 0
-            ):
-                raise ValueError(
-                    f"The {name!r} parameter of GNNMCI must be a float in the range "
-                    f"[0.0, inf). Got {value!r} instead."
-                )
+            check_real_param(self, name, getattr(self, name), 0.0, closed=(True, False))
         return ParticleSwarm(
             n_particles=self.n_particles,
             max_iter=self.max_iter,

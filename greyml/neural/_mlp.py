@@ -8,10 +8,16 @@ import numpy as np
 from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.utils.validation import check_is_fitted
 
-from greyml._checking import check_fraction, checking_split
+from greyml._checking import checking_split
 from greyml._rng import make_generator
 from greyml._threads import blas_threads_for
-from greyml._validation import check_int_param, validate_sequences
+from greyml._validation import (
+    check_int_param,
+    check_real_param,
+    require_y,
+    standard_scaling,
+    validate_sequences,
+)
 from greyml.neural._kernels import (
     ACTIVATIONS,
     init_nguyen_widrow,
@@ -224,18 +230,10 @@ class MLPBaseline(RegressorMixin, BaseEstimator):
         check_int_param(self, "max_iter", self.max_iter, 1)
         check_int_param(self, "n_restarts", self.n_restarts, 1)
         check_int_param(self, "max_fail", self.max_fail, 1)
-        goal = self.goal
-        if not (
-            isinstance(goal, numbers.Real)
-            and not isinstance(goal, bool)
-            and np.isfinite(goal)
-            and goal >= 0
-        ):
-            raise ValueError(
-                f"The 'goal' parameter of {type(self).__name__} must be a float in "
-                f"the range [0.0, inf). Got {goal!r} instead."
-            )
-        fraction = check_fraction(self, "validation_fraction", self.validation_fraction)
+        check_real_param(self, "goal", self.goal, 0.0, closed=(True, False))
+        fraction = check_real_param(
+            self, "validation_fraction", self.validation_fraction, 0.0, 1.0, (True, False)
+        )
         return n_hidden, fraction
 
     # -- fit / predict ----------------------------------------------------
@@ -255,12 +253,7 @@ class MLPBaseline(RegressorMixin, BaseEstimator):
         self : MLPBaseline
         """
         n_hidden, fraction = self._check_params()
-        name = type(self).__name__
-        if y is None:
-            raise ValueError(
-                f"{name} requires y to be passed, but the target y is None: give the "
-                "measured target (e.g. the displacement) of every row."
-            )
+        require_y(self, y)
         Xa, ya, segments = validate_sequences(
             self,
             X,
@@ -274,11 +267,7 @@ class MLPBaseline(RegressorMixin, BaseEstimator):
         rng = make_generator(self.random_state)
         train, check, self.checking_ = checking_split(segments, fraction, rng)
 
-        self.x_mean_ = Xa.mean(axis=0)
-        self.x_scale_ = Xa.std(axis=0)
-        self.y_mean_ = float(ya.mean())
-        y_scale = float(ya.std())
-        self.y_scale_ = y_scale if y_scale > 0 else 1.0
+        self.x_mean_, self.x_scale_, self.y_mean_, self.y_scale_ = standard_scaling(Xa, ya)
         Xs = (Xa - self.x_mean_) / self.x_scale_
         ys = (ya - self.y_mean_) / self.y_scale_
         X_val, y_val = (Xs[check], ys[check]) if check.size else (None, None)

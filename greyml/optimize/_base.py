@@ -16,8 +16,6 @@ that blows up simply loses.
 
 from __future__ import annotations
 
-import numbers
-
 import numpy as np
 from scipy.optimize import OptimizeResult
 
@@ -67,25 +65,6 @@ def check_bounds(bounds, n_dim=None, x0=None):
 
 def _check_count(owner, name, value, low=1):
     return check_int_param(owner, name, value, low)
-
-
-def _check_real(owner, name, value, low=None, high=None, closed=(True, True)):
-    ok = isinstance(value, numbers.Real) and not isinstance(value, bool)
-    ok = ok and np.isfinite(value)
-    if ok and low is not None:
-        ok = value >= low if closed[0] else value > low
-    if ok and high is not None:
-        ok = value <= high if closed[1] else value < high
-    if not ok:
-        lo = "-inf" if low is None else f"{low:g}"
-        hi = "inf" if high is None else f"{high:g}"
-        lb = "[" if closed[0] else "("
-        rb = "]" if closed[1] else ")"
-        raise ValueError(
-            f"The {name!r} parameter of {type(owner).__name__} must be a float in "
-            f"the range {lb}{lo}, {hi}{rb}. Got {value!r} instead."
-        )
-    return float(value)
 
 
 class PopulationOptimizer:

@@ -6,10 +6,10 @@ import math
 
 import numpy as np
 
+from greyml._validation import check_real_param
 from greyml.optimize._base import (
     PopulationOptimizer,
     _check_count,
-    _check_real,
     check_bounds,
 )
 
@@ -101,9 +101,9 @@ class CuckooSearch(PopulationOptimizer):
         """Minimise ``fun`` over the box ``bounds`` (same contract as PSO's)."""
         n = _check_count(self, "n_nests", self.n_nests, 2)
         iters = _check_count(self, "max_iter", self.max_iter)
-        pa = _check_real(self, "pa", self.pa, 0.0, 1.0)
-        alpha = _check_real(self, "alpha", self.alpha, 0.0, None, (False, True))
-        beta = _check_real(self, "beta", self.beta, 0.0, 2.0, (False, True))
+        pa = check_real_param(self, "pa", self.pa, 0, 1)
+        alpha = check_real_param(self, "alpha", self.alpha, 0, None, (False, True))
+        beta = check_real_param(self, "beta", self.beta, 0, 2, (False, True))
         rng = self._check_rng(rng)
         lower, upper = check_bounds(bounds, n_dim, x0)
         sigma = mantegna_sigma(beta)

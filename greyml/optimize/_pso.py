@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 
+from greyml._validation import check_real_param
 from greyml.optimize._base import (
     PopulationOptimizer,
     _check_count,
-    _check_real,
     check_bounds,
 )
 
@@ -86,8 +86,8 @@ class ParticleSwarm(PopulationOptimizer):
     def _validated(self):
         n = _check_count(self, "n_particles", self.n_particles)
         iters = _check_count(self, "max_iter", self.max_iter)
-        c1 = _check_real(self, "c1", self.c1, 0.0)
-        c2 = _check_real(self, "c2", self.c2, 0.0)
+        c1 = check_real_param(self, "c1", self.c1, 0)
+        c2 = check_real_param(self, "c2", self.c2, 0)
         try:
             w0, w1 = self.inertia
         except (TypeError, ValueError):
@@ -95,9 +95,11 @@ class ParticleSwarm(PopulationOptimizer):
                 "The 'inertia' parameter of ParticleSwarm must be a pair "
                 f"(start, end). Got {self.inertia!r} instead."
             ) from None
-        w0 = _check_real(self, "inertia[0]", w0, 0.0, 2.0)
-        w1 = _check_real(self, "inertia[1]", w1, 0.0, 2.0)
-        kappa = _check_real(self, "velocity_clamp", self.velocity_clamp, 0.0, None, (False, True))
+        w0 = check_real_param(self, "inertia[0]", w0, 0, 2)
+        w1 = check_real_param(self, "inertia[1]", w1, 0, 2)
+        kappa = check_real_param(
+            self, "velocity_clamp", self.velocity_clamp, 0, None, (False, True)
+        )
         return n, iters, c1, c2, w0, w1, kappa
 
     def minimize(self, fun, bounds, rng, x0=None, n_dim=None):

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import numbers
 import warnings
 
 import numpy as np
@@ -12,7 +11,13 @@ from sklearn.feature_selection import SelectorMixin
 from sklearn.utils.validation import check_is_fitted
 
 from greyml._rng import make_generator
-from greyml._validation import check_int_param, column_names, validate_sequences
+from greyml._validation import (
+    check_int_param,
+    check_real_param,
+    column_names,
+    require_y,
+    validate_sequences,
+)
 from greyml.grey._gmc import GreyConditioningWarning
 from greyml.grey._kernels import gm1n_lstsq
 
@@ -148,20 +153,8 @@ class GreyInfluenceSelector(SelectorMixin, BaseEstimator):
                     f"The {name!r} parameter of GreyInfluenceSelector must be a str "
                     f"among {set(allowed)}. Got {value!r} instead."
                 )
-        m = self.m
-        if not (isinstance(m, numbers.Real) and not isinstance(m, bool) and np.isfinite(m)):
-            m = None
-        if m is None or m <= 1:
-            raise ValueError(
-                "The 'm' parameter of GreyInfluenceSelector must be a float in the "
-                f"range (1.0, inf). Got {self.m!r} instead."
-            )
-        tol = self.tol
-        if not (isinstance(tol, numbers.Real) and not isinstance(tol, bool) and tol > 0):
-            raise ValueError(
-                "The 'tol' parameter of GreyInfluenceSelector must be a float in the "
-                f"range (0.0, inf). Got {self.tol!r} instead."
-            )
+        check_real_param(self, "m", self.m, 1.0, closed=(False, False))
+        check_real_param(self, "tol", self.tol, 0.0, closed=(False, False))
 
     def _normalise(self, Xa, names):
         if self.normalisation == "range":
@@ -192,11 +185,7 @@ class GreyInfluenceSelector(SelectorMixin, BaseEstimator):
         self
         """
         self._check_params()
-        if y is None:
-            raise ValueError(
-                "GreyInfluenceSelector requires y to be passed, but the target y is "
-                "None: the influence of a sensor is measured against the target."
-            )
+        require_y(self, y, "the influence of a sensor is measured against the target")
         Xa, ya, segments = validate_sequences(
             self,
             X,
