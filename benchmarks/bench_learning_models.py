@@ -38,9 +38,11 @@ import time
 import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from importlib import metadata
 
 import numpy as np
+from _common import package_versions as _package_versions
+
+import greyml
 
 # -- problems -----------------------------------------------------------------
 SINC_GRID = 11  # training points per axis
@@ -82,13 +84,6 @@ MLP_RMSE_MAX = 1.0  # greyml MLPBaseline test RMSE
 MLP_TIME_MAX = 0.3  # greyml MLPBaseline fit time, s
 
 PACKAGES = ("greyml", "numpy", "scipy", "scikit-learn", "anfis-toolbox", "xanfis", "torch")
-
-# Where each greyml model lives, if it is not (yet) exported at the top level.
-GREYML_MODULES = {
-    "ANFISGrid": "greyml.fuzzy",
-    "ANFISFCM": "greyml.fuzzy",
-    "MLPBaseline": "greyml.neural",
-}
 
 
 # ------------------------------------------------------------------------------
@@ -168,45 +163,26 @@ PROBLEM_MAKERS = {"sinc": make_sinc_problem, "friedman1": make_friedman_problem}
 # ------------------------------------------------------------------------------
 
 
-def greyml_class(name):
-    """``greyml.<name>``, or the class from its submodule if not exported yet."""
-    import importlib
-
-    import greyml
-
-    cls = getattr(greyml, name, None)
-    if cls is not None:
-        return cls
-    module = GREYML_MODULES.get(name)
-    if module is not None:
-        cls = getattr(importlib.import_module(module), name, None)
-    if cls is None:
-        raise ImportError(f"greyml.{name} does not exist (greyml {greyml.__version__})")
-    return cls
-
-
 def greyml_anfis_grid(problem):
-    return greyml_class("ANFISGrid")(n_mfs=SINC_MFS, n_epochs=SINC_EPOCHS, random_state=0)
+    return greyml.ANFISGrid(n_mfs=SINC_MFS, n_epochs=SINC_EPOCHS, random_state=0)
 
 
 def greyml_anfis_fcm(problem):
-    return greyml_class("ANFISFCM")(
+    return greyml.ANFISFCM(
         n_clusters=FRIEDMAN_RULES, m=FCM_M, n_epochs=FRIEDMAN_EPOCHS, random_state=0
     )
 
 
 def greyml_anfis_fcm_default_m(problem):
-    return greyml_class("ANFISFCM")(
-        n_clusters=FRIEDMAN_RULES, n_epochs=FRIEDMAN_EPOCHS, random_state=0
-    )
+    return greyml.ANFISFCM(n_clusters=FRIEDMAN_RULES, n_epochs=FRIEDMAN_EPOCHS, random_state=0)
 
 
 def greyml_mlp(problem):
-    return greyml_class("MLPBaseline")(hidden_layer_sizes=MLP_HIDDEN_SELECTED, random_state=0)
+    return greyml.MLPBaseline(hidden_layer_sizes=MLP_HIDDEN_SELECTED, random_state=0)
 
 
 def greyml_mlp_default(problem):
-    return greyml_class("MLPBaseline")(hidden_layer_sizes=MLP_HIDDEN, random_state=0)
+    return greyml.MLPBaseline(hidden_layer_sizes=MLP_HIDDEN, random_state=0)
 
 
 def anfis_toolbox_grid(optimizer):
@@ -656,13 +632,7 @@ def judge(results):
 
 
 def package_versions():
-    versions = {}
-    for name in PACKAGES:
-        try:
-            versions[name] = metadata.version(name)
-        except metadata.PackageNotFoundError:
-            versions[name] = "not installed"
-    return versions
+    return _package_versions(PACKAGES)
 
 
 def environment():

@@ -29,9 +29,9 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from functools import partial
-from importlib import metadata
 
 import numpy as np
+from _common import package_versions
 
 # Budget and hyperparameters shared by every optimiser that has the matching knob.
 POPULATION = 25
@@ -575,12 +575,7 @@ def print_problem(problem, records, cost, judge):
 
 
 def environment():
-    versions = {}
-    for name in PACKAGES:
-        try:
-            versions[name] = metadata.version(name)
-        except metadata.PackageNotFoundError:
-            versions[name] = "not installed"
+    versions = package_versions(PACKAGES)
     return {
         "python": platform.python_version(),
         "platform": platform.platform(),

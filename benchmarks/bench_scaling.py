@@ -30,10 +30,12 @@ import time
 import warnings
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from importlib import metadata
 
 import numpy as np
+from _common import package_versions as _package_versions
 from sklearn.base import clone
+
+import greyml
 
 SAMPLE_SIZES = (1_000, 10_000, 100_000)
 SAMPLES_N_INPUTS = 5
@@ -54,13 +56,6 @@ SEGMENT = 250  # samples per constant level of the power programme
 THREADS = 1  # BLAS / OpenMP threads of each model's process (0: the libraries' default)
 THREAD_VARIABLES = ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS")
 DEFAULT_OUT = os.path.join(os.path.dirname(os.path.abspath(__file__)), "out")
-
-GREYML_MODULES = {
-    "ANFISGrid": "greyml.fuzzy",
-    "ANFISFCM": "greyml.fuzzy",
-    "MLPBaseline": "greyml.neural",
-    "GNNMCI": "greyml.grey",
-}
 
 
 # ------------------------------------------------------------------------------
@@ -102,20 +97,6 @@ def make_sequence(n_samples, n_inputs, seed=0):
 # ------------------------------------------------------------------------------
 
 
-def greyml_class(name):
-    """``greyml.<name>``, or the class from its submodule if not exported yet."""
-    import importlib
-
-    import greyml
-
-    cls = getattr(greyml, name, None)
-    if cls is None and name in GREYML_MODULES:
-        cls = getattr(importlib.import_module(GREYML_MODULES[name]), name, None)
-    if cls is None:
-        raise ImportError(f"greyml.{name} does not exist (greyml {greyml.__version__})")
-    return cls
-
-
 def with_budget(estimator, **budget):
     """Set the budget parameters the estimator has; return it and what was set."""
     known = estimator.get_params()
@@ -136,18 +117,18 @@ class Skip(Exception):
 
 
 def gmc_ls(n_inputs):
-    return greyml_class("GMC")(solver="ls"), "solver='ls'"
+    return greyml.GMC(solver="ls"), "solver='ls'"
 
 
 def gmc_pso(n_inputs):
-    model = greyml_class("GMC")(
+    model = greyml.GMC(
         solver="pso", n_population=PSO_POPULATION, max_iter=PSO_ITERATIONS, random_state=0
     )
     return model, f"solver='pso', n_population={PSO_POPULATION}, max_iter={PSO_ITERATIONS}"
 
 
 def gnnmci(n_inputs):
-    model = greyml_class("GNNMCI")(random_state=0)
+    model = greyml.GNNMCI(random_state=0)
     model, applied = with_budget(
         model,
         n_population=PSO_POPULATION,
@@ -164,7 +145,7 @@ def anfis_epochs(n_rules):
 
 
 def anfis_grid(n_inputs):
-    cls = greyml_class("ANFISGrid")
+    cls = greyml.ANFISGrid
     max_rules = cls().get_params().get("max_rules")
     n_rules = 2**n_inputs
     if max_rules is not None and n_rules > max_rules:
@@ -179,12 +160,12 @@ def anfis_grid(n_inputs):
 
 
 def anfis_fcm(n_inputs):
-    model = greyml_class("ANFISFCM")(n_clusters=3, n_epochs=EPOCHS, random_state=0)
+    model = greyml.ANFISFCM(n_clusters=3, n_epochs=EPOCHS, random_state=0)
     return model, f"n_clusters=3, n_epochs={EPOCHS} (c-means defaults)"
 
 
 def mlp(n_inputs):
-    model = greyml_class("MLPBaseline")(hidden_layer_sizes=10, random_state=0)
+    model = greyml.MLPBaseline(hidden_layer_sizes=10, random_state=0)
     model, applied = with_budget(model, max_iter=EPOCHS, n_restarts=1)
     return model, "hidden_layer_sizes=10, " + ", ".join(f"{k}={v}" for k, v in applied.items())
 
@@ -444,13 +425,7 @@ def make_plot(path, sample_rows, input_rows, slopes):
 
 
 def package_versions():
-    out = {}
-    for name in ("greyml", "numpy", "scipy", "scikit-learn", "scikit-fuzzy"):
-        try:
-            out[name] = metadata.version(name)
-        except metadata.PackageNotFoundError:
-            out[name] = "not installed"
-    return out
+    return _package_versions(("greyml", "numpy", "scipy", "scikit-learn", "scikit-fuzzy"))
 
 
 def main(argv=None):

@@ -85,10 +85,10 @@ import time
 import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
-from importlib import metadata
 
 import numpy as np
 import pandas as pd
+from _common import package_versions as _package_versions
 
 # -- (a) seed 001 on the VMC -----------------------------------------------------
 VMC_TARGET = "dy_um"
@@ -643,13 +643,7 @@ def print_extrapolation(rows):
 
 
 def versions():
-    out = {}
-    for name in PACKAGES:
-        try:
-            out[name] = metadata.version(name)
-        except metadata.PackageNotFoundError:
-            out[name] = None
-    return out
+    return _package_versions(PACKAGES, missing=None)
 
 
 def run(n_seeds=N_SEEDS, with_ablation=False):

@@ -24,7 +24,11 @@ def bench():
     spec = importlib.util.spec_from_file_location("bench_seed_tables", BENCH)
     module = importlib.util.module_from_spec(spec)
     sys.modules[spec.name] = module  # dataclasses look their module up
-    spec.loader.exec_module(module)
+    sys.path.insert(0, str(BENCH.parent))  # the script imports benchmarks/_common.py
+    try:
+        spec.loader.exec_module(module)
+    finally:
+        sys.path.remove(str(BENCH.parent))
     yield module
     sys.modules.pop(spec.name, None)
 
