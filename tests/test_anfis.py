@@ -355,7 +355,7 @@ def test_bad_fcm_and_grid_parameters():
 
 
 def test_clustering_a_subset_keeps_memberships_of_every_row():
-    from greyml.fuzzy._anfis import _memberships
+    from greyml.fuzzy._kernels import fcm_memberships as _memberships
 
     rng = np.random.default_rng(8)
     data = np.vstack([rng.normal(0, 0.3, (60, 2)), rng.normal(3, 0.3, (60, 2))])

@@ -6,7 +6,6 @@ import itertools
 import numbers
 
 import numpy as np
-import skfuzzy
 from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.utils.validation import check_is_fitted
 
@@ -21,7 +20,13 @@ from greyml._validation import (
     standard_scaling,
     validate_sequences,
 )
-from greyml.fuzzy._kernels import JangStepSize, anfis_forward, hybrid_learning
+from greyml.fuzzy._kernels import (
+    JangStepSize,
+    anfis_forward,
+    fcm_memberships,
+    fuzzy_cmeans,
+    hybrid_learning,
+)
 
 __all__ = ["ANFISGrid", "ANFISFCM"]
 
@@ -438,14 +443,6 @@ class ANFISGrid(_ANFISBase):
         return np.concatenate(centres), widths, mf_of_rule, np.asarray(mf_input)
 
 
-def _memberships(data, centres, m):
-    """Fuzzy c-means memberships of every row for fixed centres, shape (c, n)."""
-    d = np.sqrt(((data[None, :, :] - centres[:, None, :]) ** 2).sum(axis=2))
-    d = np.fmax(d, np.finfo(float).eps)
-    inv = d ** (-2.0 / (m - 1.0))
-    return inv / inv.sum(axis=0, keepdims=True)
-
-
 class ANFISFCM(_ANFISBase):
     """ANFIS with one rule per fuzzy c-means cluster.
 
@@ -577,22 +574,10 @@ feature_names_in_
             # random subset of fcm_max_samples rows keep the cost linear in n
             rows = np.sort(rng.choice(n, size=self.fcm_max_samples, replace=False))
             sample = data[rows]
-        u0 = rng.random((c, len(sample)))
-        u0 /= u0.sum(axis=0, keepdims=True)
-        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-            # scikit-fuzzy stops on the Frobenius norm of the change of the whole
-            # c × n partition, which grows like √(cn): scaled, fcm_tol is the
-            # root-mean-square change of one membership, whatever n
-            centres, u, _, _, _, _, fpc = skfuzzy.cluster.cmeans(
-                sample.T,
-                c,
-                float(self.m),
-                self.fcm_tol * np.sqrt(c * len(sample)),
-                self.fcm_max_iter,
-                init=u0,
-            )
-            if sample is not data:
-                u = _memberships(data, centres, float(self.m))
+        centres, u, _, fpc = fuzzy_cmeans(sample, c, self.m, self.fcm_tol, self.fcm_max_iter, rng)
+        if sample is not data:
+            with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+                u = fcm_memberships(data, centres, float(self.m))
         if not (np.isfinite(centres).all() and np.isfinite(u).all()):
             raise ValueError(
                 f"ANFISFCM: fuzzy c-means with {c} clusters and m={self.m} did not "
@@ -607,7 +592,7 @@ feature_names_in_
         # a cluster collapsed onto one value of an input is widened to a
         # tenth of that input's spread, so its rule can still learn
         widths = np.where(widths > 1e-2, widths, 0.1)
-        self.fpc_ = float(fpc)
+        self.fpc_ = fpc
         self.cluster_centres_ = cx * self.x_scale_ + self.x_mean_
         mf_of_rule = np.arange(c * p, dtype=np.intp).reshape(c, p)
         mf_input = np.tile(np.arange(p), c)

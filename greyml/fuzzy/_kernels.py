@@ -20,6 +20,7 @@ either.
 from __future__ import annotations
 
 import numpy as np
+import skfuzzy
 from scipy.linalg import LinAlgError, cho_factor, cho_solve, lstsq
 
 __all__ = [
@@ -31,6 +32,8 @@ __all__ = [
     "JangStepSize",
     "hybrid_learning",
     "CHUNK_ROWS",
+    "fuzzy_cmeans",
+    "fcm_memberships",
 ]
 
 #: Rows per block when the least-squares system is accumulated, which bounds
@@ -302,3 +305,39 @@ def hybrid_learning(
         "check_error": np.asarray(check_err),
         "step_size": np.asarray(steps),
     }
+
+
+def fuzzy_cmeans(data, n_clusters, m, tol, max_iter, rng):
+    """Fuzzy c-means of the rows of ``data`` (scikit-fuzzy), from a partition
+    drawn from ``rng``.
+
+    The initial partition is passed to scikit-fuzzy, so its use of NumPy's
+    global random state is never reached. scikit-fuzzy stops on the Frobenius
+    norm of the change of the whole c × n partition, which grows like √(cn);
+    here ``tol`` is the root-mean-square change of one membership, whatever n.
+
+    Returns
+    -------
+    centres : ndarray of shape (n_clusters, n_columns)
+    u : ndarray of shape (n_clusters, n_rows)
+        Memberships; not finite if c-means broke down (callers check).
+    n_iter : int
+    fpc : float
+        Fuzzy partition coefficient (1 = crisp, 1/c = uniform).
+    """
+    n = data.shape[0]
+    u0 = rng.random((n_clusters, n))
+    u0 /= u0.sum(axis=0, keepdims=True)
+    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+        centres, u, _, _, _, n_iter, fpc = skfuzzy.cluster.cmeans(
+            data.T, n_clusters, float(m), tol * np.sqrt(n_clusters * n), max_iter, init=u0
+        )
+    return centres, u, int(n_iter), float(fpc)
+
+
+def fcm_memberships(data, centres, m):
+    """Fuzzy c-means memberships of every row for fixed centres, shape (c, n)."""
+    d = np.sqrt(((data[None, :, :] - centres[:, None, :]) ** 2).sum(axis=2))
+    d = np.fmax(d, np.finfo(float).eps)
+    inv = d ** (-2.0 / (m - 1.0))
+    return inv / inv.sum(axis=0, keepdims=True)

@@ -5,7 +5,6 @@ from __future__ import annotations
 import warnings
 
 import numpy as np
-import skfuzzy
 from sklearn.base import BaseEstimator
 from sklearn.feature_selection import SelectorMixin
 from sklearn.utils.validation import check_is_fitted
@@ -18,6 +17,7 @@ from greyml._validation import (
     require_y,
     validate_sequences,
 )
+from greyml.fuzzy._kernels import fuzzy_cmeans
 from greyml.grey._gmc import GreyConditioningWarning
 from greyml.grey._kernels import gm1n_lstsq
 
@@ -246,16 +246,11 @@ class GreyInfluenceSelector(SelectorMixin, BaseEstimator):
         if c == 1:
             self.n_iter_ = 0
             return np.ones((1, n))
-        rng = make_generator(self.random_state)
-        u0 = rng.random((c, n))
-        u0 /= u0.sum(axis=0, keepdims=True)
         span = np.ptp(features, axis=0)
         data = features / np.where(span > 0, span, 1.0)
-        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-            _, u, _, _, _, n_iter, _ = skfuzzy.cluster.cmeans(
-                data.T, c, float(self.m), self.tol * np.sqrt(c * n), self.max_iter, init=u0
-            )
-        self.n_iter_ = int(n_iter)
+        _, u, self.n_iter_, _ = fuzzy_cmeans(
+            data, c, self.m, self.tol, self.max_iter, make_generator(self.random_state)
+        )
         if not np.isfinite(u).all():
             raise ValueError(
                 f"GreyInfluenceSelector: fuzzy c-means with {c} clusters did not reach "
