@@ -4,6 +4,8 @@ from greyml.fuzzy._anfis import ANFISFCM, ANFISGrid
 from greyml.fuzzy._kernels import (
     JangStepSize,
     anfis_forward,
+    fcm_memberships,
+    fuzzy_cmeans,
     hybrid_learning,
     log_firing,
     normalised_firing,
@@ -16,6 +18,8 @@ __all__ = [
     "ANFISGrid",
     "JangStepSize",
     "anfis_forward",
+    "fcm_memberships",
+    "fuzzy_cmeans",
     "hybrid_learning",
     "log_firing",
     "normalised_firing",
