@@ -2,7 +2,15 @@
 
 from greyml._sequences import TEST_LEVEL, TIME_LEVEL, make_test_index, test_ids
 from greyml.fuzzy import ANFISFCM, ANFISGrid
-from greyml.grey import AGO, GMC, GNNMCI, GreyConditioningWarning, fit_gm1n, simulate_gmc
+from greyml.grey import (
+    AGO,
+    GMC,
+    GNNMCI,
+    AccumulatedTargetRegressor,
+    GreyConditioningWarning,
+    fit_gm1n,
+    simulate_gmc,
+)
 from greyml.neural import MLPBaseline
 from greyml.selection import GreyInfluenceSelector, TrainOnOneTest
 
@@ -12,6 +20,7 @@ __all__ = [
     "AGO",
     "ANFISFCM",
     "ANFISGrid",
+    "AccumulatedTargetRegressor",
     "GMC",
     "GNNMCI",
     "GreyConditioningWarning",

@@ -30,6 +30,7 @@ __all__ = [
     "TEST_LEVEL",
     "TIME_LEVEL",
     "Segment",
+    "keep_test_index",
     "test_segments",
     "test_ids",
     "has_test_index",
@@ -191,3 +192,19 @@ def make_test_index(tests, times) -> pd.MultiIndex:
         [np.asarray(tests), np.asarray(times, dtype=float)],
         names=[TEST_LEVEL, TIME_LEVEL],
     )
+
+
+def keep_test_index(estimator, X, out, method="transform"):
+    """Return ``out`` as a DataFrame with ``X``'s index when ``X`` carries tests.
+
+    Test boundaries are part of the data: a sequence-aware transformer that got a
+    ``test``-indexed DataFrame hands one on (under the default output setting),
+    so that the next step of a Pipeline still knows where each test starts.
+    ``set_output(transform="pandas")`` does the same for any input; other output
+    settings are left to scikit-learn.
+    """
+    config = getattr(estimator, "_sklearn_output_config", {}).get(method, "default")
+    if config == "default" and has_test_index(X):
+        columns = estimator.get_feature_names_out()
+        return pd.DataFrame(out, index=X.index, columns=columns)
+    return out

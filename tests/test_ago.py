@@ -86,3 +86,75 @@ def test_iago_inverts_ago_per_test(data, cuts):
     acc = ago(data, bounds)
     for a, _ in bounds:
         np.testing.assert_array_equal(acc[a], data[a])
+
+
+# -- AccumulatedTargetRegressor ------------------------------------------------
+def _two_tests():
+    rng = np.random.default_rng(5)
+    index = make_test_index(["I"] * 30 + ["II"] * 20, 10.0 * np.r_[np.arange(30), np.arange(20)])
+    X = pd.DataFrame(rng.normal(size=(50, 2)), index=index, columns=["T1_C", "T2_C"])
+    y = pd.Series(rng.normal(size=50), index=index, name="dz_um")
+    return X, y
+
+
+def test_accumulated_target_regressor_accumulates_within_each_test():
+    from sklearn.linear_model import LinearRegression
+
+    from greyml import AccumulatedTargetRegressor
+
+    X, y = _two_tests()
+    X0, y0 = X.copy(), y.copy()
+    model = AccumulatedTargetRegressor(LinearRegression()).fit(X, y)
+    # the inner regressor saw the running sum of y restarted at test II (row 30)
+    y1 = np.r_[np.cumsum(y.to_numpy()[:30]), np.cumsum(y.to_numpy()[30:])]
+    direct = LinearRegression().fit(X, y1)
+    np.testing.assert_allclose(model.regressor_.coef_, direct.coef_, rtol=1e-12)
+    # and predict differences the inner prediction within each test
+    p1 = direct.predict(X)
+    expected = np.r_[p1[0], np.diff(p1[:30]), p1[30], np.diff(p1[30:])]
+    np.testing.assert_allclose(model.predict(X), expected, rtol=1e-12, atol=1e-12)
+    pd.testing.assert_frame_equal(X, X0)
+    pd.testing.assert_series_equal(y, y0)
+
+
+def test_transformed_target_regressor_would_sum_across_tests():
+    # why greyml has its own wrapper: TransformedTargetRegressor hands AGO a bare
+    # array, so its running sum does not restart at test II
+    from sklearn.compose import TransformedTargetRegressor
+    from sklearn.linear_model import LinearRegression
+
+    from greyml import AccumulatedTargetRegressor
+
+    X, y = _two_tests()
+    ttr = TransformedTargetRegressor(LinearRegression(), transformer=AGO(), check_inverse=False)
+    ours = AccumulatedTargetRegressor(LinearRegression())
+    leaked = np.cumsum(y.to_numpy())
+    np.testing.assert_allclose(
+        ttr.fit(X, y).regressor_.coef_, LinearRegression().fit(X, leaked).coef_, rtol=1e-12
+    )
+    assert not np.allclose(ttr.regressor_.coef_, ours.fit(X, y).regressor_.coef_)
+
+
+def test_accumulated_target_regressor_errors():
+    from sklearn.base import BaseEstimator, RegressorMixin
+
+    from greyml import AccumulatedTargetRegressor
+
+    class TwoColumns(RegressorMixin, BaseEstimator):
+        def fit(self, X, y):
+            return self
+
+        def predict(self, X):
+            return np.zeros((len(X), 2))
+
+    X, y = _two_tests()
+    with pytest.raises(ValueError, match="TwoColumns predicted 2 columns"):
+        AccumulatedTargetRegressor(TwoColumns()).fit(X, y).predict(X)
+    with pytest.raises(ValueError, match="y to be passed"):
+        AccumulatedTargetRegressor().fit(X, None)
+    bad = y.copy()
+    bad.iloc[35] = np.nan
+    with pytest.raises(ValueError, match="NaN in test 'II'"):
+        AccumulatedTargetRegressor().fit(X, bad)
+    with pytest.raises(ValueError, match="same order as they were in fit"):
+        AccumulatedTargetRegressor().fit(X, y).predict(X[["T2_C", "T1_C"]])

@@ -75,6 +75,24 @@ def test_pandas_in_and_out_keeps_the_test_index():
     pd.testing.assert_index_equal(out.index, X.index)
 
 
+def test_transform_hands_the_tests_on_in_a_pipeline():
+    # without the test index the next step would accumulate across tests
+    from greyml import GMC
+
+    X, y = _three_groups()
+    sel = GreyInfluenceSelector(n_clusters=2, cluster_on="series", random_state=0).fit(X, y)
+    out = sel.transform(X)
+    pd.testing.assert_index_equal(out.index, X.index)
+    plain = GreyInfluenceSelector(n_clusters=2, cluster_on="series", random_state=0)
+    assert isinstance(plain.fit(X.to_numpy(), y.to_numpy()).transform(X.to_numpy()), np.ndarray)
+    kept = list(sel.get_feature_names_out())
+    pipe = make_pipeline(sel, GMC(solver="ls")).fit(X, y)
+    direct = GMC(solver="ls").fit(X[kept], y)
+    np.testing.assert_array_equal(pipe.predict(X), direct.predict(X[kept]))
+    one_long_test = GMC(solver="ls").fit(X[kept].to_numpy(), y.to_numpy())
+    assert not np.allclose(pipe.predict(X), one_long_test.predict(X[kept].to_numpy()))
+
+
 def test_on_the_simulated_vmc_one_sensor_from_five_groups():
     vmc = load_vmc_tests()
     X, y = vmc.frame[vmc.sensors], vmc.frame["dy_um"]

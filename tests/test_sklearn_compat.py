@@ -1,8 +1,18 @@
 """scikit-learn's estimator checks for every greyml estimator."""
 
+from sklearn.linear_model import Ridge
 from sklearn.utils.estimator_checks import parametrize_with_checks
 
-from greyml import AGO, ANFISFCM, GMC, GNNMCI, ANFISGrid, GreyInfluenceSelector, MLPBaseline
+from greyml import (
+    AGO,
+    ANFISFCM,
+    GMC,
+    GNNMCI,
+    AccumulatedTargetRegressor,
+    ANFISGrid,
+    GreyInfluenceSelector,
+    MLPBaseline,
+)
 
 # A row's output depends on the rows before it in its test (accumulation,
 # convolution): that is the point of a sequence model, so scikit-learn's checks
@@ -30,6 +40,8 @@ ESTIMATORS = [
     ANFISFCM(),
     MLPBaseline(),
     GreyInfluenceSelector(n_clusters=2, random_state=0),
+    AccumulatedTargetRegressor(),
+    AccumulatedTargetRegressor(Ridge(alpha=1.0)),
 ]
 
 # ANFIS and the MLP map each row to its output on its own (a static model), and

@@ -1,6 +1,6 @@
 """Grey models: AGO, GM(1,N), GMC(1,N) and the grey neural network GNNMCI(1,N)."""
 
-from greyml.grey._ago import AGO
+from greyml.grey._ago import AGO, AccumulatedTargetRegressor
 from greyml.grey._functions import fit_gm1n, simulate_gmc
 from greyml.grey._gmc import GMC, GreyConditioningWarning
 from greyml.grey._gnnmci import GNNMCI
@@ -23,6 +23,7 @@ from greyml.grey._kernels import (
 
 __all__ = [
     "AGO",
+    "AccumulatedTargetRegressor",
     "GMC",
     "GNNMCI",
     "GreyConditioningWarning",

@@ -2,31 +2,22 @@
 
 from __future__ import annotations
 
-import pandas as pd
-from sklearn.base import BaseEstimator, OneToOneFeatureMixin, TransformerMixin
+import numpy as np
+from sklearn.base import (
+    BaseEstimator,
+    OneToOneFeatureMixin,
+    RegressorMixin,
+    TransformerMixin,
+    clone,
+)
+from sklearn.linear_model import LinearRegression
 from sklearn.utils.validation import check_is_fitted
 
-from greyml._sequences import has_test_index
-from greyml._validation import validate_sequences
+from greyml._sequences import keep_test_index
+from greyml._validation import require_y, validate_sequences
 from greyml.grey._kernels import ago, iago
 
-__all__ = ["AGO"]
-
-
-def keep_test_index(estimator, X, out, method="transform"):
-    """Return ``out`` as a DataFrame with ``X``'s index when ``X`` carries tests.
-
-    Test boundaries are part of the data: a sequence-aware transformer that got a
-    ``test``-indexed DataFrame hands one on (under the default output setting),
-    so that the next step of a Pipeline still knows where each test starts.
-    ``set_output(transform="pandas")`` does the same for any input; other output
-    settings are left to scikit-learn.
-    """
-    config = getattr(estimator, "_sklearn_output_config", {}).get(method, "default")
-    if config == "default" and has_test_index(X):
-        columns = estimator.get_feature_names_out()
-        return pd.DataFrame(out, index=X.index, columns=columns)
-    return out
+__all__ = ["AGO", "AccumulatedTargetRegressor"]
 
 
 class AGO(OneToOneFeatureMixin, TransformerMixin, BaseEstimator):
@@ -115,3 +106,113 @@ class AGO(OneToOneFeatureMixin, TransformerMixin, BaseEstimator):
         Xa, _, segments = validate_sequences(self, X, reset=False)
         out = iago(Xa, [(s.start, s.stop) for s in segments])
         return keep_test_index(self, X, out)
+
+
+class AccumulatedTargetRegressor(RegressorMixin, BaseEstimator):
+    """Fit any regressor to the accumulated target and difference its predictions.
+
+    The grey-modelling recipe for an ordinary regressor: the target is
+    accumulated (AGO) within each test before ``regressor`` is fitted, and
+    the regressor's predictions are differenced (IAGO) within each test, so
+    ``predict`` is in the target's own units. Put :class:`AGO` in front of it
+    to accumulate the inputs too::
+
+        make_pipeline(GreyInfluenceSelector(), AGO(), AccumulatedTargetRegressor(Ridge()))
+
+    scikit-learn's :class:`~sklearn.compose.TransformedTargetRegressor` with
+    ``transformer=AGO()`` would not do: it hands the target to the
+    transformer as a bare array, so the sums would run from one test into the
+    next. Here the tests are read from ``X`` (its ``test`` index level, which
+    greyml's transformers hand on through a Pipeline); a plain array is one
+    test.
+
+    Parameters
+    ----------
+    regressor : estimator or None, default=None
+        Any scikit-learn regressor; it is cloned. ``None`` means
+        :class:`~sklearn.linear_model.LinearRegression`.
+
+    Attributes
+    ----------
+    regressor_ : estimator
+        The fitted clone of ``regressor``, fitted to the accumulated target.
+    n_features_in_ : int
+    feature_names_in_ : ndarray of shape (n_features_in_,)
+        Column names seen in ``fit`` (DataFrame input only).
+
+    Notes
+    -----
+    A row's prediction is the difference of the regressor's predictions at
+    that row and the row before it in the same test, so it depends on the
+    previous row: predict whole tests, as for every grey model.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> from sklearn.linear_model import LinearRegression
+    >>> from sklearn.pipeline import make_pipeline
+    >>> from greyml import AGO, AccumulatedTargetRegressor, make_test_index
+    >>> X = pd.DataFrame({"T1_C": [1.0, 2.0, 4.0, 1.0, 3.0]},
+    ...                  index=make_test_index(["I"] * 3 + ["II"] * 2, [0, 10, 20, 0, 10]))
+    >>> y = 2 * X["T1_C"]
+    >>> model = make_pipeline(AGO(), AccumulatedTargetRegressor(LinearRegression()))
+    >>> model.fit(X, y).predict(X).round(9).tolist()
+    [2.0, 4.0, 8.0, 2.0, 6.0]
+    """
+
+    def __init__(self, regressor=None):
+        self.regressor = regressor
+
+    def fit(self, X, y, **fit_params):
+        """Fit ``regressor`` to the target accumulated within each test.
+
+        Parameters
+        ----------
+        X : array-like or DataFrame of shape (n_samples, n_features)
+            Passed to the regressor unchanged.
+        y : array-like of shape (n_samples,)
+        **fit_params : dict
+            Passed to the regressor's ``fit``.
+
+        Returns
+        -------
+        self : AccumulatedTargetRegressor
+        """
+        require_y(self, y)
+        _, ya, segments = validate_sequences(self, X, y, reset=True)
+        if ya.ndim != 1:
+            raise ValueError(
+                f"AccumulatedTargetRegressor takes one target column; y has shape {ya.shape}."
+            )
+        y1 = ago(ya[:, None], [(s.start, s.stop) for s in segments])[:, 0]
+        regressor = LinearRegression() if self.regressor is None else self.regressor
+        self.regressor_ = clone(regressor).fit(X, y1, **fit_params)
+        return self
+
+    def predict(self, X):
+        """Predict the target: the regressor's output differenced within each test.
+
+        Parameters
+        ----------
+        X : array-like or DataFrame of shape (n_samples, n_features)
+
+        Returns
+        -------
+        y_pred : ndarray of shape (n_samples,)
+        """
+        check_is_fitted(self)
+        Xa, _, segments = validate_sequences(self, X, reset=False)
+        y1 = np.asarray(self.regressor_.predict(X), dtype=np.float64).reshape(Xa.shape[0], -1)
+        if y1.shape[1] != 1:
+            raise ValueError(
+                f"{type(self.regressor_).__name__} predicted {y1.shape[1]} columns; "
+                "AccumulatedTargetRegressor needs one."
+            )
+        return iago(y1, [(s.start, s.stop) for s in segments])[:, 0]
+
+    def __sklearn_tags__(self):
+        tags = super().__sklearn_tags__()
+        # fitted to the running sum of the target: on scikit-learn's i.i.d. check
+        # data, where the target is not a dynamic response, the fit is poor.
+        tags.regressor_tags.poor_score = True
+        return tags

@@ -10,6 +10,7 @@ from sklearn.feature_selection import SelectorMixin
 from sklearn.utils.validation import check_is_fitted
 
 from greyml._rng import make_generator
+from greyml._sequences import keep_test_index
 from greyml._validation import (
     check_int_param,
     check_real_param,
@@ -257,6 +258,21 @@ class GreyInfluenceSelector(SelectorMixin, BaseEstimator):
                 "a finite partition; try fewer clusters."
             )
         return u
+
+    def transform(self, X):
+        """Keep the selected sensors' columns.
+
+        Parameters
+        ----------
+        X : array-like or DataFrame of shape (n_samples, n_features)
+
+        Returns
+        -------
+        X_selected : ndarray or DataFrame of shape (n_samples, n_selected)
+            A DataFrame with ``X``'s index when ``X`` has a ``test`` index
+            level, so the next step of a Pipeline still sees the tests.
+        """
+        return keep_test_index(self, X, super().transform(X))
 
     def _get_support_mask(self):
         check_is_fitted(self)
