@@ -307,14 +307,17 @@ def hybrid_learning(
     }
 
 
-def fuzzy_cmeans(data, n_clusters, m, tol, max_iter, rng):
-    """Fuzzy c-means of the rows of ``data`` (scikit-fuzzy), from a partition
+def fuzzy_cmeans(data, n_clusters, m, tol, max_iter, rng, n_init=1):
+    """Fuzzy c-means of the rows of ``data`` (scikit-fuzzy), from partitions
     drawn from ``rng``.
 
     The initial partition is passed to scikit-fuzzy, so its use of NumPy's
     global random state is never reached. scikit-fuzzy stops on the Frobenius
     norm of the change of the whole c × n partition, which grows like √(cn);
     here ``tol`` is the root-mean-square change of one membership, whatever n.
+    With ``n_init`` > 1, c-means runs from that many initial partitions (drawn
+    one after the other from ``rng``) and the run with the lowest objective
+    J_m = Σ u^m d² is kept, as k-means does with its ``n_init``.
 
     Returns
     -------
@@ -326,13 +329,18 @@ def fuzzy_cmeans(data, n_clusters, m, tol, max_iter, rng):
         Fuzzy partition coefficient (1 = crisp, 1/c = uniform).
     """
     n = data.shape[0]
-    u0 = rng.random((n_clusters, n))
-    u0 /= u0.sum(axis=0, keepdims=True)
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        centres, u, _, _, _, n_iter, fpc = skfuzzy.cluster.cmeans(
-            data.T, n_clusters, float(m), tol * np.sqrt(n_clusters * n), max_iter, init=u0
-        )
-    return centres, u, int(n_iter), float(fpc)
+    best, best_objective = None, np.inf
+    for _ in range(n_init):
+        u0 = rng.random((n_clusters, n))
+        u0 /= u0.sum(axis=0, keepdims=True)
+        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
+            centres, u, _, _, jm, n_iter, fpc = skfuzzy.cluster.cmeans(
+                data.T, n_clusters, float(m), tol * np.sqrt(n_clusters * n), max_iter, init=u0
+            )
+        objective = jm[-1] if len(jm) and np.isfinite(jm[-1]) else np.inf
+        if best is None or objective < best_objective:
+            best, best_objective = (centres, u, int(n_iter), float(fpc)), objective
+    return best
 
 
 def fcm_memberships(data, centres, m):

@@ -48,8 +48,9 @@ class GreyInfluenceSelector(SelectorMixin, BaseEstimator):
     cluster_on : {"influence", "series"}, default="influence"
         What c-means groups. ``"influence"``: the sensors' influence weights, as
         seed 001 does (sensors with similar weights form a group).
-        ``"series"``: the sensors' standardised series, so sensors that move
-        together form a group whatever their weights.
+        ``"series"``: the sensors' series, normalised as ``normalisation``
+        says, so sensors that move together form a group whatever their
+        weights.
     normalisation : {"range", "mean", "initial"}, default="range"
         Scale of each sensor before GM(1,N): map it to [0, 1] by its range over
         the training rows, or divide it by its mean (grey mean normalisation)
@@ -62,6 +63,10 @@ class GreyInfluenceSelector(SelectorMixin, BaseEstimator):
         c-means iterations.
     tol : float, default=1e-6
         c-means stopping tolerance (root-mean-square change of a membership).
+    n_init : int, default=10
+        c-means runs from this many random initial partitions; the one with
+        the lowest c-means objective is kept (as k-means' ``n_init``). One run
+        can settle in a partition that splits one physical group in two.
     random_state : int, Generator or None, default=None
         Seeds c-means' initial partition. The global NumPy state is never used.
 
@@ -134,6 +139,7 @@ class GreyInfluenceSelector(SelectorMixin, BaseEstimator):
         normalisation="range",
         max_iter=300,
         tol=1e-6,
+        n_init=10,
         random_state=None,
     ):
         self.n_clusters = n_clusters
@@ -142,11 +148,13 @@ class GreyInfluenceSelector(SelectorMixin, BaseEstimator):
         self.normalisation = normalisation
         self.max_iter = max_iter
         self.tol = tol
+        self.n_init = n_init
         self.random_state = random_state
 
     def _check_params(self):
         check_int_param(self, "n_clusters", self.n_clusters, 1)
         check_int_param(self, "max_iter", self.max_iter, 1)
+        check_int_param(self, "n_init", self.n_init, 1)
         for name, allowed in (("cluster_on", _CLUSTER_ON), ("normalisation", _NORMALISATIONS)):
             value = getattr(self, name)
             if value not in allowed:
@@ -223,8 +231,7 @@ class GreyInfluenceSelector(SelectorMixin, BaseEstimator):
         if self.cluster_on == "influence":
             features = self.influence_[:, None]
         else:
-            features = (Xa - Xa.mean(axis=0)) / Xa.std(axis=0)
-            features = features.T
+            features = Xn.T
         self.membership_ = self._cmeans(features)
         self.clusters_ = np.argmax(self.membership_, axis=0)
         support = np.zeros(n_features, dtype=bool)
@@ -250,7 +257,13 @@ class GreyInfluenceSelector(SelectorMixin, BaseEstimator):
         span = np.ptp(features, axis=0)
         data = features / np.where(span > 0, span, 1.0)
         _, u, self.n_iter_, _ = fuzzy_cmeans(
-            data, c, self.m, self.tol, self.max_iter, make_generator(self.random_state)
+            data,
+            c,
+            self.m,
+            self.tol,
+            self.max_iter,
+            make_generator(self.random_state),
+            n_init=self.n_init,
         )
         if not np.isfinite(u).all():
             raise ValueError(
