@@ -1,0 +1,177 @@
+"""Grid search on a Dask cluster (joblib's ``dask`` backend) equals the sequential run.
+
+A LocalCluster of two worker processes, started and closed here, stands in for
+a real cluster: the workers are separate processes started by dask's nanny, as
+``dask worker`` starts them, so the search really runs outside this process.
+"""
+
+import os
+from contextlib import contextmanager
+
+import dask
+import joblib
+import numpy as np
+import pytest
+from distributed import Client, LocalCluster, get_task_stream
+from sklearn.model_selection import GridSearchCV, LeaveOneGroupOut
+from sklearn.pipeline import Pipeline
+from threadpoolctl import threadpool_info
+
+from greyml import ANFISFCM, GreyInfluenceSelector, MLPBaseline
+from greyml import test_ids as groups_of
+from greyml.datasets import load_vmc_tests
+from greyml.metrics import get_scorer
+
+# the variables dask's nanny sets to 1 before it spawns a worker process
+THREAD_VARS = ("OMP_NUM_THREADS", "MKL_NUM_THREADS", "OPENBLAS_NUM_THREADS")
+TIMING_KEYS = {"mean_fit_time", "std_fit_time", "mean_score_time", "std_score_time"}
+
+
+@contextmanager
+def _restored_environ(names):
+    """Put these environment variables back as they were on exit."""
+    saved = {name: os.environ.get(name) for name in names}
+    try:
+        yield
+    finally:
+        for name, value in saved.items():
+            if value is None:
+                os.environ.pop(name, None)
+            else:
+                os.environ[name] = value
+
+
+@pytest.fixture(scope="module")
+def client(tmp_path_factory):
+    """A client of a two-process LocalCluster, one thread per worker."""
+    # The nanny copies its pre-spawn variables (and PYTHONHASHSEED) into this
+    # process's environment before spawning a worker: undo that afterwards.
+    touched = set(dask.config.get("distributed.nanny.pre-spawn-environ")) | {"PYTHONHASHSEED"}
+    with _restored_environ(touched | set(THREAD_VARS)):
+        # A thread variable already set in the environment would win over
+        # dask's default of 1; drop them so the workers show dask's default.
+        for name in THREAD_VARS:
+            os.environ.pop(name, None)
+        with (
+            LocalCluster(
+                n_workers=2,
+                threads_per_worker=1,
+                processes=True,
+                dashboard_address=None,
+                local_directory=str(tmp_path_factory.mktemp("dask-workers")),
+            ) as cluster,
+            Client(cluster) as dask_client,
+        ):
+            dask_client.wait_for_workers(2)
+            yield dask_client
+
+
+@pytest.fixture(scope="module")
+def vmc_rises():
+    """Six VMC tests, every 4th sensor, as rises from each test's first reading."""
+    data = load_vmc_tests()
+    X = data.frame[data.sensors].iloc[:, ::4]
+    X = X - X.groupby(level="test").transform("first")
+    return X, data.frame["dy_um"]
+
+
+def _search(n_jobs):
+    pipe = Pipeline(
+        [
+            ("select", GreyInfluenceSelector(cluster_on="series", random_state=0)),
+            ("model", ANFISFCM(random_state=0)),
+        ]
+    )
+    grid = [
+        {"select__n_clusters": [3, 5], "model__n_clusters": [2, 3]},
+        # a second model in place of ANFIS: random restarts drawn from its own seed
+        {
+            "select__n_clusters": [3],
+            "model": [
+                MLPBaseline(hidden_layer_sizes=4, n_restarts=2, max_iter=100, random_state=0)
+            ],
+        },
+    ]
+    return GridSearchCV(
+        pipe,
+        grid,
+        scoring={"rmse": get_scorer("neg_rmse"), "r2": "r2"},
+        refit="rmse",
+        cv=LeaveOneGroupOut(),
+        n_jobs=n_jobs,
+    )
+
+
+def _as_comparable(column):
+    """A cv_results_ column of parameters as a plain list (estimators by repr)."""
+    mask = np.ma.getmaskarray(column) if np.ma.isMaskedArray(column) else [False] * len(column)
+    values = column.data if np.ma.isMaskedArray(column) else column
+    out = []
+    for masked, value in zip(mask, values):
+        if masked:
+            out.append("<masked>")
+        elif isinstance(value, dict):
+            out.append({key: repr(val) for key, val in value.items()})
+        else:
+            out.append(repr(value))
+    return out
+
+
+@pytest.mark.timeout(300)
+def test_grid_search_on_dask_equals_sequential(client, vmc_rises):
+    X, y = vmc_rises
+    groups = groups_of(X)
+    sequential = _search(n_jobs=1).fit(X, y, groups=groups)
+
+    with get_task_stream(client) as stream, joblib.parallel_config(backend="dask"):
+        distributed = _search(n_jobs=-1).fit(X, y, groups=groups)
+
+    # the fits did run on the cluster's workers, not in this process
+    workers = set(client.scheduler_info()["workers"])
+    assert stream.data, "no task ran on the cluster"
+    assert {task["worker"] for task in stream.data} <= workers
+
+    seq, dist = sequential.cv_results_, distributed.cv_results_
+    assert seq.keys() == dist.keys()
+    assert len(seq["params"]) == 5
+    for key in seq.keys() - TIMING_KEYS:
+        if key == "params" or key.startswith("param_"):
+            assert _as_comparable(dist[key]) == _as_comparable(seq[key]), key
+        else:
+            np.testing.assert_array_equal(dist[key], seq[key], err_msg=key)
+    assert np.all(np.isfinite(seq["mean_test_rmse"]))
+
+    assert distributed.best_index_ == sequential.best_index_
+    assert distributed.best_score_ == sequential.best_score_
+    np.testing.assert_array_equal(distributed.predict(X), sequential.predict(X))
+
+
+def _thread_report():
+    """Run in a worker: its thread variables and native thread pools."""
+    import greyml  # noqa: F401  (loads numpy's, scipy's and scikit-learn's native libraries)
+    from greyml._threads import SMALL_WORK, blas_threads_for
+
+    pools = [(info["user_api"], info["num_threads"]) for info in threadpool_info()]
+    with blas_threads_for(10 * SMALL_WORK):  # a large product: greyml leaves the setting alone
+        large = [info["num_threads"] for info in threadpool_info() if info["user_api"] == "blas"]
+    with blas_threads_for(SMALL_WORK / 10):  # a small one: greyml asks for one thread
+        small = [info["num_threads"] for info in threadpool_info() if info["user_api"] == "blas"]
+    env = {name: os.environ.get(name) for name in THREAD_VARS}
+    return {"env": env, "pools": pools, "large": large, "small": small}
+
+
+@pytest.mark.timeout(300)
+def test_workers_run_one_thread_each(client):
+    assert set(client.nthreads().values()) == {1}
+
+    reports = client.run(_thread_report)
+    assert len(reports) == 2
+    for report in reports.values():
+        # dask's nanny starts every worker with the BLAS/OpenMP variables at 1 ...
+        assert report["env"] == dict.fromkeys(THREAD_VARS, "1")
+        # ... so every native pool has one thread, BLAS included
+        assert any(api == "blas" for api, _ in report["pools"])
+        assert all(n == 1 for _, n in report["pools"]), report["pools"]
+        # and greyml's own limit never raises it, for large products or small
+        assert report["large"] and set(report["large"]) == {1}
+        assert report["small"] and set(report["small"]) == {1}
