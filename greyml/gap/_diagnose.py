@@ -1,0 +1,456 @@
+"""diagnose_gap: where a simulation misses the measurement, and which effect it lacks."""
+
+from __future__ import annotations
+
+import os
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+from greyml._rng import make_generator
+from greyml._sequences import segment_label, test_segments
+from greyml.gap._effects import (
+    DESCRIPTIONS,
+    EFFECTS,
+    LagCache,
+    build_candidates,
+    recalibration_candidate,
+)
+from greyml.gap._fit import evaluate, fold_design, placebo_walks
+from greyml.gap._report import GapReport
+from greyml.gap._where import gap_breakdown, residual_diagnostics
+from greyml.io import check_test_frame, read_tests_csv
+
+__all__ = ["diagnose_gap", "GapContext"]
+
+
+@dataclass
+class GapContext:
+    """The measured roles as arrays, rows in the measured order."""
+
+    index: pd.MultiIndex
+    bounds: list
+    labels: list
+    dt: list
+    durations: list
+    t_s: np.ndarray
+    measured: np.ndarray
+    sim: np.ndarray
+    r: np.ndarray
+    ambient: np.ndarray | None
+    ambient_name: str | None
+    drivers: np.ndarray
+    driver_names: list
+    sensors: np.ndarray
+    sensor_names: list
+    target_is_fbg: bool
+
+
+def _as_names(value, role):
+    if value is None:
+        return []
+    if isinstance(value, str):
+        return [value]
+    names = list(value)
+    for name in names:
+        if not isinstance(name, str):
+            raise ValueError(f"{role}= takes column names; got {name!r}.")
+    return names
+
+
+def _read(data, what):
+    if isinstance(data, (str, os.PathLike)):
+        return read_tests_csv(data)
+    if isinstance(data, pd.Series):
+        data = data.to_frame()
+    return check_test_frame(data, what=what)
+
+
+def _sim_series(sim, real, target):
+    """The simulation's prediction of the target on the measured rows."""
+    if callable(sim) and not isinstance(sim, (pd.DataFrame, pd.Series)):
+        sim = sim(real.copy())
+        if not isinstance(sim, (pd.DataFrame, pd.Series)):
+            raise ValueError(
+                "A callable sim must return a DataFrame or Series indexed by (test, time_s); "
+                f"it returned {type(sim).__name__}."
+            )
+    frame = _read(sim, "The simulation")
+    if target in frame.columns:
+        column = frame[target]
+    elif frame.shape[1] == 1:
+        column = frame.iloc[:, 0]
+    else:
+        raise ValueError(
+            f"The simulation has no column {target!r} (its columns: {list(frame.columns)}); "
+            "name the simulated target like the measured one."
+        )
+    if column.index.has_duplicates:
+        dup = column.index[column.index.duplicated()][0]
+        raise ValueError(f"The simulation has the row (test, time_s) = {dup} more than once.")
+    keys = real.index.droplevel([n for n in real.index.names if n not in ("test", "time_s")])
+    sim_keys = column.index.droplevel(
+        [n for n in column.index.names if n not in ("test", "time_s")]
+    )
+    column = pd.Series(column.to_numpy(dtype=float), index=sim_keys)
+    missing = ~keys.isin(sim_keys)
+    if missing.any():
+        first = keys[np.flatnonzero(missing)[0]]
+        raise ValueError(
+            f"The simulation does not cover {int(missing.sum())} of the {len(keys)} measured "
+            f"rows; the first is test {first[0]!r} at time_s={first[1]:g}. Simulate every "
+            "measured (test, time_s) row."
+        )
+    return column.reindex(keys).to_numpy()
+
+
+def _finite(values, name, index, segments):
+    bad = ~np.isfinite(values)
+    if bad.any():
+        row = int(np.flatnonzero(bad)[0])
+        seg = next(s for s in segments if s.start <= row < s.stop)
+        kind = "NaN" if np.isnan(values[row]) else "infinity"
+        raise ValueError(
+            f"{name} has {kind} in {segment_label(seg)} at time_s="
+            f"{index.get_level_values('time_s')[row]:g}."
+        )
+
+
+def build_context(real, sim, *, target, ambient, drivers, sensors, fbgs):
+    """Check the inputs and gather the roles into a :class:`GapContext`."""
+    real = _read(real, "The measured data")
+    roles = {"target": [target], "ambient": _as_names(ambient, "ambient")}
+    roles["drivers"] = _as_names(drivers, "drivers")
+    roles["sensors"] = _as_names(sensors, "sensors")
+    roles["fbgs"] = _as_names(fbgs, "fbgs")
+    if not isinstance(target, str):
+        raise ValueError(f"target= takes one column name; got {target!r}.")
+    if len(roles["ambient"]) > 1:
+        raise ValueError(f"ambient= takes one column name; got {roles['ambient']}.")
+    for role, names in roles.items():
+        for name in names:
+            if name not in real.columns:
+                raise ValueError(
+                    f"The {role} column {name!r} is not in the measured data; its columns "
+                    f"are {list(real.columns)}."
+                )
+    segments = test_segments(real)
+    if len(segments) < 2:
+        raise ValueError(
+            "diagnose_gap scores every effect on held-out whole tests, so it needs at least "
+            f"2 tests; the measured data has 1 ({segments[0].label!r})."
+        )
+    small = [s for s in segments if s.n < 10]
+    if small:
+        raise ValueError(
+            f"{segment_label(small[0]).capitalize()} has {small[0].n} rows; diagnose_gap "
+            "needs at least 10 per test."
+        )
+    index = real.index
+    time = index.get_level_values("time_s").to_numpy(dtype=float)
+    bounds = [(s.start, s.stop) for s in segments]
+    dt, durations = [], []
+    t_s = np.empty(len(real))
+    for seg in segments:
+        tt = time[seg.slice]
+        steps = np.diff(tt)
+        if np.any(steps <= 0):
+            raise ValueError(f"time_s does not increase within {segment_label(seg)}.")
+        dt.append(float(np.median(steps)))
+        t_s[seg.slice] = tt - tt[0]
+        durations.append(float(tt[-1] - tt[0]))
+    columns = {}
+    for role, names in roles.items():
+        for name in names:
+            values = real[name].to_numpy(dtype=float)
+            _finite(values, f"Column {name!r} ({role}=)", index, segments)
+            columns[name] = values
+    sim_values = _sim_series(sim, real, target)
+    _finite(sim_values, f"The simulated {target!r}", index, segments)
+    measured = columns[target]
+    amb_name = roles["ambient"][0] if roles["ambient"] else None
+    n = len(real)
+
+    def stack(names):
+        return np.column_stack([columns[c] for c in names]) if names else np.zeros((n, 0))
+
+    return GapContext(
+        index=index,
+        bounds=bounds,
+        labels=[s.label for s in segments],
+        dt=dt,
+        durations=durations,
+        t_s=t_s,
+        measured=measured,
+        sim=sim_values,
+        r=measured - sim_values,
+        ambient=columns[amb_name] if amb_name else None,
+        ambient_name=amb_name,
+        drivers=stack(roles["drivers"]),
+        driver_names=roles["drivers"],
+        sensors=stack(roles["sensors"]),
+        sensor_names=roles["sensors"],
+        target_is_fbg=target in roles["fbgs"],
+    )
+
+
+def noise_floor(r, bounds):
+    """Robust white-noise level of the gap: MAD of first differences / (0.6745·√2)."""
+    diffs = np.concatenate([np.diff(r[a:b]) for a, b in bounds])
+    mad = np.median(np.abs(diffs - np.median(diffs)))
+    return float(mad / 0.6745 / np.sqrt(2.0))
+
+
+def _placebo_improvements(ctx, base, before, cand, rng, n_placebo):
+    """Held-out shrinkage of random-walk signatures as free as the candidate.
+
+    Each placebo has as many variants, features and time-constant settings as
+    ``cand``: its variants are random walks from 0 in every test, lagged like
+    the candidate's signatures (or used as they are when it has no time
+    constant).
+    """
+    n, V, k = len(ctx.r), len(cand.variants), cand.n_features
+    out = np.empty(n_placebo)
+    for p in range(n_placebo):
+        if cand.settings[0]:
+            lags = LagCache(placebo_walks(rng, ctx.bounds, V), ctx.dt, ctx.bounds)
+
+            def make(setting, lags=lags):
+                return lags.stack(setting)
+        else:
+            walks = placebo_walks(rng, ctx.bounds, V * k).reshape(n, V, k)
+
+            def make(setting, walks=walks):
+                return walks
+
+        ev = evaluate(ctx.r, base, make, cand.settings, ctx.bounds)
+        out[p] = 1.0 - ev.rmse / before.rmse
+    return out
+
+
+def diagnose_gap(
+    real,
+    sim,
+    *,
+    target,
+    ambient=None,
+    drivers=(),
+    sensors=(),
+    effects=None,
+    random_state=None,
+    fbgs=(),
+    max_effects=3,
+    n_placebo=39,
+    min_shrinkage=0.05,
+    tie_tolerance=0.02,
+    recalibrate=True,
+):
+    """Locate the gap between a simulation and measured tests and name its cause.
+
+    The gap r = measured − simulated target is broken down by test, phase,
+    time since the start and frequency band (``where``). Then every candidate
+    effect of the library (``greyml.gap.EFFECTS``) is fitted to the gap on
+    calibration tests and scored on the held-out test, leave one test out.
+    An effect is *significant* when its held-out shrinkage
+    1 − RMSE_after/RMSE_before beats both ``min_shrinkage`` and every one of
+    ``n_placebo`` random-walk placebos given the same freedom (as many
+    variants and time constants). The best significant effect is added and the
+    rest re-diagnosed on what is left, until nothing significant remains.
+
+    Parameters
+    ----------
+    real : DataFrame or path
+        Measured tests, indexed by ``(test, time_s)`` (at least 2 tests).
+    sim : DataFrame, Series, path or callable
+        The simulation's prediction of ``target`` on the same rows (a column
+        named like the target, or a single column), or a function
+        ``sim(real) -> DataFrame/Series`` that simulates the measured tests.
+    target : str
+        The measured target column (e.g. ``"dz_um"``).
+    ambient : str, optional
+        The ambient air temperature column.
+    drivers : sequence of str
+        Operating drivers (e.g. ``"spindle_rpm"``, ``"feed_mm_min"``), zero
+        when off.
+    sensors : sequence of str
+        Temperature sensor columns.
+    effects : sequence of str, optional
+        Effects to try; all of ``greyml.gap.EFFECTS`` by default.
+    random_state : int, Generator or None
+        Seeds the placebos.
+    fbgs : sequence of str
+        FBG columns; ``fbg_temperature`` is tried when the target is one.
+    max_effects : int, default=3
+        Most effects added.
+    n_placebo : int, default=39
+        Placebo fits per effect and step (39: an effect must beat all of them,
+        a one-sided 2.5 % level).
+    min_shrinkage : float, default=0.05
+        Smallest held-out shrinkage that can count as an effect.
+    tie_tolerance : float, default=0.02
+        Effects whose held-out shrinkage is within this of the best are
+        reported as indistinguishable from it.
+    recalibrate : bool, default=True
+        Refit the simulation's own gain and timing (r ≈ a·s + b·(s − L_τ[s]))
+        before trying any effect, so that parameters a few percent off are not
+        taken for an unmodelled effect. The effects are then scored against
+        the recalibrated simulation (``rmse_recalibrated``).
+
+    Returns
+    -------
+    GapReport
+    """
+    if effects is None:
+        effects = EFFECTS
+    effects = _as_names(effects, "effects")
+    unknown = [e for e in effects if e not in EFFECTS]
+    if unknown:
+        raise ValueError(f"Unknown effect(s) {unknown}; the effects are {list(EFFECTS)}.")
+    ctx = build_context(
+        real, sim, target=target, ambient=ambient, drivers=drivers, sensors=sensors, fbgs=fbgs
+    )
+    rng = make_generator(random_state)
+    candidates, skipped = build_candidates(ctx, effects)
+    n = len(ctx.r)
+    base = [np.zeros((n, 0)) for _ in ctx.bounds]
+    before = evaluate(ctx.r, base, None, [()], ctx.bounds)
+    initial = before
+    recalibrated = None
+    if recalibrate:
+        cand = recalibration_candidate(ctx)
+        recalibrated = evaluate(ctx.r, base, cand.make, cand.settings, ctx.bounds)
+        base = fold_design(cand.make, recalibrated.choices)
+        before = recalibrated
+    floor = noise_floor(ctx.r, ctx.bounds)
+
+    rows, steps, named = [], [], []
+    remaining = list(candidates)
+    while remaining:
+        scored = []
+        for cand in remaining:
+            ev = evaluate(ctx.r, base, cand.make, cand.settings, ctx.bounds)
+            shrink = 1.0 - ev.rmse / before.rmse
+            scored.append((shrink, cand, ev))
+        scored.sort(key=lambda s: -s[0])
+        best_shrink, best, best_ev = scored[0]
+        placebo = _placebo_improvements(ctx, base, before, best, rng, n_placebo)
+        threshold = max(min_shrinkage, float(placebo.max()))
+        significant = best_shrink > threshold and len(named) < max_effects
+        ties = [c.effect for s, c, _ in scored[1:] if best_shrink - s <= tie_tolerance]
+        step = {
+            "step": len(steps) + 1,
+            "rmse_before": before.rmse,
+            "peak_before": before.peak,
+            "scored": scored,
+            "threshold": threshold,
+            "placebo_max": float(placebo.max()),
+            "significant": significant,
+            "ties": ties if significant else [],
+        }
+        steps.append(step)
+        if not significant:
+            break
+        named.append((best, best_ev, step))
+        base = [np.hstack([b, d]) for b, d in zip(base, fold_design(best.make, best_ev.choices))]
+        before = best_ev
+        remaining = [c for c in remaining if c is not best]
+
+    for best, ev, step in named:
+        shrink = 1.0 - ev.rmse / step["rmse_before"]
+        detail = best.describe(best.variants[ev.variant], ev.tau)
+        if step["ties"]:
+            detail += f"; indistinguishable from {', '.join(step['ties'])}"
+        rows.append(
+            {
+                "effect": best.effect,
+                "detail": detail,
+                "rmse_before": step["rmse_before"],
+                "rmse_after": ev.rmse,
+                "shrinkage": shrink,
+                "significant": True,
+                "step": step["step"],
+                "placebo_shrinkage": step["placebo_max"],
+                "peak_before": step["peak_before"],
+                "peak_after": ev.peak,
+            }
+        )
+    last = steps[-1] if steps else None
+    if last is not None and not last["significant"]:
+        for shrink, cand, ev in last["scored"]:
+            rows.append(
+                {
+                    "effect": cand.effect,
+                    "detail": cand.describe(cand.variants[ev.variant], ev.tau),
+                    "rmse_before": last["rmse_before"],
+                    "rmse_after": ev.rmse,
+                    "shrinkage": shrink,
+                    "significant": False,
+                    "step": 0,
+                    "placebo_shrinkage": last["placebo_max"]
+                    if cand is last["scored"][0][1]
+                    else np.nan,
+                    "peak_before": last["peak_before"],
+                    "peak_after": ev.peak,
+                }
+            )
+    for effect, why in skipped.items():
+        rows.append(
+            {
+                "effect": effect,
+                "detail": f"not tried: {why}",
+                "rmse_before": np.nan,
+                "rmse_after": np.nan,
+                "shrinkage": np.nan,
+                "significant": False,
+                "step": 0,
+                "placebo_shrinkage": np.nan,
+                "peak_before": np.nan,
+                "peak_after": np.nan,
+            }
+        )
+    causes = pd.DataFrame(rows, columns=_CAUSE_COLUMNS)
+    final = before
+    r_series = pd.Series(ctx.r, index=ctx.index, name="gap")
+    signals = {}
+    for name, values in (
+        *zip(ctx.driver_names, ctx.drivers.T),
+        *([(ctx.ambient_name, ctx.ambient)] if ctx.ambient is not None else []),
+        *zip(ctx.sensor_names, ctx.sensors.T),
+    ):
+        signals[name] = values
+    drivers_frame = pd.DataFrame(dict(zip(ctx.driver_names, ctx.drivers.T)), index=ctx.index)
+    where = gap_breakdown(r_series, drivers=drivers_frame if ctx.driver_names else None)
+    whiteness, xcorr = residual_diagnostics(r_series, pd.DataFrame(signals, index=ctx.index))
+    return GapReport(
+        target=target,
+        where=where,
+        causes=causes,
+        cause=named[0][0].effect if named else None,
+        named=[b.effect for b, _, _ in named],
+        rmse_before=initial.rmse,
+        rmse_recalibrated=recalibrated.rmse if recalibrated is not None else np.nan,
+        rmse_after=final.rmse,
+        peak_before=initial.peak,
+        peak_after=final.peak,
+        noise_floor=floor,
+        whiteness=whiteness,
+        cross_correlation=xcorr,
+        gap=r_series,
+        corrected=pd.Series(final.held_out, index=ctx.index, name="gap_after"),
+        descriptions={e: DESCRIPTIONS[e] for e in EFFECTS},
+    )
+
+
+_CAUSE_COLUMNS = [
+    "effect",
+    "detail",
+    "rmse_before",
+    "rmse_after",
+    "shrinkage",
+    "significant",
+    "step",
+    "placebo_shrinkage",
+    "peak_before",
+    "peak_after",
+]
