@@ -146,6 +146,13 @@ class AccumulatedTargetRegressor(RegressorMixin, BaseEstimator):
     that row and the row before it in the same test, so it depends on the
     previous row: predict whole tests, as for every grey model.
 
+    The regressor's intercept survives the differencing only on each test's
+    first row. So behind :class:`AGO`, a constant offset in the target (which
+    accumulates to a ramp c·k) is fitted only as far as the accumulated
+    inputs can mimic a ramp, as in GM(1,N), which has no constant term
+    either. Measure the target from each test's start, or add a column of
+    ones before ``AGO`` if the target carries an offset.
+
     Examples
     --------
     >>> import pandas as pd

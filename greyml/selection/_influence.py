@@ -11,6 +11,7 @@ from sklearn.utils.validation import check_is_fitted
 
 from greyml._rng import make_generator
 from greyml._sequences import keep_test_index
+from greyml._threads import blas_threads_for
 from greyml._validation import (
     check_int_param,
     check_real_param,
@@ -216,7 +217,9 @@ class GreyInfluenceSelector(SelectorMixin, BaseEstimator):
         scale = np.mean(np.abs(ya))
         yn = ya / scale if scale > 0 else ya
         bounds = [(s.start, s.stop) for s in segments]
-        a, b, rank, _ = gm1n_lstsq(yn, Xn, bounds)
+        # an SVD of (n × p): small, so one BLAS thread (see greyml._threads)
+        with blas_threads_for(Xn.size * n_features):
+            a, b, rank, _ = gm1n_lstsq(yn, Xn, bounds)
         if rank < n_features + 1:
             warnings.warn(
                 f"GM(1,N) system of GreyInfluenceSelector is rank deficient (rank {rank} "
