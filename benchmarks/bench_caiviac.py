@@ -61,7 +61,6 @@ MISS, not enforced.
 from __future__ import annotations
 
 import argparse
-import json
 import platform
 import sys
 import time
@@ -70,6 +69,7 @@ from collections import Counter
 
 import numpy as np
 from _common import package_versions as _package_versions
+from _common import write_json
 
 TARGET = "ch1_um"
 REFERENCE = "cycle"
@@ -456,27 +456,19 @@ def main(argv=None):
         + ", ".join(f"{k} {v}" for k, v in versions().items() if v)
     )
     if args.json:
-        results = {
-            "records": records,
-            "summary": summ,
-            "hindsight": bound,
-            "meta": {
-                "target": args.target,
-                "reference": args.reference,
-                "step": args.step,
-                "n_rows": len(X),
-                "n_configs": n_configs,
-                "elapsed_s": elapsed,
-                "n_jobs": args.jobs,
-                "python": platform.python_version(),
-                "platform": platform.platform(),
-                "versions": versions(),
-                "argv": sys.argv[1:] if argv is None else list(argv),
-            },
-        }
-        with open(args.json, "w", encoding="utf-8") as fh:
-            json.dump(results, fh, indent=1, default=float)
-        print(f"wrote {args.json}")
+        write_json(
+            args.json,
+            {"records": records, "summary": summ, "hindsight": bound},
+            packages=PACKAGES,
+            argv=argv,
+            target=args.target,
+            reference=args.reference,
+            step=args.step,
+            n_rows=len(X),
+            n_configs=n_configs,
+            elapsed_s=elapsed,
+            n_jobs=args.jobs,
+        )
     return 0
 
 

@@ -24,12 +24,11 @@ Run: ``python benchmarks/bench_model_search.py [--jobs 2] [--json out.json]``
 from __future__ import annotations
 
 import argparse
-import json
 import platform
 import time
 
 import numpy as np
-from _common import package_versions
+from _common import package_versions, write_json
 from sklearn.linear_model import LinearRegression, Ridge, RidgeCV
 from sklearn.model_selection import GridSearchCV, LeaveOneGroupOut, cross_validate
 from sklearn.pipeline import Pipeline, make_pipeline
@@ -214,18 +213,14 @@ def main(argv=None):
     print(f"\nRidge-on-76 mean RMSE / best pipeline mean RMSE: {ratio:.2f}")
 
     if args.json:
-        with open(args.json, "w") as fh:
-            json.dump(
-                {
-                    "wall_s": wall,
-                    "n_jobs": args.jobs,
-                    "candidates": rows,
-                    "best": _label(gs.best_params_),
-                    "references": ref_out,
-                },
-                fh,
-                indent=2,
-            )
+        write_json(
+            args.json,
+            {"candidates": rows, "best": _label(gs.best_params_), "references": ref_out},
+            packages=["greyml", "numpy", "scipy", "scikit-learn", "scikit-fuzzy"],
+            argv=argv,
+            wall_s=wall,
+            n_jobs=args.jobs,
+        )
 
 
 if __name__ == "__main__":

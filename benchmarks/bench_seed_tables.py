@@ -78,7 +78,6 @@ test is meaningless however well it fitted the training tests.
 from __future__ import annotations
 
 import argparse
-import json
 import platform
 import sys
 import time
@@ -89,6 +88,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 from _common import package_versions as _package_versions
+from _common import write_json
 
 # -- (a) seed 001 on the VMC -----------------------------------------------------
 VMC_TARGET = "dy_um"
@@ -717,18 +717,15 @@ def main(argv=None):
         + ", ".join(f"{k} {v}" for k, v in versions().items() if v)
     )
     if args.json:
-        results["meta"] = {
-            "elapsed_s": elapsed,
-            "threads": args.threads,
-            "seeds": args.seeds,
-            "python": platform.python_version(),
-            "platform": platform.platform(),
-            "versions": versions(),
-            "argv": sys.argv[1:] if argv is None else list(argv),
-        }
-        with open(args.json, "w", encoding="utf-8") as fh:
-            json.dump(results, fh, indent=1, default=float)
-        print(f"wrote {args.json}")
+        write_json(
+            args.json,
+            results,
+            packages=PACKAGES,
+            argv=argv,
+            elapsed_s=elapsed,
+            threads=args.threads,
+            seeds=args.seeds,
+        )
     return 0
 
 
