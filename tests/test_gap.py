@@ -121,6 +121,8 @@ def test_bad_inputs_say_what_is_wrong():
         diagnose_gap(bad, sim, target="dz_um", ambient="ambient_C")
     with pytest.raises(ValueError, match="at least 2 tests"):
         diagnose_gap(real.loc[["test1"]], sim.loc[["test1"]], target="dz_um")
+    with pytest.raises(ValueError, match="Test 'test2' has 5 rows; diagnose_gap needs at least 10"):
+        diagnose_gap(real.iloc[:405], sim, target="dz_um")
     with pytest.raises(ValueError, match="Unknown effect"):
         diagnose_gap(real, sim, target="dz_um", effects=["gravity"])
     before = real.copy()

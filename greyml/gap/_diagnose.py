@@ -10,6 +10,7 @@ import pandas as pd
 
 from greyml._rng import make_generator
 from greyml._sequences import segment_label, test_segments
+from greyml._validation import _upper_first
 from greyml.gap._effects import (
     DESCRIPTIONS,
     EFFECTS,
@@ -144,7 +145,7 @@ def build_context(real, sim, *, target, ambient, drivers, sensors, fbgs):
     small = [s for s in segments if s.n < 10]
     if small:
         raise ValueError(
-            f"{segment_label(small[0]).capitalize()} has {small[0].n} rows; diagnose_gap "
+            f"{_upper_first(segment_label(small[0]))} has {small[0].n} rows; diagnose_gap "
             "needs at least 10 per test."
         )
     index = real.index

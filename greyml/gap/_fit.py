@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["FoldChoice", "Evaluation", "evaluate", "placebo_walks"]
+__all__ = ["FoldChoice", "Evaluation", "evaluate", "fold_design", "placebo_walks"]
 
 _JITTER = 1e-10
 
