@@ -75,6 +75,11 @@ def bunch_from_frame(frame, *, sensors, targets, sensor_groups, description, inp
     )
 
 
+def main_target(machine) -> str:
+    """The machine's main displacement: ``dy_um`` for the VMC of seed 001, else ``dz_um``."""
+    return "dy_um" if _machine(machine).name == "vmc" else "dz_um"
+
+
 def _X_y(bunch, target):
     if target not in bunch.targets:
         raise ValueError(f"target must be one of {bunch.targets}; got {target!r}.")
@@ -228,7 +233,7 @@ def make_tests(
         inputs=[*m.inputs, "ambient_C"],
     )
     if return_X_y:
-        return _X_y(bunch, target or ("dy_um" if m.name == "vmc" else "dz_um"))
+        return _X_y(bunch, target or main_target(m))
     return bunch
 
 

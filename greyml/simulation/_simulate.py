@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, fields, replace
+from functools import lru_cache
 
 import numpy as np
 import pandas as pd
@@ -170,14 +171,31 @@ def _node_power(machine, programme, starts, extra):
     return P
 
 
+@lru_cache(maxsize=64)
+def _zoh_cached(a_bytes, a_shape, b_bytes, b_shape, h):
+    A = np.frombuffer(a_bytes).reshape(a_shape)
+    B = np.frombuffer(b_bytes).reshape(b_shape)
+    Phi, Gamma = zoh_discretize(A, B, h)
+    Phi.setflags(write=False)
+    Gamma.setflags(write=False)
+    return Phi, Gamma
+
+
 def _discretise(A, B, steps):
-    """One matrix exponential per distinct step length."""
+    """One matrix exponential per distinct step length (remembered across calls).
+
+    Every test of a machine shares A and B, and most share the sampling
+    interval, so the exponentials are cached by (A, B, step).
+    """
     rounded = np.round(steps, 9)
     lengths, kinds = np.unique(rounded, return_inverse=True)
     Phi = np.empty((len(lengths), A.shape[0], A.shape[0]))
     Gamma = np.empty((len(lengths), A.shape[0], B.shape[1]))
+    a = np.ascontiguousarray(A, dtype=float)
+    b = np.ascontiguousarray(B, dtype=float)
+    key = (a.tobytes(), a.shape, b.tobytes(), b.shape)
     for k, h in enumerate(lengths):
-        Phi[k], Gamma[k] = zoh_discretize(A, B, h)
+        Phi[k], Gamma[k] = _zoh_cached(*key, float(h))
     return Phi, Gamma, kinds
 
 
