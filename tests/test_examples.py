@@ -4,6 +4,7 @@ import runpy
 import time
 from pathlib import Path
 
+import pandas as pd
 import pytest
 
 EXAMPLES = sorted((Path(__file__).parent.parent / "examples").glob("*.py"))
@@ -15,7 +16,11 @@ def test_example_runs(path, tmp_path, monkeypatch, capsys):
     monkeypatch.setenv("GREYML_EXAMPLE_OUT", str(tmp_path))
     monkeypatch.chdir(tmp_path)
     start = time.perf_counter()
-    runpy.run_path(str(path), run_name="__main__")
+    # an example may set pandas display options for its own printing; they are
+    # restored afterwards so that they cannot leak into other tests' doctests
+    kept = ["display.width", "display.float_format", "display.max_columns"]
+    with pd.option_context(*[x for name in kept for x in (name, pd.get_option(name))]):
+        runpy.run_path(str(path), run_name="__main__")
     assert time.perf_counter() - start < 60
     import matplotlib.pyplot as plt
 

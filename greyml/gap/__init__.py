@@ -1,7 +1,33 @@
-"""Sim-to-real gap diagnosis: where the gap lies, which effect causes it, how far it shrinks."""
+"""Sim-to-real gap diagnosis: where a simulation misses and which effect it lacks."""
 
 from greyml.gap._diagnose import diagnose_gap
 from greyml.gap._effects import DESCRIPTIONS, EFFECTS
 from greyml.gap._report import GapReport
+from greyml.gap._validate import (
+    WITHHELD,
+    WithheldCase,
+    WithheldValidation,
+    perturb_parameters,
+    random_tests,
+    simulator_sensitivities,
+    validate_withheld,
+    withheld_case,
+)
+from greyml.gap._where import gap_breakdown, residual_diagnostics
 
-__all__ = ["DESCRIPTIONS", "EFFECTS", "GapReport", "diagnose_gap"]
+__all__ = [
+    "DESCRIPTIONS",
+    "EFFECTS",
+    "GapReport",
+    "WITHHELD",
+    "WithheldCase",
+    "WithheldValidation",
+    "diagnose_gap",
+    "gap_breakdown",
+    "perturb_parameters",
+    "random_tests",
+    "residual_diagnostics",
+    "simulator_sensitivities",
+    "validate_withheld",
+    "withheld_case",
+]

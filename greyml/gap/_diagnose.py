@@ -18,9 +18,9 @@ from greyml.gap._effects import (
     build_candidates,
     recalibration_candidate,
 )
-from greyml.gap._fit import evaluate, fold_design, placebo_walks
+from greyml.gap._fit import evaluate, fit_recalibration, fold_design, placebo_walks
 from greyml.gap._report import GapReport
-from greyml.gap._where import gap_breakdown, residual_diagnostics
+from greyml.gap._where import _sampling_interval, gap_breakdown, residual_diagnostics
 from greyml.io import check_test_frame, read_tests_csv
 
 __all__ = ["diagnose_gap", "GapContext"]
@@ -79,31 +79,43 @@ def _sim_series(sim, real, target):
             )
     frame = _read(sim, "The simulation")
     if target in frame.columns:
-        column = frame[target]
+        column = frame[[target]]
     elif frame.shape[1] == 1:
-        column = frame.iloc[:, 0]
+        column = frame.iloc[:, :1]
     else:
         raise ValueError(
             f"The simulation has no column {target!r} (its columns: {list(frame.columns)}); "
             "name the simulated target like the measured one."
         )
-    if column.index.has_duplicates:
-        dup = column.index[column.index.duplicated()][0]
-        raise ValueError(f"The simulation has the row (test, time_s) = {dup} more than once.")
+    return _on_measured_rows(column, real, "The simulation")[:, 0]
+
+
+def _on_measured_rows(frame, real, what):
+    """The rows of ``frame`` at the measured (test, time_s) rows, as an array."""
+    if frame.index.has_duplicates:
+        dup = frame.index[frame.index.duplicated()][0]
+        raise ValueError(f"{what} has the row (test, time_s) = {dup} more than once.")
     keys = real.index.droplevel([n for n in real.index.names if n not in ("test", "time_s")])
-    sim_keys = column.index.droplevel(
-        [n for n in column.index.names if n not in ("test", "time_s")]
-    )
-    column = pd.Series(column.to_numpy(dtype=float), index=sim_keys)
-    missing = ~keys.isin(sim_keys)
+    own = frame.index.droplevel([n for n in frame.index.names if n not in ("test", "time_s")])
+    frame = pd.DataFrame(frame.to_numpy(dtype=float), index=own, columns=frame.columns)
+    missing = ~keys.isin(own)
     if missing.any():
         first = keys[np.flatnonzero(missing)[0]]
         raise ValueError(
-            f"The simulation does not cover {int(missing.sum())} of the {len(keys)} measured "
+            f"{what} does not cover {int(missing.sum())} of the {len(keys)} measured "
             f"rows; the first is test {first[0]!r} at time_s={first[1]:g}. Simulate every "
             "measured (test, time_s) row."
         )
-    return column.reindex(keys).to_numpy()
+    return frame.reindex(keys).to_numpy()
+
+
+def _sensitivity_design(sensitivities, real, index, segments):
+    """The sensitivities on the measured rows (n, p), checked."""
+    frame = _read(sensitivities, "The sensitivities")
+    values = _on_measured_rows(frame, real, "The sensitivities")
+    for j, name in enumerate(frame.columns):
+        _finite(values[:, j], f"Sensitivity {name!r}", index, segments)
+    return values, [str(c) for c in frame.columns]
 
 
 def _finite(values, name, index, segments):
@@ -155,10 +167,8 @@ def build_context(real, sim, *, target, ambient, drivers, sensors, fbgs):
     t_s = np.empty(len(real))
     for seg in segments:
         tt = time[seg.slice]
-        steps = np.diff(tt)
-        if np.any(steps <= 0):
-            raise ValueError(f"time_s does not increase within {segment_label(seg)}.")
-        dt.append(float(np.median(steps)))
+        # lags and frequency bands need even sampling: checked before any search
+        dt.append(_sampling_interval(tt, seg))
         t_s[seg.slice] = tt - tt[0]
         durations.append(float(tt[-1] - tt[0]))
     columns = {}
@@ -203,7 +213,7 @@ def noise_floor(r, bounds):
     return float(mad / 0.6745 / np.sqrt(2.0))
 
 
-def _placebo_improvements(ctx, base, before, cand, rng, n_placebo):
+def _placebo_improvements(ctx, base, before, cand, rng, n_placebo, recal=None):
     """Held-out shrinkage of random-walk signatures as free as the candidate.
 
     Each placebo has as many variants, features and time-constant settings as
@@ -225,7 +235,7 @@ def _placebo_improvements(ctx, base, before, cand, rng, n_placebo):
             def make(setting, walks=walks):
                 return walks
 
-        ev = evaluate(ctx.r, base, make, cand.settings, ctx.bounds)
+        ev = evaluate(ctx.r, base, make, cand.settings, ctx.bounds, recal=recal)
         out[p] = 1.0 - ev.rmse / before.rmse
     return out
 
@@ -246,6 +256,8 @@ def diagnose_gap(
     min_shrinkage=0.05,
     tie_tolerance=0.02,
     recalibrate=True,
+    sensitivities=None,
+    tolerance=0.1,
 ):
     """Locate the gap between a simulation and measured tests and name its cause.
 
@@ -293,10 +305,23 @@ def diagnose_gap(
         Effects whose held-out shrinkage is within this of the best are
         reported as indistinguishable from it.
     recalibrate : bool, default=True
-        Refit the simulation's own gain and timing (r ≈ a·s + b·(s − L_τ[s]))
-        before trying any effect, so that parameters a few percent off are not
-        taken for an unmodelled effect. The effects are then scored against
-        the recalibrated simulation (``rmse_recalibrated``).
+        Refit the simulation's own parameters within ``tolerance``, so that
+        parameters a few percent off are not taken for an unmodelled effect.
+        With ``sensitivities``, those parameters; without, the simulation's
+        gain and timing (r ≈ a·s + b·(s − L_τ[s]), |a|, |b| ≤ tolerance).
+        They are fitted together with every effect (bounded least squares);
+        ``rmse_recalibrated`` is the held-out gap after the recalibration
+        alone. A recalibration that does not shrink the held-out gap is not
+        kept.
+    sensitivities : DataFrame or path, optional
+        The simulation's sensitivities to its uncertain parameters on the
+        same (test, time_s) rows: one column per parameter, the change of the
+        simulated target for a relative change of 1 in it (∂s/∂ln θ; a finite
+        difference at +1 % divided by 0.01 will do).
+    tolerance : float, default=0.1
+        How far the simulation's parameters may be off (relative): the
+        recalibration keeps every relative change within ±tolerance. What
+        needs more is left for an unmodelled effect to explain.
 
     Returns
     -------
@@ -304,10 +329,15 @@ def diagnose_gap(
     """
     if effects is None:
         effects = EFFECTS
-    effects = _as_names(effects, "effects")
+    effects = list(dict.fromkeys(_as_names(effects, "effects")))
     unknown = [e for e in effects if e not in EFFECTS]
     if unknown:
         raise ValueError(f"Unknown effect(s) {unknown}; the effects are {list(EFFECTS)}.")
+    if not (isinstance(max_effects, (int, np.integer)) and max_effects >= 1):
+        raise ValueError(f"max_effects must be an integer >= 1; got {max_effects!r}.")
+    if not (isinstance(tolerance, (int, float)) and 0 <= tolerance < np.inf):
+        raise ValueError(f"tolerance must be a finite number >= 0; got {tolerance!r}.")
+    real = _read(real, "The measured data")
     ctx = build_context(
         real, sim, target=target, ambient=ambient, drivers=drivers, sensors=sensors, fbgs=fbgs
     )
@@ -317,12 +347,32 @@ def diagnose_gap(
     base = [np.zeros((n, 0)) for _ in ctx.bounds]
     before = evaluate(ctx.r, base, None, [()], ctx.bounds)
     initial = before
-    recalibrated = None
+    recalibrated = recal = None
+    recal_detail = "not recalibrated"
     if recalibrate:
-        cand = recalibration_candidate(ctx)
-        recalibrated = evaluate(ctx.r, base, cand.make, cand.settings, ctx.bounds)
-        base = fold_design(cand.make, recalibrated.choices)
-        before = recalibrated
+        if sensitivities is not None:
+            S, names = _sensitivity_design(sensitivities, real, ctx.index, test_segments(real))
+            recal = fit_recalibration(ctx.r, lambda s: S, [()], ctx.bounds, tolerance)
+            mean = np.mean(recal.theta, axis=0)
+            recal_detail = "parameters refitted within ±{:.0%}: {}".format(
+                tolerance, ", ".join(f"{c} {m:+.1%}" for c, m in zip(names, mean))
+            )
+        else:
+            cand = recalibration_candidate(ctx)
+            recal = fit_recalibration(
+                ctx.r, lambda s: cand.make(s)[:, 0, :], cand.settings, ctx.bounds, tolerance
+            )
+            gain, lead = np.mean(recal.theta, axis=0)
+            recal_detail = (
+                f"gain {gain:+.1%} and timing {lead:+.1%} of the simulation refitted "
+                f"within ±{tolerance:.0%}"
+            )
+        recalibrated = evaluate(ctx.r, base, None, [()], ctx.bounds, recal=recal)
+        if recalibrated.rmse < before.rmse:
+            before = recalibrated
+        else:  # it does not carry over to held-out tests: the simulation is kept as it is
+            recal = None
+            recal_detail = f"not kept ({recal_detail}: held-out RMSE {recalibrated.rmse:.3g})"
     floor = noise_floor(ctx.r, ctx.bounds)
 
     rows, steps, named = [], [], []
@@ -330,12 +380,12 @@ def diagnose_gap(
     while remaining:
         scored = []
         for cand in remaining:
-            ev = evaluate(ctx.r, base, cand.make, cand.settings, ctx.bounds)
+            ev = evaluate(ctx.r, base, cand.make, cand.settings, ctx.bounds, recal=recal)
             shrink = 1.0 - ev.rmse / before.rmse
             scored.append((shrink, cand, ev))
         scored.sort(key=lambda s: -s[0])
         best_shrink, best, best_ev = scored[0]
-        placebo = _placebo_improvements(ctx, base, before, best, rng, n_placebo)
+        placebo = _placebo_improvements(ctx, base, before, best, rng, n_placebo, recal)
         threshold = max(min_shrinkage, float(placebo.max()))
         significant = best_shrink > threshold and len(named) < max_effects
         ties = [c.effect for s, c, _ in scored[1:] if best_shrink - s <= tie_tolerance]
@@ -440,6 +490,7 @@ def diagnose_gap(
         gap=r_series,
         corrected=pd.Series(final.held_out, index=ctx.index, name="gap_after"),
         descriptions={e: DESCRIPTIONS[e] for e in EFFECTS},
+        recalibration=recal_detail if recalibrate else "",
     )
 
 

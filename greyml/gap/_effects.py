@@ -225,20 +225,25 @@ def build_candidates(ctx, effects, max_sensor_lag_s=3600.0):
             if ctx.ambient is None or ctx.sensors.shape[1] == 0:
                 skipped[effect] = "needs sensors and the ambient column"
                 continue
-            offset = _per_test_start(ctx.sensors.mean(axis=1) - ctx.ambient, bounds)
+            # how far each sensor (and their mean) starts from the air: the
+            # state the test starts in, as far as the sensors see it
+            start = ctx.sensors - ctx.ambient[:, None]
+            start = np.column_stack([start.mean(axis=1), start])
+            offset = _per_test_start(start, bounds)
+            names = ["mean sensor"] + list(ctx.sensor_names)
 
             def relax(setting, offset=offset):
-                return np.stack([offset * -np.expm1(-t / tau) for tau in setting], axis=1)[
-                    :, None, :
-                ]
+                return np.stack(
+                    [offset * -np.expm1(-t / tau)[:, None] for tau in setting], axis=2
+                )
 
             out.append(
                 Candidate(
                     effect,
-                    ["mean sensor − air at the start"],
+                    names,
                     two_lags(grid),
                     relax,
-                    lambda v, s: f"start offset ({v}) relaxing with {_taus(s)}",
+                    lambda v, s: f"start offset of {v} from the air relaxing with {_taus(s)}",
                     2,
                 )
             )

@@ -13,8 +13,18 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.optimize import lsq_linear
 
-__all__ = ["FoldChoice", "Evaluation", "evaluate", "fold_design", "placebo_walks"]
+__all__ = [
+    "FoldChoice",
+    "Evaluation",
+    "Recalibration",
+    "box_solve",
+    "evaluate",
+    "fit_recalibration",
+    "fold_design",
+    "placebo_walks",
+]
 
 _JITTER = 1e-10
 
@@ -49,7 +59,127 @@ def _solve(G, g):
     return np.linalg.solve(A, g[..., None])[..., 0]
 
 
-def evaluate(r, base, make, settings, bounds):
+@dataclass
+class Recalibration:
+    """The simulation's own parameters, refitted within a tolerance.
+
+    ``designs[f]`` (n, p) is fold f's design of relative parameter changes
+    (its columns: the change of the simulated target per unit relative change
+    of each parameter); ``theta[f]`` their fit on fold f's calibration tests
+    alone; every coefficient is kept within ±``tolerance``.
+    """
+
+    designs: list
+    theta: list
+    tolerance: float
+    settings: list  # the setting each fold chose (for reporting)
+
+
+def box_solve(G, g, n_bounded, tolerance):
+    """Minimise xᵀGx − 2gᵀx with |x[:n_bounded]| ≤ tolerance (the rest free).
+
+    Exact least squares when the free solution keeps the bounds; otherwise a
+    bounded least-squares problem on the Cholesky factor of ``G`` (K × K, so
+    it costs nothing next to forming ``G``).
+    """
+    K = G.shape[0]
+    x = _solve(G, g)
+    if n_bounded == 0 or np.all(np.abs(x[:n_bounded]) <= tolerance):
+        return x
+    scale = np.trace(G) / max(K, 1)
+    A = G + _JITTER * (scale if scale > 0 else 1.0) * np.eye(K)
+    L = np.linalg.cholesky(A)
+    c = np.linalg.solve(L, g)
+    lo = np.full(K, -np.inf)
+    hi = np.full(K, np.inf)
+    lo[:n_bounded], hi[:n_bounded] = -tolerance, tolerance
+    return lsq_linear(L.T, c, bounds=(lo, hi), method="bvls").x
+
+
+def fit_recalibration(r, make, settings, bounds, tolerance):
+    """Fit the bounded recalibration alone on each fold's calibration tests.
+
+    ``make(setting)`` gives the (n, p) design for one setting (``settings``
+    lists them); each fold keeps the setting that fits its calibration tests
+    best.
+
+    Returns
+    -------
+    Recalibration
+    """
+    n = r.shape[0]
+    designs = {i: make(s) for i, s in enumerate(settings)}
+    out_d, out_t, out_s = [], [], []
+    for start, stop in bounds:
+        cal = np.ones(n, dtype=bool)
+        cal[start:stop] = False
+        rc = r[cal]
+        best = (np.inf, None, None)
+        for i, D in designs.items():
+            Dc = D[cal]
+            G, g = Dc.T @ Dc, Dc.T @ rc
+            theta = box_solve(G, g, D.shape[1], tolerance)
+            sse = rc @ rc - 2 * theta @ g + theta @ G @ theta
+            if sse < best[0]:
+                best = (sse, i, theta)
+        _, i, theta = best
+        out_d.append(designs[i])
+        out_t.append(theta)
+        out_s.append(settings[i])
+    return Recalibration(out_d, out_t, tolerance, out_s)
+
+
+def _select(tensors, grams, B, rz, cal, f, bounds):
+    """The (setting, variant) that best fits ``rz`` on the calibration rows.
+
+    ``tensors[i]`` is (n, V, k); ``grams[i]`` holds its (V·k)² cross products
+    over all rows and per test, so the calibration tests' products are the
+    total minus the held-out test's. ``B`` is the fold's base design, ``rz``
+    the gap with the held-out rows zeroed.
+    """
+    start, stop = bounds[f]
+    Bz = B * cal[:, None]
+    BB, Br = Bz.T @ B, Bz.T @ rz
+    kb = B.shape[1]
+    rr = rz @ rz
+    best = (np.inf, 0, 0, None)
+    for i, X in enumerate(tensors):
+        if X is None:
+            coef = _solve(BB, Br) if kb else np.zeros(0)
+            return (rr - coef @ Br, i, 0, coef)
+        n, V, k = X.shape
+        W = X.reshape(n, V * k)
+        total, per_test = grams[i]
+        WW = (total - per_test[f]).reshape(V, k, V, k)
+        G = np.empty((V, kb + k, kb + k))
+        G[:, :kb, :kb] = BB
+        BX = (Bz.T @ W).reshape(kb, V, k).transpose(1, 0, 2)
+        G[:, :kb, kb:] = BX
+        G[:, kb:, :kb] = np.swapaxes(BX, 1, 2)
+        idx = np.arange(V)
+        G[:, kb:, kb:] = WW[idx, :, idx, :]
+        g = np.empty((V, kb + k))
+        g[:, :kb] = Br
+        g[:, kb:] = (W.T @ rz).reshape(V, k)
+        coef = _solve(G, g)
+        sse = rr - np.einsum("vk,vk->v", coef, g)
+        v = int(np.argmin(sse))
+        if sse[v] < best[0]:
+            best = (sse[v], i, v, coef[v])
+    return best
+
+
+def _grams(X, bounds):
+    """Cross products of the (n, V·k) signatures: over all rows and per test."""
+    if X is None:
+        return None
+    n, V, k = X.shape
+    W = X.reshape(n, V * k)
+    per_test = [W[a:b].T @ W[a:b] for a, b in bounds]
+    return W.T @ W, per_test
+
+
+def evaluate(r, base, make, settings, bounds, recal=None, max_rounds=3):
     """Leave-one-test-out score of ``base`` + one candidate.
 
     Parameters
@@ -66,6 +196,13 @@ def evaluate(r, base, make, settings, bounds):
         candidate has none).
     bounds : list of (start, stop)
         The tests; fold f holds test f out.
+    recal : Recalibration, optional
+        The simulation's own parameters, kept within their tolerance. They,
+        the base and the candidate are fitted together (bounded least
+        squares); the candidate's setting and variant are chosen on the gap
+        the parameters leave, alternating until the choice settles (at most
+        ``max_rounds`` times).
+    max_rounds : int, default=3
 
     Returns
     -------
@@ -76,40 +213,34 @@ def evaluate(r, base, make, settings, bounds):
     choices = []
     tensors = [make(s) for s in settings] if make is not None else [None]
     settings = list(settings) if make is not None else [()]
+    grams = [_grams(X, bounds) for X in tensors]
     for f, (start, stop) in enumerate(bounds):
         cal = np.ones(n, dtype=bool)
         cal[start:stop] = False
         B = base[f]
-        Bc, rc = B[cal], r[cal]
-        BB, Br = Bc.T @ Bc, Bc.T @ rc
-        kb = B.shape[1]
-        best = (np.inf, 0, 0, None)
-        for i, X in enumerate(tensors):
-            if X is None:
-                coef = _solve(BB, Br) if kb else np.zeros(0)
-                best = (rc @ rc - coef @ Br, i, 0, coef)
-                continue
-            Xc = X[cal]
-            V, k = X.shape[1], X.shape[2]
-            G = np.empty((V, kb + k, kb + k))
-            G[:, :kb, :kb] = BB
-            BX = np.einsum("nb,nvk->vbk", Bc, Xc)
-            G[:, :kb, kb:] = BX
-            G[:, kb:, :kb] = np.swapaxes(BX, 1, 2)
-            G[:, kb:, kb:] = np.einsum("nvk,nvl->vkl", Xc, Xc)
-            g = np.empty((V, kb + k))
-            g[:, :kb] = Br
-            g[:, kb:] = np.einsum("nvk,n->vk", Xc, rc)
-            coef = _solve(G, g)
-            sse = rc @ rc - np.einsum("vk,vk->v", coef, g)
-            v = int(np.argmin(sse))
-            if sse[v] < best[0]:
-                best = (sse[v], i, v, coef[v])
-        _, i, v, coef = best
+        theta = None if recal is None else recal.theta[f]
+        picked = None
+        for _ in range(max_rounds if recal is not None else 1):
+            rf = r if recal is None else r - recal.designs[f] @ theta
+            _, i, v, coef = _select(tensors, grams, B, rf * cal, cal, f, bounds)
+            if recal is None or (i, v) == picked:
+                break
+            picked = (i, v)
+            X = tensors[i]
+            design = B if X is None else np.hstack([B, X[:, v, :]])
+            design = np.hstack([recal.designs[f], design])
+            Dc = design[cal]
+            p = recal.designs[f].shape[1]
+            coef = box_solve(Dc.T @ Dc, Dc.T @ r[cal], p, recal.tolerance)
+            theta = coef[:p]
+            joint = coef
+        if recal is not None:
+            (i, v), coef = picked, joint
         X = tensors[i]
-        design = B[start:stop]
-        if X is not None:
-            design = np.hstack([design, X[start:stop, v, :]])
+        design = B if X is None else np.hstack([B, X[:, v, :]])
+        if recal is not None:
+            design = np.hstack([recal.designs[f], design])
+        design = design[start:stop]
         pred = design @ coef if design.shape[1] else np.zeros(stop - start)
         held[start:stop] = r[start:stop] - pred
         choices.append(FoldChoice(settings[i], int(v), coef))

@@ -51,8 +51,11 @@ class GapReport:
         Held-out RMSE and peak |gap| of the simulation alone and with the
         named effects added.
     rmse_recalibrated : float
-        Held-out RMSE once the simulation's own gain and timing are refitted
-        (NaN with ``recalibrate=False``); the effects are scored from here.
+        Held-out RMSE once the simulation's own parameters (or gain and
+        timing) are refitted within their tolerance (NaN with
+        ``recalibrate=False``); the effects are scored from here.
+    recalibration : str
+        What the recalibration refitted, with the mean relative changes.
     noise_floor : float
         White-noise level of the gap (from its first differences).
     whiteness : dict
@@ -81,6 +84,7 @@ class GapReport:
     gap: pd.Series
     corrected: pd.Series
     descriptions: dict = field(default_factory=dict)
+    recalibration: str = ""
 
     @property
     def shrinkage(self):
@@ -98,6 +102,7 @@ class GapReport:
                 "where": self.where.to_dict(orient="records"),
                 "rmse_before": self.rmse_before,
                 "rmse_recalibrated": self.rmse_recalibrated,
+                "recalibration": self.recalibration,
                 "rmse_after": self.rmse_after,
                 "peak_before": self.peak_before,
                 "peak_after": self.peak_after,
@@ -117,6 +122,8 @@ class GapReport:
             f"Gap of {self.target}: held-out RMSE {self.rmse_before:.3g}, peak "
             f"{self.peak_before:.3g}; noise floor {self.noise_floor:.3g}."
         ]
+        if self.recalibration:
+            lines.append(f"Recalibrated ({self.recalibration}): RMSE {self.rmse_recalibrated:.3g}.")
         if self.cause is None:
             lines.append("No significant unmodelled effect.")
         else:
@@ -127,10 +134,14 @@ class GapReport:
                     f"(shrinkage {row['shrinkage']:.0%}, best placebo "
                     f"{row['placebo_shrinkage']:.0%})"
                 )
+            ratio = (
+                f" ({self.rmse_after / self.noise_floor:.1f}× the noise floor)"
+                if self.noise_floor > 0
+                else ""
+            )
             lines.append(
-                f"With {', '.join(self.named)} added: RMSE {self.rmse_after:.3g} "
-                f"({self.rmse_after / self.noise_floor:.1f}× the noise floor), peak "
-                f"{self.peak_after:.3g}."
+                f"With {', '.join(self.named)} added: RMSE {self.rmse_after:.3g}{ratio}, "
+                f"peak {self.peak_after:.3g}."
             )
         return "\n".join(lines)
 

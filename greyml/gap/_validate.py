@@ -1,0 +1,445 @@
+"""Checking the diagnosis where the answer is known: effects withheld from a simulation.
+
+greyml's simulator plays the real machine. The "real" data has every
+effect; the "simulation" is the same simulator with one or two effects
+switched off (and, optionally, its own parameters a few percent off). The
+diagnosis should name what was switched off, stay silent when nothing was,
+and shrink the gap nearly as far as adding the true effect back would.
+
+The diagnosis itself never sees anything of this module: it gets measured
+columns and the simulated target (plus, here, the simulation's sensitivities
+to its own parameters, as a user could compute for theirs).
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, replace
+
+import numpy as np
+import pandas as pd
+
+from greyml.datasets import make_tests
+from greyml.datasets._simulated import _machine, main_target
+from greyml.simulation import Effects, HeatingTest, Programme, diurnal
+
+__all__ = [
+    "WITHHELD",
+    "WithheldCase",
+    "WithheldValidation",
+    "perturb_parameters",
+    "random_tests",
+    "simulator_sensitivities",
+    "validate_withheld",
+    "withheld_case",
+]
+
+#: The diagnosis's effect names and the simulator effects that produce them.
+WITHHELD = {
+    "ambient": "ambient_coupling",
+    "heat_source": "extra_heat_source",
+    "initial_state": "initial_disequilibrium",
+    "drift": "probe_drift",
+}
+
+_LEVELS = (0.0, 0.0, 0.25, 0.5, 0.75, 1.0)
+
+
+def random_tests(machine, rng, n_tests=6, hours=5.5):
+    """Heating/cooling tests with random duty, diurnal air and some history.
+
+    Each test is a run of blocks of 20-90 min with every input at a random
+    level (0 to its maximum, off more often than not); the air follows a
+    diurnal cycle of random mean, swing and phase; seven tests in ten (and at
+    least two: an effect seen in one test alone cannot be checked on another)
+    follow 30-120 min of spindle (first input) work in the test's starting
+    air, so they start away from equilibrium.
+    """
+    m = _machine(machine)
+    warm = rng.random(n_tests) < 0.7
+    if warm.sum() < 2 <= n_tests:
+        warm[rng.choice(n_tests, 2, replace=False)] = True
+    out = []
+    for k in range(n_tests):
+        programme = Programme()
+        total = 0.0
+        while total < hours * 60.0:
+            minutes = int(rng.integers(20, 90))
+            levels = {c: float(rng.choice(_LEVELS)) * m.max_input.get(c, 1.0) for c in m.inputs}
+            programme = programme.run(minutes, **levels)
+            total += minutes
+        air = diurnal(
+            20.0 + rng.normal(0.0, 1.0),
+            float(rng.uniform(0.5, 2.5)),
+            start_hour=float(rng.uniform(0.0, 24.0)),
+        )
+        history = None
+        if warm[k]:
+            first = m.inputs[0]
+            level = float(rng.choice([0.5, 1.0])) * m.max_input.get(first, 1.0)
+            history = Programme().run(int(rng.integers(30, 120)), **{first: level})
+        out.append(HeatingTest(f"T{k + 1}", programme, air, history))
+    return out
+
+
+def perturb_parameters(machine, error, rng, *, kind="class"):
+    """The machine with its parameters off by up to ±``error`` (relative, uniform).
+
+    ``kind="class"``: one factor per physical parameter shared by all
+    elements (heat capacity, conductance, convection, expansion) and one per
+    heat source's power, as a material constant or a loss estimate is off.
+    ``kind="element"``: every capacity, link, convection coefficient, power
+    and displacement weight off independently (a harder case).
+    """
+    m = _machine(machine)
+    if kind not in ("class", "element"):
+        raise ValueError(f"kind must be 'class' or 'element'; got {kind!r}.")
+
+    def draw():
+        return 1.0 + error * rng.uniform(-1.0, 1.0)
+
+    if kind == "class":
+        fc, fk, fh, fa = draw(), draw(), draw(), draw()
+        return replace(
+            m,
+            capacity=tuple(c * fc for c in m.capacity),
+            links=tuple((a, b, g * fk) for a, b, g in m.links),
+            convection={k: v * fh for k, v in m.convection.items()},
+            sources=tuple(replace(s, power_W=s.power_W * draw()) for s in m.sources),
+            displacement={t: {k: v * fa for k, v in w.items()} for t, w in m.displacement.items()},
+        )
+    return replace(
+        m,
+        capacity=tuple(c * draw() for c in m.capacity),
+        links=tuple((a, b, g * draw()) for a, b, g in m.links),
+        convection={k: v * draw() for k, v in m.convection.items()},
+        sources=tuple(replace(s, power_W=s.power_W * draw()) for s in m.sources),
+        displacement={t: {k: v * draw() for k, v in w.items()} for t, w in m.displacement.items()},
+    )
+
+
+def _scaled(m, parameter, factor):
+    if parameter == "capacity":
+        return replace(m, capacity=tuple(c * factor for c in m.capacity))
+    if parameter == "conductance":
+        return replace(m, links=tuple((a, b, g * factor) for a, b, g in m.links))
+    if parameter == "convection":
+        return replace(m, convection={k: v * factor for k, v in m.convection.items()})
+    if parameter == "expansion":
+        return replace(
+            m,
+            displacement={
+                t: {k: v * factor for k, v in w.items()} for t, w in m.displacement.items()
+            },
+        )
+    index = int(parameter)
+    return replace(
+        m,
+        sources=tuple(
+            replace(s, power_W=s.power_W * factor) if i == index else s
+            for i, s in enumerate(m.sources)
+        ),
+    )
+
+
+def simulator_sensitivities(machine, tests, target, *, effects=None, step=0.01):
+    """Sensitivities of a simulated target to the machine's physical parameters.
+
+    One column per parameter: heat capacity, conductance, convection,
+    expansion (every displacement weight) and the power of each heat source,
+    each the change of ``target`` for a relative change of 1 (a forward
+    difference at ``step``), on the rows :func:`greyml.datasets.make_tests`
+    gives. Columns that are zero everywhere (a source switched off) are
+    dropped. Pass the result as ``diagnose_gap(..., sensitivities=)``.
+
+    Returns
+    -------
+    DataFrame indexed by (test, time_s)
+    """
+    m = _machine(machine)
+    effects = (Effects() if effects is None else effects).without("noise")
+    base = make_tests(m, tests, effects=effects).frame[target]
+    columns = {}
+    names = ["capacity", "conductance", "convection", "expansion"]
+    names += [str(i) for i in range(len(m.sources))]
+    for name in names:
+        moved = make_tests(_scaled(m, name, 1.0 + step), tests, effects=effects).frame[target]
+        column = ((moved - base) / step).to_numpy()
+        if np.any(column != 0.0):
+            label = name if not name.isdigit() else f"power: {m.sources[int(name)].name}"
+            columns[label] = column
+    return pd.DataFrame(columns, index=base.index)
+
+
+@dataclass
+class WithheldCase:
+    """One withheld-effect case: the data the diagnosis gets, and the truth."""
+
+    real: pd.DataFrame
+    sim: pd.DataFrame
+    sensitivities: pd.DataFrame
+    roles: dict  # target, ambient, drivers, sensors
+    withheld: tuple
+    effect: np.ndarray  # the withheld effects' part of the measured target
+    parameter_gap: np.ndarray  # what the simulation's parameter error alone misses
+    noise: np.ndarray  # the measurement noise of the target
+
+
+def withheld_case(
+    withheld,
+    size,
+    seed,
+    *,
+    machine="vmc",
+    target=None,
+    param_error=0.0,
+    kind="class",
+    n_tests=6,
+    n_sensors=10,
+):
+    """Build one case: "real" with every effect, the simulation without ``withheld``.
+
+    Each withheld effect's part of the target is scaled so that its peak is
+    ``size`` times the standard deviation of the target's measurement noise.
+    With ``param_error``, the simulation also runs with its parameters off
+    (:func:`perturb_parameters`); its sensitivities are computed at those
+    wrong parameters, as a user would compute them.
+    """
+    m = _machine(machine)
+    target = target or main_target(m)
+    withheld = tuple(withheld)
+    unknown = [w for w in withheld if w not in WITHHELD]
+    if unknown:
+        raise ValueError(f"Cannot withhold {unknown}; the effects are {list(WITHHELD)}.")
+    rng = np.random.default_rng(seed)
+    tests = random_tests(m, rng, n_tests)
+    quiet = Effects().without("noise")
+    full = make_tests(m, tests, effects=quiet).frame
+    real = make_tests(m, tests, effects=Effects(), random_state=seed).frame
+    noise = (real[target] - full[target]).to_numpy()
+    sigma = float(np.std(noise))
+    off = quiet.without(*(WITHHELD[w] for w in withheld))
+    effect = np.zeros(len(full))
+    for w in withheld:
+        part = full[target] - make_tests(m, tests, effects=quiet.without(WITHHELD[w])).frame[target]
+        peak = float(np.max(np.abs(part)))
+        if peak == 0.0:
+            raise ValueError(f"Withholding {w!r} does not change {target!r} on {m.name}.")
+        effect += size * sigma / peak * part.to_numpy()
+    sim_true = make_tests(m, tests, effects=off).frame[target].to_numpy()
+    real = real.copy()
+    real[target] = sim_true + effect + noise
+    wrong = (
+        perturb_parameters(m, param_error, np.random.default_rng([seed, 1])) if param_error else m
+    )
+    sim = make_tests(wrong, tests, effects=off).frame[[target]]
+    sensitivities = simulator_sensitivities(wrong, tests, target, effects=off)
+    names = list(m.temperature_names)
+    sensors = names[:: max(1, len(names) // n_sensors)][:n_sensors]
+    roles = {
+        "target": target,
+        "ambient": "ambient_C",
+        "drivers": list(m.inputs),
+        "sensors": sensors,
+    }
+    return WithheldCase(
+        real=real,
+        sim=sim,
+        sensitivities=sensitivities,
+        roles=roles,
+        withheld=withheld,
+        effect=effect,
+        parameter_gap=sim_true - sim[target].to_numpy(),
+        noise=noise,
+    )
+
+
+def _rms(x):
+    return float(np.sqrt(np.mean(np.square(x))))
+
+
+def _run_case(spec, machine, target, kind, n_tests, n_sensors, use_sensitivities, kwargs):
+    from greyml.gap._diagnose import diagnose_gap
+
+    withheld, size, param_error, seed = spec
+    case = withheld_case(
+        withheld,
+        size,
+        seed,
+        machine=machine,
+        target=target,
+        param_error=param_error,
+        kind=kind,
+        n_tests=n_tests,
+        n_sensors=n_sensors,
+    )
+    start = time.perf_counter()
+    report = diagnose_gap(
+        case.real,
+        case.sim,
+        **case.roles,
+        sensitivities=case.sensitivities if use_sensitivities else None,
+        random_state=seed,
+        **kwargs,
+    )
+    seconds = time.perf_counter() - start
+    fitted = report.gap.to_numpy() - report.corrected.to_numpy()
+    true_gap = case.effect + case.parameter_gap
+    ranked = list(report.causes.dropna(subset=["shrinkage"])["effect"])
+    clean = _rms(true_gap)
+    return {
+        "withheld": "+".join(withheld) if withheld else "none",
+        "size": float(size) if withheld else 0.0,
+        "param_error": float(param_error),
+        "seed": int(seed),
+        "cause": report.cause or "none",
+        "named": "+".join(report.named) if report.named else "none",
+        "top1": bool(withheld) and report.cause in withheld,
+        "top2": bool(withheld) and any(w in ranked[:2] for w in withheld),
+        "all_named": bool(withheld) and set(withheld) <= set(report.named),
+        "false_alarm": not withheld and report.cause is not None,
+        "rmse_before": report.rmse_before,
+        "rmse_recalibrated": report.rmse_recalibrated,
+        "rmse_after": report.rmse_after,
+        "noise": _rms(case.noise),
+        "shrinkage": report.shrinkage,
+        "oracle_shrinkage": 1.0 - _rms(case.noise) / report.rmse_before,
+        "clean_shrinkage": 1.0 - _rms(true_gap - fitted) / clean if clean > 0 else np.nan,
+        "seconds": seconds,
+    }
+
+
+@dataclass
+class WithheldValidation:
+    """Every case's outcome (``cases``) and the summaries the issue asks for."""
+
+    cases: pd.DataFrame
+
+    def recall(self):
+        """Top-1 and top-2 recall by parameter error, withheld effect and size."""
+        single = self.cases[~self.cases["withheld"].str.contains(r"\+|none")]
+        return (
+            single.groupby(["param_error", "withheld", "size"])[["top1", "top2"]]
+            .agg(["mean"])
+            .droplevel(1, axis=1)
+            .assign(n=single.groupby(["param_error", "withheld", "size"]).size())
+        )
+
+    def confusion(self, param_error=None, min_size=None):
+        """Withheld effect (rows, single effects and none) against the named cause."""
+        cases = self.cases[~self.cases["withheld"].str.contains(r"\+")]
+        if param_error is not None:
+            cases = cases[np.isclose(cases["param_error"], param_error)]
+        if min_size is not None:
+            cases = cases[(cases["size"] >= min_size) | (cases["withheld"] == "none")]
+        return pd.crosstab(cases["withheld"], cases["cause"])
+
+    def pairs(self):
+        """Two effects withheld: how often both were named, by parameter error."""
+        two = self.cases[self.cases["withheld"].str.contains(r"\+")]
+        return (
+            two.groupby(["param_error", "withheld"])[["all_named", "top1"]]
+            .mean()
+            .assign(n=two.groupby(["param_error", "withheld"]).size())
+        )
+
+    def false_alarms(self):
+        """Null cases (nothing withheld): false alarms and cases, by parameter error."""
+        null = self.cases[self.cases["withheld"] == "none"]
+        return null.groupby("param_error")["false_alarm"].agg(["sum", "count"])
+
+    def shrinkage(self, min_size=None):
+        """Median held-out shrinkage, the oracle's and the noise-free one."""
+        cases = self.cases[self.cases["withheld"] != "none"]
+        if min_size is not None:
+            cases = cases[cases["size"] >= min_size]
+        return cases.groupby(["param_error", "withheld"])[
+            ["shrinkage", "oracle_shrinkage", "clean_shrinkage"]
+        ].median()
+
+
+def validate_withheld(
+    effects=("ambient", "heat_source", "initial_state", "drift"),
+    *,
+    sizes=(2, 5, 10, 30),
+    n_seeds=5,
+    param_errors=(0.0, 0.05),
+    pairs=(("ambient", "drift"), ("heat_source", "initial_state")),
+    pair_size=10,
+    n_null=20,
+    machine="vmc",
+    target=None,
+    kind="class",
+    n_tests=6,
+    n_sensors=10,
+    sensitivities=True,
+    random_state=0,
+    n_jobs=None,
+    **diagnose_kwargs,
+):
+    """Run the diagnosis on many withheld-effect cases of greyml's simulator.
+
+    For every parameter error in ``param_errors``: ``n_null`` cases with
+    nothing withheld; every effect at every size (the withheld part's peak
+    as a multiple of the probe noise) with ``n_seeds`` seeds; every pair at
+    ``pair_size`` with ``n_seeds`` seeds. Each case has its own random tests
+    (:func:`random_tests`).
+
+    Parameters
+    ----------
+    effects : sequence of str
+        Effects to withhold one at a time (keys of ``WITHHELD``).
+    sizes : sequence of float
+        Peak of the withheld part over the probe noise's standard deviation.
+    n_seeds : int
+    param_errors : sequence of float
+        Relative error of the simulation's own parameters (0: exact).
+    pairs : sequence of (str, str)
+        Effects withheld together; each part is scaled to ``pair_size``.
+    pair_size : float
+    n_null : int
+        Cases with nothing withheld, per parameter error.
+    machine : str or ThermalMachine, default="vmc"
+    target : str, optional
+        The machine's main displacement by default (``dy_um`` on the VMC).
+    kind : {"class", "element"}
+        How the parameters are off (:func:`perturb_parameters`).
+    n_tests, n_sensors : int
+        Tests per case and temperature sensors handed to the diagnosis.
+    sensitivities : bool, default=True
+        Hand the simulation's parameter sensitivities to the diagnosis.
+    random_state : int
+        Seeds the cases (case seeds are ``random_state`` + a case counter).
+    n_jobs : int, optional
+        Cases run in parallel with joblib.
+    **diagnose_kwargs
+        Passed to :func:`diagnose_gap`.
+
+    Returns
+    -------
+    WithheldValidation
+    """
+    from joblib import Parallel, delayed
+
+    specs = []
+    counter = int(random_state)
+    for param_error in param_errors:
+        for _ in range(n_null):
+            specs.append(((), 0.0, param_error, counter))
+            counter += 1
+        for effect in effects:
+            for size in sizes:
+                for _ in range(n_seeds):
+                    specs.append(((effect,), size, param_error, counter))
+                    counter += 1
+        for pair in pairs:
+            for _ in range(n_seeds):
+                specs.append((tuple(pair), pair_size, param_error, counter))
+                counter += 1
+    rows = Parallel(n_jobs=n_jobs)(
+        delayed(_run_case)(
+            spec, machine, target, kind, n_tests, n_sensors, sensitivities, diagnose_kwargs
+        )
+        for spec in specs
+    )
+    return WithheldValidation(pd.DataFrame(rows))

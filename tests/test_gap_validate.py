@@ -1,0 +1,135 @@
+"""greyml.gap on withheld effects: the validation harness and the recalibration by sensitivities."""
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from greyml.datasets import make_tests
+from greyml.gap import (
+    diagnose_gap,
+    perturb_parameters,
+    random_tests,
+    simulator_sensitivities,
+    validate_withheld,
+    withheld_case,
+)
+from greyml.simulation import Effects, Programme, vmc
+
+
+@pytest.fixture(scope="module")
+def drift_case():
+    return withheld_case(("drift",), 10, 3, param_error=0.05)
+
+
+def test_withheld_part_peaks_at_size_times_the_noise(drift_case):
+    case = drift_case
+    sigma = np.std(case.noise)
+    assert np.max(np.abs(case.effect)) == pytest.approx(10 * sigma, rel=1e-9)
+    # the real target is the exact simulation + the withheld part + noise
+    target = case.roles["target"]
+    exact = case.real[target].to_numpy() - case.effect - case.noise
+    assert np.allclose(exact - case.sim[target].to_numpy(), case.parameter_gap)
+    assert case.roles["target"] == "dy_um" and len(case.roles["sensors"]) == 10
+
+
+def test_perturb_parameters_class_and_element():
+    m = vmc()
+    rng = np.random.default_rng(0)
+    c = perturb_parameters(m, 0.05, rng, kind="class")
+    ratios = np.array(c.capacity) / np.array(m.capacity)
+    assert np.ptp(ratios) < 1e-12 and abs(ratios[0] - 1) <= 0.05
+    e = perturb_parameters(m, 0.05, rng, kind="element")
+    ratios = np.array(e.capacity) / np.array(m.capacity)
+    assert np.ptp(ratios) > 0.01 and np.all(np.abs(ratios - 1) <= 0.05)
+    with pytest.raises(ValueError, match="kind must be"):
+        perturb_parameters(m, 0.05, rng, kind="global")
+
+
+def test_sensitivities_hand_checks():
+    # constant air, start at rest, no drift: the rise is linear in every power
+    # and the displacement in its weights, so the power sensitivities add up to
+    # the simulated target, and the expansion sensitivity is the target itself
+    tests = {"A": Programme().run(60, spindle_rpm=8000, feed_mm_min=5000).dwell(60)}
+    effects = Effects().without("noise", "probe_drift", "extra_heat_source")
+    target = make_tests("vmc", tests, effects=effects).frame["dy_um"]
+    S = simulator_sensitivities("vmc", tests, "dy_um", effects=effects)
+    assert list(S.columns[:4]) == ["capacity", "conductance", "convection", "expansion"]
+    assert not any("nut" in c for c in S.columns)  # switched off: dropped
+    assert np.allclose(S["expansion"], target, atol=1e-9)
+    power = S[[c for c in S.columns if c.startswith("power")]].sum(axis=1)
+    assert np.allclose(power, target, atol=1e-6 * np.abs(target).max())
+
+
+def test_random_tests_respect_the_machine():
+    tests = random_tests("vmc", np.random.default_rng(1), n_tests=3)
+    assert [t.label for t in tests] == ["T1", "T2", "T3"]
+    for t in tests:
+        for seg in t.programme.segments:
+            assert 0 <= seg.spindle_rpm <= 8000 and 0 <= seg.feed_mm_min <= 10000
+
+
+def test_sensitivities_absorb_a_parameter_error_and_leave_the_effect(drift_case):
+    case = drift_case
+    with_s = diagnose_gap(
+        case.real, case.sim, **case.roles, sensitivities=case.sensitivities, random_state=0
+    )
+    assert with_s.named == ["drift"]
+    # the recalibrated parameters leave about the probe noise once drift is added
+    assert with_s.rmse_after < 1.15 * np.std(case.noise)
+    assert "parameters refitted within ±10%" in with_s.recalibration
+    assert "capacity" in with_s.recalibration
+
+
+def test_sensitivities_must_cover_the_rows(drift_case):
+    case = drift_case
+    with pytest.raises(ValueError, match="The sensitivities does not cover"):
+        diagnose_gap(
+            case.real,
+            case.sim,
+            **case.roles,
+            sensitivities=case.sensitivities.iloc[:-5],
+            random_state=0,
+        )
+    bad = case.sensitivities.copy()
+    bad.iloc[7, 1] = np.nan
+    with pytest.raises(ValueError, match="Sensitivity 'conductance' has NaN in test 'T1'"):
+        diagnose_gap(case.real, case.sim, **case.roles, sensitivities=bad, random_state=0)
+
+
+def test_bad_arguments_fail_before_the_search(drift_case):
+    case = drift_case
+    with pytest.raises(ValueError, match="max_effects must be an integer >= 1"):
+        diagnose_gap(case.real, case.sim, **case.roles, max_effects=0)
+    with pytest.raises(ValueError, match="tolerance must be a finite number"):
+        diagnose_gap(case.real, case.sim, **case.roles, tolerance=-0.1)
+    uneven = case.real.drop(index=case.real.index[5])
+    with pytest.raises(ValueError, match="sampling interval of test 'T1' is not constant"):
+        diagnose_gap(uneven, case.sim, **case.roles)
+
+
+def test_validate_withheld_small_run():
+    result = validate_withheld(
+        ("ambient",),
+        sizes=(10,),
+        n_seeds=1,
+        param_errors=(0.05,),
+        pairs=(),
+        n_null=1,
+        random_state=5,
+    )
+    cases = result.cases
+    assert list(cases["withheld"]) == ["none", "ambient"]
+    assert list(cases["cause"]) == ["none", "ambient"]
+    assert result.false_alarms().loc[0.05].tolist() == [0, 1]
+    assert result.recall()["top1"].tolist() == [1.0]
+    confusion = result.confusion(param_error=0.05)
+    assert confusion.loc["ambient", "ambient"] == 1 and confusion.loc["none", "none"] == 1
+    shrink = result.shrinkage()
+    # the named effect removes most of the noise-free gap
+    assert shrink.loc[(0.05, "ambient"), "clean_shrinkage"] > 0.85
+    assert isinstance(result.pairs(), pd.DataFrame)
+
+
+def test_withheld_case_rejects_unknown_effects():
+    with pytest.raises(ValueError, match="Cannot withhold"):
+        withheld_case(("sensor_lag",), 10, 0)
