@@ -6,7 +6,7 @@ Usage
 
     greyml gap REAL.csv SIM.csv --target COL [--ambient COL] [--drivers A,B]
                [--sensors A,B] [--fbgs A,B] [--effects a,b] [--random-state N]
-               [--json FILE|-]
+               [--sensitivities SENS.csv] [--tolerance X] [--json FILE|-]
     greyml --version
 
 ``greyml gap`` compares measured tests (``REAL.csv``) with a simulation of
@@ -161,6 +161,19 @@ def _add_gap_parser(subparsers):
         help="seed of the placebos, for a repeatable diagnosis (default: unseeded)",
     )
     parser.add_argument(
+        "--sensitivities",
+        metavar="SENS.csv",
+        help="the simulation's sensitivities to its uncertain parameters on the same rows "
+        "(CSV, one column per parameter); they are refitted within --tolerance first",
+    )
+    parser.add_argument(
+        "--tolerance",
+        type=float,
+        default=0.1,
+        metavar="X",
+        help="how far (relative) the simulation's parameters may be off (default: 0.1)",
+    )
+    parser.add_argument(
         "--json",
         metavar="FILE|-",
         help="write the report as JSON to FILE, or only JSON to standard output with -",
@@ -183,6 +196,8 @@ def _run_gap(args):
         fbgs=_unique(args.fbgs),
         effects=None if args.effects is None else _unique(args.effects),
         random_state=args.random_state,
+        sensitivities=args.sensitivities,
+        tolerance=args.tolerance,
     )
     data = report.to_dict()
     if args.json == "-":

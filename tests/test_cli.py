@@ -254,3 +254,38 @@ def test_python_m_greyml(drift_case):
         proc = subprocess.run([script, "--version"], capture_output=True, text=True, timeout=120)
         assert proc.returncode == 0, proc.stderr
         assert proc.stdout.startswith("greyml ")
+
+
+def test_sensitivities_recalibrate_a_simulation_off_by_five_percent(tmp_path, capsys):
+    from greyml.gap import withheld_case
+
+    case = withheld_case(("drift",), 10, 3, param_error=0.05)
+    real = write_tests_csv(case.real, tmp_path / "real.csv")
+    sim = write_tests_csv(case.sim, tmp_path / "sim.csv")
+    sens = write_tests_csv(case.sensitivities, tmp_path / "sens.csv")
+    roles = case.roles
+    argv = [
+        "gap",
+        str(real),
+        str(sim),
+        "--target",
+        roles["target"],
+        "--ambient",
+        roles["ambient"],
+        "--drivers",
+        ",".join(roles["drivers"]),
+        "--sensors",
+        ",".join(roles["sensors"]),
+        "--random-state",
+        "0",
+        "--sensitivities",
+        str(sens),
+        "--tolerance",
+        "0.1",
+        "--json",
+        "-",
+    ]
+    assert main(argv) == 0
+    data = _strict_json(capsys.readouterr().out)
+    assert data["cause"] == "drift" and data["named"] == ["drift"]
+    assert data["recalibration"].startswith("parameters refitted within ±10%: capacity")

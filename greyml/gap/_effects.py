@@ -233,9 +233,7 @@ def build_candidates(ctx, effects, max_sensor_lag_s=3600.0):
             names = ["mean sensor"] + list(ctx.sensor_names)
 
             def relax(setting, offset=offset):
-                return np.stack(
-                    [offset * -np.expm1(-t / tau)[:, None] for tau in setting], axis=2
-                )
+                return np.stack([offset * -np.expm1(-t / tau)[:, None] for tau in setting], axis=2)
 
             out.append(
                 Candidate(
