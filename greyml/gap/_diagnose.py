@@ -348,7 +348,7 @@ def diagnose_gap(
     before = evaluate(ctx.r, base, None, [()], ctx.bounds)
     initial = before
     recalibrated = recal = None
-    recal_detail = "not recalibrated"
+    recal_detail, kept = "", False
     if recalibrate:
         if sensitivities is not None:
             S, names = _sensitivity_design(sensitivities, real, ctx.index, test_segments(real))
@@ -368,11 +368,11 @@ def diagnose_gap(
                 f"within ±{tolerance:.0%}"
             )
         recalibrated = evaluate(ctx.r, base, None, [()], ctx.bounds, recal=recal)
-        if recalibrated.rmse < before.rmse:
+        kept = recalibrated.rmse < before.rmse
+        if kept:
             before = recalibrated
         else:  # it does not carry over to held-out tests: the simulation is kept as it is
             recal = None
-            recal_detail = f"not kept ({recal_detail}: held-out RMSE {recalibrated.rmse:.3g})"
     floor = noise_floor(ctx.r, ctx.bounds)
 
     rows, steps, named = [], [], []
@@ -490,7 +490,8 @@ def diagnose_gap(
         gap=r_series,
         corrected=pd.Series(final.held_out, index=ctx.index, name="gap_after"),
         descriptions={e: DESCRIPTIONS[e] for e in EFFECTS},
-        recalibration=recal_detail if recalibrate else "",
+        recalibration=recal_detail,
+        recalibration_kept=kept,
     )
 
 

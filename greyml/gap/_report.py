@@ -56,6 +56,10 @@ class GapReport:
         ``recalibrate=False``); the effects are scored from here.
     recalibration : str
         What the recalibration refitted, with the mean relative changes.
+    recalibration_kept : bool
+        Whether it was kept: a recalibration that does not shrink the held-out
+        gap is dropped, and the effects are scored from the simulation as it
+        is (``rmse_before``).
     noise_floor : float
         White-noise level of the gap (from its first differences).
     whiteness : dict
@@ -85,6 +89,7 @@ class GapReport:
     corrected: pd.Series
     descriptions: dict = field(default_factory=dict)
     recalibration: str = ""
+    recalibration_kept: bool = False
 
     @property
     def shrinkage(self):
@@ -103,6 +108,7 @@ class GapReport:
                 "rmse_before": self.rmse_before,
                 "rmse_recalibrated": self.rmse_recalibrated,
                 "recalibration": self.recalibration,
+                "recalibration_kept": self.recalibration_kept,
                 "rmse_after": self.rmse_after,
                 "peak_before": self.peak_before,
                 "peak_after": self.peak_after,
@@ -122,8 +128,15 @@ class GapReport:
             f"Gap of {self.target}: held-out RMSE {self.rmse_before:.3g}, peak "
             f"{self.peak_before:.3g}; noise floor {self.noise_floor:.3g}."
         ]
-        if self.recalibration:
-            lines.append(f"Recalibrated ({self.recalibration}): RMSE {self.rmse_recalibrated:.3g}.")
+        if self.recalibration and self.recalibration_kept:
+            lines.append(
+                f"Recalibrated ({self.recalibration}): RMSE {self.rmse_recalibrated:.3g}."
+            )
+        elif self.recalibration:
+            lines.append(
+                f"Recalibration not kept ({self.recalibration}): held-out RMSE "
+                f"{self.rmse_recalibrated:.3g}, no better than the simulation as it is."
+            )
         if self.cause is None:
             lines.append("No significant unmodelled effect.")
         else:
