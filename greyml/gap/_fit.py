@@ -129,24 +129,26 @@ def fit_recalibration(r, make, settings, bounds, tolerance):
     return Recalibration(out_d, out_t, tolerance, out_s)
 
 
-def _select(tensors, grams, B, rz, cal, f, bounds):
+def _select(tensors, grams, B, rz, cal, f, bounds, keep=1):
     """The (setting, variant) that best fits ``rz`` on the calibration rows.
 
     ``tensors[i]`` is (n, V, k); ``grams[i]`` holds its (V·k)² cross products
     over all rows and per test, so the calibration tests' products are the
     total minus the held-out test's. ``B`` is the fold's base design, ``rz``
-    the gap with the held-out rows zeroed.
+    the gap with the held-out rows zeroed. Returns the best ``(sse, setting,
+    variant, coef)``, or with ``keep`` > 1 a list of the ``keep`` best.
     """
     start, stop = bounds[f]
     Bz = B * cal[:, None]
     BB, Br = Bz.T @ B, Bz.T @ rz
     kb = B.shape[1]
     rr = rz @ rz
-    best = (np.inf, 0, 0, None)
+    found = []
     for i, X in enumerate(tensors):
         if X is None:
             coef = _solve(BB, Br) if kb else np.zeros(0)
-            return (rr - coef @ Br, i, 0, coef)
+            best = (rr - coef @ Br, i, 0, coef)
+            return best if keep == 1 else [best]
         n, V, k = X.shape
         W = X.reshape(n, V * k)
         total, per_test = grams[i]
@@ -163,10 +165,10 @@ def _select(tensors, grams, B, rz, cal, f, bounds):
         g[:, kb:] = (W.T @ rz).reshape(V, k)
         coef = _solve(G, g)
         sse = rr - np.einsum("vk,vk->v", coef, g)
-        v = int(np.argmin(sse))
-        if sse[v] < best[0]:
-            best = (sse[v], i, v, coef[v])
-    return best
+        for v in np.argsort(sse)[:keep]:
+            found.append((float(sse[v]), i, int(v), coef[v]))
+    found.sort(key=lambda x: x[0])
+    return found[0] if keep == 1 else found[:keep]
 
 
 def _grams(X, bounds):
@@ -179,7 +181,49 @@ def _grams(X, bounds):
     return W.T @ W, per_test
 
 
-def evaluate(r, base, make, settings, bounds, recal=None, max_rounds=3):
+def _joint_fit(r, D, B, X, cal, tolerance):
+    """Bounded joint fit of parameters D (bounded), base B and one signature X."""
+    design = np.hstack([D, B] if X is None else [D, B, X])
+    Dc = design[cal]
+    G, g = Dc.T @ Dc, Dc.T @ r[cal]
+    coef = box_solve(G, g, D.shape[1], tolerance)
+    rc = r[cal]
+    return rc @ rc - 2.0 * coef @ g + coef @ G @ coef, coef
+
+
+def _joint_choice(r, tensors, grams, B, recal, f, cal, bounds, max_rounds, shortlist):
+    """The (setting, variant) and coefficients that fit best with the parameters.
+
+    Candidates are short-listed by how well they fit the gap that the
+    parameters leave (starting from the recalibration alone) and the bare gap
+    (parameters at their simulated values); each short-listed one is fitted
+    jointly with the bounded parameters, and the best joint fit gives the
+    parameters for the next round, until the choice settles.
+    """
+    D = recal.designs[f]
+    p = D.shape[1]
+    starts = [recal.theta[f], np.zeros(p)]
+    picked, best = None, None
+    for _ in range(max_rounds):
+        pool = {}
+        for theta in starts:
+            for _, i, v, _ in _select(
+                tensors, grams, B, (r - D @ theta) * cal, cal, f, bounds, keep=shortlist
+            ):
+                pool[(i, v)] = None
+        for i, v in pool:
+            X = tensors[i]
+            sse, coef = _joint_fit(r, D, B, None if X is None else X[:, v, :], cal, recal.tolerance)
+            if best is None or sse < best[0]:
+                best = (sse, (i, v), coef)
+        if best[1] == picked:
+            break
+        picked = best[1]
+        starts = [best[2][:p]]
+    return best[1], best[2]
+
+
+def evaluate(r, base, make, settings, bounds, recal=None, max_rounds=3, shortlist=4):
     """Leave-one-test-out score of ``base`` + one candidate.
 
     Parameters
@@ -199,10 +243,13 @@ def evaluate(r, base, make, settings, bounds, recal=None, max_rounds=3):
     recal : Recalibration, optional
         The simulation's own parameters, kept within their tolerance. They,
         the base and the candidate are fitted together (bounded least
-        squares); the candidate's setting and variant are chosen on the gap
-        the parameters leave, alternating until the choice settles (at most
-        ``max_rounds`` times).
+        squares); the candidate's setting and variant are short-listed on the
+        gap the parameters leave (and on the bare gap), fitted jointly, and
+        the best joint fit kept, alternating until the choice settles (at
+        most ``max_rounds`` times).
     max_rounds : int, default=3
+    shortlist : int, default=4
+        (setting, variant) pairs fitted jointly per start and round.
 
     Returns
     -------
@@ -218,24 +265,12 @@ def evaluate(r, base, make, settings, bounds, recal=None, max_rounds=3):
         cal = np.ones(n, dtype=bool)
         cal[start:stop] = False
         B = base[f]
-        theta = None if recal is None else recal.theta[f]
-        picked = None
-        for _ in range(max_rounds if recal is not None else 1):
-            rf = r if recal is None else r - recal.designs[f] @ theta
-            _, i, v, coef = _select(tensors, grams, B, rf * cal, cal, f, bounds)
-            if recal is None or (i, v) == picked:
-                break
-            picked = (i, v)
-            X = tensors[i]
-            design = B if X is None else np.hstack([B, X[:, v, :]])
-            design = np.hstack([recal.designs[f], design])
-            Dc = design[cal]
-            p = recal.designs[f].shape[1]
-            coef = box_solve(Dc.T @ Dc, Dc.T @ r[cal], p, recal.tolerance)
-            theta = coef[:p]
-            joint = coef
-        if recal is not None:
-            (i, v), coef = picked, joint
+        if recal is None:
+            _, i, v, coef = _select(tensors, grams, B, r * cal, cal, f, bounds)
+        else:
+            (i, v), coef = _joint_choice(
+                r, tensors, grams, B, recal, f, cal, bounds, max_rounds, shortlist
+            )
         X = tensors[i]
         design = B if X is None else np.hstack([B, X[:, v, :]])
         if recal is not None:

@@ -57,9 +57,8 @@ class GapReport:
     recalibration : str
         What the recalibration refitted, with the mean relative changes.
     recalibration_kept : bool
-        Whether it was kept: a recalibration that does not shrink the held-out
-        gap is dropped, and the effects are scored from the simulation as it
-        is (``rmse_before``).
+        Whether it was kept: the effects are searched for with and without
+        it, and the search that leaves less of the gap held out is reported.
     noise_floor : float
         White-noise level of the gap (from its first differences).
     whiteness : dict
@@ -129,13 +128,11 @@ class GapReport:
             f"{self.peak_before:.3g}; noise floor {self.noise_floor:.3g}."
         ]
         if self.recalibration and self.recalibration_kept:
-            lines.append(
-                f"Recalibrated ({self.recalibration}): RMSE {self.rmse_recalibrated:.3g}."
-            )
+            lines.append(f"Recalibrated ({self.recalibration}): RMSE {self.rmse_recalibrated:.3g}.")
         elif self.recalibration:
             lines.append(
                 f"Recalibration not kept ({self.recalibration}): held-out RMSE "
-                f"{self.rmse_recalibrated:.3g}, no better than the simulation as it is."
+                f"{self.rmse_recalibrated:.3g}; the effects leave less without it."
             )
         if self.cause is None:
             lines.append("No significant unmodelled effect.")

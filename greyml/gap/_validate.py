@@ -98,23 +98,21 @@ def perturb_parameters(machine, error, rng, *, kind="class"):
     def draw():
         return 1.0 + error * rng.uniform(-1.0, 1.0)
 
-    if kind == "class":
-        fc, fk, fh, fa = draw(), draw(), draw(), draw()
-        return replace(
-            m,
-            capacity=tuple(c * fc for c in m.capacity),
-            links=tuple((a, b, g * fk) for a, b, g in m.links),
-            convection={k: v * fh for k, v in m.convection.items()},
-            sources=tuple(replace(s, power_W=s.power_W * draw()) for s in m.sources),
-            displacement={t: {k: v * fa for k, v in w.items()} for t, w in m.displacement.items()},
-        )
+    classes = ("capacity", "conductance", "convection", "expansion")
+    shared = {name: draw() for name in classes} if kind == "class" else {}
+
+    def factor(name):
+        return shared[name] if shared else draw()
+
     return replace(
         m,
-        capacity=tuple(c * draw() for c in m.capacity),
-        links=tuple((a, b, g * draw()) for a, b, g in m.links),
-        convection={k: v * draw() for k, v in m.convection.items()},
+        capacity=tuple(c * factor("capacity") for c in m.capacity),
+        links=tuple((a, b, g * factor("conductance")) for a, b, g in m.links),
+        convection={k: v * factor("convection") for k, v in m.convection.items()},
         sources=tuple(replace(s, power_W=s.power_W * draw()) for s in m.sources),
-        displacement={t: {k: v * draw() for k, v in w.items()} for t, w in m.displacement.items()},
+        displacement={
+            t: {k: v * factor("expansion") for k, v in w.items()} for t, w in m.displacement.items()
+        },
     )
 
 
