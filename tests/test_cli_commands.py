@@ -1,0 +1,475 @@
+"""The ``greyml`` subcommands demo, simulate, select, fit and predict.
+
+Success paths run the real commands on small data; every user error must
+exit with code 2 and one line ``greyml <command>: error: ...`` on standard
+error, without a traceback.
+"""
+
+import io
+import json
+import os
+import subprocess
+import sys
+import time
+import zipfile
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from greyml import make_test_index
+from greyml._commands import Progress
+from greyml.cli import main
+from greyml.datasets import load_vmc_tests
+from greyml.io import read_tests_csv, write_tests_csv
+from greyml.persist import load_model
+
+MODELS = ("GMC", "GNNMCI", "ANFISGrid", "ANFISFCM", "MLPBaseline")
+
+
+def _tiny_frame(n=60):
+    """Two short heating tests: three temperatures, the spindle speed and dz_um."""
+    frames = []
+    for k, label in enumerate(["A", "B"]):
+        t = 60.0 * np.arange(n)
+        heat = 1.0 - np.exp(-t / (900.0 + 300.0 * k))
+        ambient = 20.0 + 0.2 * k + 0.1 * np.sin(t / 2000.0)
+        frames.append(
+            pd.DataFrame(
+                {
+                    "spindle_rpm": np.full(n, 4000.0 + 2000.0 * k),
+                    "T1_C": ambient + 6.0 * heat,
+                    "T2_C": ambient + 3.0 * heat**2,
+                    "T3_C": ambient.copy(),
+                    "dz_um": -20.0 * heat - 3.0 * heat**2,
+                },
+                index=make_test_index([label] * n, t),
+            )
+        )
+    return pd.concat(frames)
+
+
+@pytest.fixture(scope="module")
+def tiny(tmp_path_factory):
+    """A small CSV of tests and a GMC model file trained on it."""
+    folder = tmp_path_factory.mktemp("tiny")
+    data = write_tests_csv(_tiny_frame(), folder / "tiny.csv")
+    model = folder / "gmc.greyml"
+    code = main(["fit", str(data), "--target", "dz_um", "--model", "gmc", "--out", str(model)])
+    assert code == 0
+    return {"folder": folder, "data": data, "model": model}
+
+
+def _error(capsys, argv, command=None):
+    """Run ``greyml argv``; check exit code 2 and one clean error line; return it."""
+    code = main([str(a) for a in argv])
+    out, err = capsys.readouterr()
+    command = command or argv[0]
+    assert code == 2, (out, err)
+    assert "Traceback" not in err
+    assert err.startswith(f"greyml {command}: error: "), err
+    assert err.endswith("\n") and err.count("\n") == 1, err
+    return err
+
+
+def _write(path, text):
+    path.write_text(text, encoding="utf-8")
+    return path
+
+
+# ------------------------------------------------------------------------------
+# User errors: exit code 2, one line
+# ------------------------------------------------------------------------------
+
+
+def test_missing_data_file(capsys, tmp_path):
+    missing = tmp_path / "nowhere.csv"
+    err = _error(capsys, ["select", missing, "--target", "dz_um"])
+    assert "no such file" in err and str(missing) in err
+
+
+def test_wrong_target_column(capsys, tiny):
+    err = _error(capsys, ["select", tiny["data"], "--target", "dy_um"])
+    assert "'dy_um'" in err and "--target" in err and "tiny.csv" in err
+
+
+def test_missing_target_option(capsys, tiny):
+    err = _error(
+        capsys, ["fit", tiny["data"], "--model", "gmc", "--out", tiny["folder"] / "x.greyml"]
+    )
+    assert "--target" in err and "greyml fit --help" in err
+
+
+def test_empty_csv(capsys, tmp_path):
+    empty = _write(tmp_path / "empty.csv", "")
+    err = _error(capsys, ["select", empty, "--target", "dz_um"])
+    assert "empty" in err and "empty.csv" in err
+
+
+def test_csv_without_test_and_time_columns(capsys, tmp_path):
+    bare = _write(tmp_path / "bare.csv", "T1_C,dz_um\n20.0,0.0\n20.5,1.0\n")
+    err = _error(capsys, ["fit", bare, "--target", "dz_um", "--model", "gmc", "--out", "m"])
+    assert "'test'" in err and "bare.csv" in err
+
+
+def test_csv_with_text_in_a_number_column(capsys, tmp_path):
+    bad = _write(tmp_path / "bad.csv", "test,time_s,T1_C,dz_um\nA,0,20.0,0\nA,60,warm,1\n")
+    err = _error(capsys, ["select", bad, "--target", "dz_um", "--n", "1"])
+    assert "'warm'" in err and "line 3" in err
+
+
+def test_unknown_model(capsys, tiny):
+    err = _error(
+        capsys, ["fit", tiny["data"], "--target", "dz_um", "--model", "lstm", "--out", "m"]
+    )
+    assert "'lstm'" in err and "anfis-fcm" in err
+
+
+def test_unknown_machine(capsys, tmp_path):
+    err = _error(capsys, ["simulate", "--machine", "lathe", "--out", tmp_path / "x.csv"])
+    assert "'lathe'" in err and "gantry" in err
+
+
+@pytest.mark.parametrize("value", ["0", "-3", "five"])
+def test_bad_n(capsys, tiny, value):
+    err = _error(capsys, ["select", tiny["data"], "--target", "dz_um", "--n", value])
+    assert "--n" in err
+
+
+def test_n_larger_than_the_candidates(capsys, tiny):
+    err = _error(capsys, ["select", tiny["data"], "--target", "dz_um", "--n", "4"])
+    assert "--n 4" in err and "3 candidate" in err
+
+
+def test_unwritable_output_folder(capsys, tmp_path):
+    # a regular file where the folder should be: unwritable even for root
+    blocker = _write(tmp_path / "blocker", "not a folder")
+    err = _error(capsys, ["simulate", "--machine", "vmc", "--out", blocker / "vmc.csv"])
+    assert str(blocker) in err
+    err = _error(capsys, ["demo", "--quick", "--out", blocker / "demo"])
+    assert "cannot create the output folder" in err and str(blocker) in err
+
+
+def test_read_only_output_folder(capsys, tiny, tmp_path, monkeypatch):
+    # the permission check itself, also where the tests run as root (who may
+    # write anywhere): os.access says the folder is read-only
+    locked = tmp_path / "locked"
+    locked.mkdir()
+    real_access = os.access
+
+    def access(path, mode, *args, **kwargs):
+        if os.path.abspath(path) == str(locked) and mode & os.W_OK:
+            return False
+        return real_access(path, mode, *args, **kwargs)
+
+    monkeypatch.setattr(os, "access", access)
+    err = _error(capsys, ["predict", tiny["model"], tiny["data"], "--out", locked / "p.csv"])
+    assert "not writable" in err
+
+
+def test_existing_output_without_force(capsys, tiny, tmp_path):
+    taken = _write(tmp_path / "taken.csv", "keep me\n")
+    err = _error(capsys, ["simulate", "--machine", "vmc", "--tests", "I", "--out", taken])
+    assert "exists" in err and "--force" in err
+    err = _error(capsys, ["predict", tiny["model"], tiny["data"], "--out", taken])
+    assert "exists" in err
+    err = _error(
+        capsys, ["fit", tiny["data"], "--target", "dz_um", "--model", "gmc", "--out", taken]
+    )
+    assert "exists" in err
+    assert taken.read_text() == "keep me\n"
+
+
+def test_non_empty_demo_folder_without_force(capsys, tmp_path):
+    (tmp_path / "notes.txt").write_text("mine")
+    err = _error(capsys, ["demo", "--quick", "--out", tmp_path])
+    assert "not empty" in err and "--force" in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["notes.txt"]
+
+
+def test_demo_out_is_a_file(capsys, tmp_path):
+    file = _write(tmp_path / "demo", "")
+    err = _error(capsys, ["demo", "--quick", "--out", file])
+    assert "is a file, not a folder" in err
+
+
+def test_model_file_that_is_not_a_model(capsys, tiny, tmp_path):
+    fake = _write(tmp_path / "fake.greyml", "test,time_s\nA,0\n")
+    err = _error(capsys, ["predict", fake, tiny["data"], "--out", tmp_path / "p.csv"])
+    assert "fake.greyml" in err and "not a greyml model" in err
+
+
+def test_missing_model_file(capsys, tiny, tmp_path):
+    err = _error(
+        capsys, ["predict", tmp_path / "none.greyml", tiny["data"], "--out", tmp_path / "p.csv"]
+    )
+    assert "none.greyml" in err and "does not exist" in err
+
+
+def _retouch(source, target, edit):
+    """Copy a model file, passing its model.json through ``edit``."""
+    with zipfile.ZipFile(source) as old, zipfile.ZipFile(target, "w") as new:
+        for info in old.infolist():
+            data = old.read(info)
+            if info.filename == "model.json":
+                data = json.dumps(edit(json.loads(data))).encode()
+            new.writestr(info, data)
+    return target
+
+
+def test_tampered_model_file_naming_a_foreign_class(capsys, tiny, tmp_path):
+    def to_popen(doc):
+        text = json.dumps(doc).replace('"greyml.GMC"', '"subprocess.Popen"')
+        return json.loads(text)
+
+    evil = _retouch(tiny["model"], tmp_path / "evil.greyml", to_popen)
+    err = _error(capsys, ["predict", evil, tiny["data"], "--out", tmp_path / "p.csv"])
+    assert "evil.greyml" in err and "subprocess.Popen" in err and "Refusing" in err
+    assert not (tmp_path / "p.csv").exists()
+
+
+def test_tampered_model_file_with_damaged_bytes(capsys, tiny, tmp_path):
+    raw = bytearray(tiny["model"].read_bytes())
+    middle = len(raw) // 2
+    raw[middle : middle + 16] = bytes(16)
+    damaged = tmp_path / "damaged.greyml"
+    damaged.write_bytes(bytes(raw))
+    err = _error(capsys, ["predict", damaged, tiny["data"], "--out", tmp_path / "p.csv"])
+    assert "damaged.greyml" in err
+
+
+def test_predict_on_data_without_the_model_sensors(capsys, tiny, tmp_path):
+    frame = read_tests_csv(tiny["data"]).drop(columns=["T2_C"])
+    data = write_tests_csv(frame, tmp_path / "no_t2.csv")
+    err = _error(capsys, ["predict", tiny["model"], data, "--out", tmp_path / "p.csv"])
+    assert "T2_C" in err and "no_t2.csv" in err
+
+
+def test_nan_in_a_sensor(capsys, tiny, tmp_path):
+    frame = read_tests_csv(tiny["data"])
+    frame.iloc[65, frame.columns.get_loc("T1_C")] = np.nan  # row 5 of test B
+    data = write_tests_csv(frame, tmp_path / "gap.csv")
+    argv = ["fit", data, "--target", "dz_um", "--model", "gmc", "--out", tmp_path / "m.greyml"]
+    err = _error(capsys, argv)
+    assert "'T1_C'" in err and "line 67" in err and "test 'B'" in err
+    err = _error(capsys, ["predict", tiny["model"], data, "--out", tmp_path / "p.csv"])
+    assert "'T1_C'" in err and "line 67" in err
+
+
+def test_target_missing_for_fit(capsys, tiny, tmp_path):
+    frame = read_tests_csv(tiny["data"])
+    frame.iloc[3, frame.columns.get_loc("dz_um")] = np.nan
+    data = write_tests_csv(frame, tmp_path / "no_target.csv")
+    argv = ["fit", data, "--target", "dz_um", "--model", "gmc", "--out", tmp_path / "m.greyml"]
+    err = _error(capsys, argv)
+    assert "target column 'dz_um'" in err and "line 5" in err and "test 'A'" in err
+
+
+def test_unknown_training_test(capsys, tiny, tmp_path):
+    argv = ["fit", tiny["data"], "--target", "dz_um", "--model", "gmc"]
+    err = _error(capsys, [*argv, "--train-tests", "A,Z", "--out", tmp_path / "m.greyml"])
+    assert "'Z'" in err and "A, B" in err
+    err = _error(capsys, ["select", tiny["data"], "--target", "dz_um", "--train-test", "Q"])
+    assert "'Q'" in err
+
+
+def test_sensor_that_is_not_a_column(capsys, tiny, tmp_path):
+    argv = ["fit", tiny["data"], "--target", "dz_um", "--model", "mlp", "--sensors", "T1_C,T9_C"]
+    err = _error(capsys, [*argv, "--out", tmp_path / "m.greyml"])
+    assert "'T9_C'" in err and "--sensors" in err
+
+
+def test_anfis_grid_on_too_many_inputs(capsys, tmp_path):
+    frame = load_vmc_tests().frame
+    data = write_tests_csv(frame[frame.index.get_level_values("test") == "IV"], tmp_path / "iv.csv")
+    argv = ["fit", data, "--target", "dy_um", "--model", "anfis-grid"]
+    err = _error(capsys, [*argv, "--out", tmp_path / "m.greyml"])
+    assert "76 inputs" in err and "--select" in err
+
+
+@pytest.mark.parametrize(
+    ("spec", "words"),
+    [
+        ("ten:spindle_rpm=4000", "minutes"),
+        ("60:laser=on", "spindle_rpm"),
+        ("60:spindle_rpm=fast", "'fast'"),
+        ("60,,60", "empty segment"),
+        ("-5", "positive"),
+    ],
+)
+def test_bad_programme(capsys, tmp_path, spec, words):
+    argv = ["simulate", "--machine", "vmc", "--programme", spec, "--out", tmp_path / "p.csv"]
+    err = _error(capsys, argv)
+    assert words in err
+
+
+def test_programme_and_tests_together(capsys, tmp_path):
+    argv = ["simulate", "--machine", "vmc", "--programme", "60", "--tests", "I"]
+    err = _error(capsys, [*argv, "--out", tmp_path / "p.csv"])
+    assert "not both" in err
+    err = _error(capsys, ["simulate", "--machine", "gantry", "--tests", "IV", "--out", "x.csv"])
+    assert "Z-axis" in err
+
+
+# ------------------------------------------------------------------------------
+# Success paths
+# ------------------------------------------------------------------------------
+
+
+def test_simulate_select_fit_predict_round_trip(capsys, tmp_path):
+    train_csv, new_csv = tmp_path / "train.csv", tmp_path / "new.csv"
+    assert main(["simulate", "--machine", "vmc", "--tests", "I,IV", "--out", str(train_csv)]) == 0
+    assert "I, IV" in capsys.readouterr().out
+    assert main(["simulate", "--machine", "vmc", "--tests", "V", "--out", str(new_csv)]) == 0
+    capsys.readouterr()
+    data = read_tests_csv(train_csv)
+    assert list(dict.fromkeys(data.index.get_level_values("test"))) == ["I", "IV"]
+
+    argv = ["select", str(train_csv), "--target", "dy_um", "--n", "3", "--train-test", "IV"]
+    assert main(argv) == 0
+    out = capsys.readouterr().out
+    assert "kept 3 of 76 candidate sensors" in out
+    kept = [line.split()[1] for line in out.splitlines() if line.strip()[:1].isdigit()]
+    assert len(kept) == 3 and all(k in data.columns for k in kept)
+
+    model = tmp_path / "anfis.greyml"
+    argv = ["fit", str(train_csv), "--target", "dy_um", "--model", "anfis-fcm", "--select", "3"]
+    assert main([*argv, "--train-tests", "IV", "--out", str(model)]) == 0
+    out = capsys.readouterr().out
+    assert "trained ANFISFCM" in out and "saved to" in out
+    assert f"inputs: {', '.join(kept)}" in out  # the same selection as greyml select
+
+    pred_csv = tmp_path / "pred.csv"
+    assert main(["predict", str(model), str(new_csv), "--out", str(pred_csv)]) == 0
+    out, err = capsys.readouterr()
+    assert "against the measured dy_um" in out and err == ""
+    pred = read_tests_csv(pred_csv)
+    assert list(pred.columns) == ["predicted_dy_um", "compensation_dy_um"]
+    new = read_tests_csv(new_csv)
+    assert pred.index.equals(new.index)
+    np.testing.assert_array_equal(pred["compensation_dy_um"], -pred["predicted_dy_um"])
+    saved = load_model(model)
+    assert list(saved[0].selected_) == kept
+    expected = saved.predict(new[list(saved.feature_names_in_)])
+    np.testing.assert_allclose(pred["predicted_dy_um"], expected, rtol=0, atol=1e-12)
+
+    # the data need only the sensors the model kept; --force replaces the output
+    only_kept = write_tests_csv(new[kept], tmp_path / "kept.csv")
+    assert main(["predict", str(model), str(only_kept), "--out", str(pred_csv), "--force"]) == 0
+    np.testing.assert_array_equal(read_tests_csv(pred_csv), pred)
+    short = write_tests_csv(new[kept[1:]], tmp_path / "short.csv")
+    err = _error(capsys, ["predict", model, short, "--out", tmp_path / "p2.csv"])
+    assert kept[0] in err and "short.csv" in err
+
+
+def test_simulate_the_seeds_tests_is_the_embedded_data(capsys, tmp_path):
+    path = tmp_path / "vmc.csv"
+    assert main(["simulate", "--machine", "vmc", "--tests", "seeds", "--out", str(path)]) == 0
+    assert "6 simulated test(s)" in capsys.readouterr().out
+    pd.testing.assert_frame_equal(read_tests_csv(path), load_vmc_tests().frame)
+
+
+def test_simulate_a_programme_of_ones_own(capsys, tmp_path):
+    path = tmp_path / "gantry.csv"
+    argv = ["simulate", "--machine", "gantry", "--programme", "30:c_rpm=2500,30"]
+    argv += ["--programme", "20:feed_mm_min=70000:c_rpm=1000,10", "--ambient", "22.5"]
+    assert main([*argv, "--seed", "3", "--out", str(path)]) == 0
+    frame = read_tests_csv(path)
+    tests = frame.index.get_level_values("test")
+    assert list(dict.fromkeys(tests)) == ["P1", "P2"]
+    p1 = frame.xs("P1", level="test")
+    assert p1.index.max() == pytest.approx(3600.0)
+    assert p1["c_rpm"].iloc[0] == 2500 and p1["c_rpm"].iloc[-1] == 0
+    assert frame["ambient_C"].iloc[0] == pytest.approx(22.5)
+
+
+def test_fit_without_selection_on_named_sensors(capsys, tiny, tmp_path):
+    model = tmp_path / "mlp.greyml"
+    argv = ["fit", str(tiny["data"]), "--target", "dz_um", "--model", "mlp"]
+    assert main([*argv, "--sensors", "T1_C, T2_C", "--out", str(model)]) == 0
+    assert "inputs (2): T1_C, T2_C" in capsys.readouterr().out
+    assert list(load_model(model).feature_names_in_) == ["T1_C", "T2_C"]
+
+
+def test_help_of_every_command_has_an_example(capsys):
+    for command in ("demo", "simulate", "select", "fit", "predict"):
+        assert main([command, "--help"]) == 0
+        out = capsys.readouterr().out
+        assert f"usage: greyml {command}" in out and "Examples:" in out, command
+
+
+def test_python_m_greyml_demo_help():
+    proc = subprocess.run(
+        [sys.executable, "-m", "greyml", "demo", "--help"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=False,
+    )
+    assert proc.returncode == 0, proc.stderr
+    assert "usage: greyml demo" in proc.stdout and "greyml demo --out" in proc.stdout
+
+
+def test_progress_shows_steps_on_a_terminal_only():
+    class Terminal(io.StringIO):
+        def isatty(self):
+            return True
+
+    screen = Terminal()
+    progress = Progress(2, stream=screen)
+    progress.step("fitting ANFISFCM on the VMC")
+    progress.step("plotting")
+    progress.close()
+    text = screen.getvalue()
+    assert "[1/2] fitting ANFISFCM on the VMC\u2026" in text and "[2/2] plotting" in text
+    assert text.endswith("\r")  # the line is cleared at the end
+
+    pipe = io.StringIO()
+    quiet = Progress(2, stream=pipe)
+    quiet.step("fitting")
+    quiet.close()
+    assert pipe.getvalue() == ""
+
+
+def _check_demo_output(out, folder):
+    for machine in ("VMC:", "Gantry:"):
+        assert machine in out
+    assert "PAPER: seed 001" in out and "PAPER: seed 000" in out
+    assert out.count("OURS: greyml, simulated") == 2
+    for label in MODELS:
+        assert out.count(f"  {label} ") >= 2, label
+    # seed 000's Table 4, beside ours
+    assert "4.60" in out and "15.26" in out and "Journal of Manufacturing Systems" in out
+    pngs = sorted(p.name for p in folder.glob("*.png"))
+    assert len(pngs) == 10, pngs
+    assert "vmc_anfis-fcm.png" in pngs and "gantry_gnnmci.png" in pngs
+    for name in pngs:
+        assert (folder / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert (folder / "results.txt").read_text(encoding="utf-8").strip() == out.strip()
+
+
+def test_demo_quick(capsys, tmp_path):
+    folder = tmp_path / "demo"
+    start = time.perf_counter()
+    assert main(["demo", "--quick", "--out", str(folder)]) == 0
+    assert time.perf_counter() - start < 60
+    out, err = capsys.readouterr()
+    assert err == ""  # no progress when standard error is not a terminal
+    _check_demo_output(out, folder)
+    assert "--quick" in out
+
+    # --force writes into the non-empty folder and leaves other files alone
+    (folder / "notes.txt").write_text("mine")
+    assert main(["demo", "--quick", "--out", str(folder), "--force"]) == 0
+    capsys.readouterr()
+    assert (folder / "notes.txt").read_text() == "mine"
+
+
+@pytest.mark.slow
+def test_full_demo_runs_in_under_two_minutes(capsys, tmp_path):
+    start = time.perf_counter()
+    assert main(["demo", "--out", str(tmp_path)]) == 0
+    assert time.perf_counter() - start < 120
+    out = capsys.readouterr().out
+    _check_demo_output(out, tmp_path)
+    assert "the seeds' settings" in out and "90 particles x 100 iterations" in out
