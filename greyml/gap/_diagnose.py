@@ -213,31 +213,81 @@ def noise_floor(r, bounds):
     return float(mad / 0.6745 / np.sqrt(2.0))
 
 
-def _placebo_improvements(ctx, base, before, cand, rng, n_placebo, recal=None):
-    """Held-out shrinkage of random-walk signatures as free as the candidate.
+def _placebo_make(ctx, cand, rng):
+    """Random-walk signatures as free as ``cand``: a ``make`` like its own.
 
-    Each placebo has as many variants, features and time-constant settings as
-    ``cand``: its variants are random walks from 0 in every test, lagged like
-    the candidate's signatures (or used as they are when it has no time
-    constant).
+    As many variants, features and time-constant settings: the variants are
+    random walks from 0 in every test, lagged like the candidate's signatures
+    (or used as they are when it has no time constant).
     """
     n, V, k = len(ctx.r), len(cand.variants), cand.n_features
-    out = np.empty(n_placebo)
-    for p in range(n_placebo):
-        if cand.settings[0]:
-            lags = LagCache(placebo_walks(rng, ctx.bounds, V), ctx.dt, ctx.bounds)
+    if cand.settings[0]:
+        lags = LagCache(placebo_walks(rng, ctx.bounds, V), ctx.dt, ctx.bounds)
+        return lags.stack
+    walks = placebo_walks(rng, ctx.bounds, V * k).reshape(n, V, k)
+    return lambda setting: walks
 
-            def make(setting, lags=lags):
-                return lags.stack(setting)
-        else:
-            walks = placebo_walks(rng, ctx.bounds, V * k).reshape(n, V, k)
 
-            def make(setting, walks=walks):
-                return walks
+def _placebo_improvements(ctx, base, before, cand, rng, n_placebo, recal=None, beat=np.inf):
+    """Held-out shrinkage of up to ``n_placebo`` random-walk placebos as free as ``cand``.
 
+    Stops at the first placebo whose shrinkage reaches ``beat`` (the effect's
+    own): the effect is then not significant, whatever the others do.
+    """
+    out = []
+    for _ in range(n_placebo):
+        make = _placebo_make(ctx, cand, rng)
         ev = evaluate(ctx.r, base, make, cand.settings, ctx.bounds, recal=recal)
-        out[p] = 1.0 - ev.rmse / before.rmse
-    return out
+        out.append(1.0 - ev.rmse / before.rmse)
+        if out[-1] >= beat:
+            break
+    return np.array(out)
+
+
+def _best(placebo):
+    """The best placebo's shrinkage, or NaN when none was tried."""
+    finite = placebo[np.isfinite(placebo)]
+    return float(finite.max()) if finite.size else np.nan
+
+
+def _with(base, make, ev):
+    """Each fold's base with one more effect, as that fold chose it."""
+    return [np.hstack([b, d]) for b, d in zip(base, fold_design(make, ev.choices))]
+
+
+def _pair_step(ctx, base, before, scored, recal, rng, n_placebo, min_shrinkage, top=3):
+    """The best pair of effects, and placebo pairs as free as it.
+
+    Two effects withheld at once can each explain too little of the gap to
+    beat placebos alone, while together they explain it. The best ``top``
+    single effects are each completed by every other effect (fitted given
+    the first); the best pair is compared with ``n_placebo`` pairs of random
+    walks given the same freedom (the first fitted alone, the second given
+    it).
+    """
+    best = None
+    for _, first, ev_first in scored[:top]:
+        with_first = _with(base, first.make, ev_first)
+        for _, second, _ in scored:
+            if second is first:
+                continue
+            ev = evaluate(ctx.r, with_first, second.make, second.settings, ctx.bounds, recal=recal)
+            if best is None or ev.rmse < best[3].rmse:
+                best = (first, ev_first, second, ev)
+    first, ev_first, second, ev = best
+    shrink = 1.0 - ev.rmse / before.rmse
+    placebo = []
+    for _ in range(n_placebo if shrink > min_shrinkage else 0):
+        make_a = _placebo_make(ctx, first, rng)
+        ev_a = evaluate(ctx.r, base, make_a, first.settings, ctx.bounds, recal=recal)
+        make_b = _placebo_make(ctx, second, rng)
+        ev_b = evaluate(
+            ctx.r, _with(base, make_a, ev_a), make_b, second.settings, ctx.bounds, recal=recal
+        )
+        placebo.append(1.0 - ev_b.rmse / before.rmse)
+        if placebo[-1] >= shrink:  # not significant, whatever the others do
+            break
+    return (shrink, first, ev_first, second, ev), np.array(placebo or [np.nan])
 
 
 def _prune(ctx, named, base, recal, tie_tolerance):
@@ -303,8 +353,12 @@ def _forward(
             scored.append((shrink, cand, ev))
         scored.sort(key=lambda s: -s[0])
         best_shrink, best, best_ev = scored[0]
-        placebo = _placebo_improvements(ctx, base, before, best, rng, n_placebo, recal)
-        threshold = max(min_shrinkage, float(placebo.max()))
+        placebo = np.array([np.nan])
+        if best_shrink > min_shrinkage:
+            placebo = _placebo_improvements(
+                ctx, base, before, best, rng, n_placebo, recal, beat=best_shrink
+            )
+        threshold = max(min_shrinkage, np.nan_to_num(_best(placebo), nan=-np.inf))
         significant = best_shrink > threshold and len(named) < max_effects
         ties = [c.effect for s, c, _ in scored[1:] if best_shrink - s <= tie_tolerance]
         step = {
@@ -313,15 +367,43 @@ def _forward(
             "peak_before": before.peak,
             "scored": scored,
             "threshold": threshold,
-            "placebo_max": float(placebo.max()),
+            "placebo_max": _best(placebo),
             "significant": significant,
             "ties": ties if significant else [],
         }
+        if not significant and len(remaining) >= 2 and len(named) + 2 <= max_effects:
+            pair, placebo = _pair_step(
+                ctx, base, before, scored, recal, rng, n_placebo, min_shrinkage
+            )
+            shrink, first, ev_first, second, ev_second = pair
+            threshold = max(min_shrinkage, np.nan_to_num(_best(placebo), nan=-np.inf))
+            if shrink > threshold:
+                for cand, ev, start, partner in (
+                    (first, ev_first, before, second),
+                    (second, ev_second, ev_first, first),
+                ):
+                    step = {
+                        "step": len(steps) + 1,
+                        "rmse_before": start.rmse,
+                        "peak_before": start.peak,
+                        "scored": [],
+                        "threshold": threshold,
+                        "placebo_max": _best(placebo),
+                        "significant": True,
+                        "ties": [],
+                        "pair": partner.effect,
+                    }
+                    steps.append(step)
+                    named.append((cand, ev, step))
+                base = _with(_with(base, first.make, ev_first), second.make, ev_second)
+                before = ev_second
+                remaining = [c for c in remaining if c is not first and c is not second]
+                continue
         steps.append(step)
         if not significant:
             break
         named.append((best, best_ev, step))
-        base = [np.hstack([b, d]) for b, d in zip(base, fold_design(best.make, best_ev.choices))]
+        base = _with(base, best.make, best_ev)
         before = best_ev
         remaining = [c for c in remaining if c is not best]
 
@@ -396,7 +478,7 @@ def diagnose_gap(
         Refit the simulation's own parameters within ``tolerance``, so that
         parameters a few percent off are not taken for an unmodelled effect.
         With ``sensitivities``, those parameters; without, the simulation's
-        gain and timing (r ≈ a·s + b·(s − L_τ[s]), |a|, |b| ≤ tolerance).
+        gain and timing (``r ≈ a·s + b·(s − L_τ[s])``, ``|a|, |b| ≤ tolerance``).
         They are fitted together with every effect (bounded least squares).
         The search for effects is run with and without the recalibration,
         and the one that leaves less of the gap held out is kept
@@ -485,6 +567,8 @@ def diagnose_gap(
         detail = best.describe(best.variants[ev.variant], ev.tau)
         if step["ties"]:
             detail += f"; indistinguishable from {', '.join(step['ties'])}"
+        if step.get("pair"):
+            detail += f"; named as a pair with {step['pair']} (together they beat the placebos)"
         rows.append(
             {
                 "effect": best.effect,

@@ -10,6 +10,7 @@ to pick a time constant or to pick a variant.
 
 from __future__ import annotations
 
+import weakref
 from dataclasses import dataclass
 
 import numpy as np
@@ -171,6 +172,25 @@ def _select(tensors, grams, B, rz, cal, f, bounds, keep=1):
     return found[0] if keep == 1 else found[:keep]
 
 
+_GRAMS = weakref.WeakKeyDictionary()
+
+
+def _cached_grams(make, setting, X, bounds):
+    """:func:`_grams` of ``make(setting)``, remembered for as long as ``make`` lives.
+
+    A candidate is scored at every step of the search with the same
+    signatures; only the base and the gap change.
+    """
+    try:
+        store = _GRAMS.setdefault(make, {})
+    except TypeError:  # not weak-referenceable: no cache
+        return _grams(X, bounds)
+    key = (setting, tuple(bounds))
+    if key not in store:
+        store[key] = _grams(X, bounds)
+    return store[key]
+
+
 def _grams(X, bounds):
     """Cross products of the (n, V·k) signatures: over all rows and per test."""
     if X is None:
@@ -181,14 +201,25 @@ def _grams(X, bounds):
     return W.T @ W, per_test
 
 
-def _joint_fit(r, D, B, X, cal, tolerance):
-    """Bounded joint fit of parameters D (bounded), base B and one signature X."""
-    design = np.hstack([D, B] if X is None else [D, B, X])
-    Dc = design[cal]
-    G, g = Dc.T @ Dc, Dc.T @ r[cal]
-    coef = box_solve(G, g, D.shape[1], tolerance)
-    rc = r[cal]
-    return rc @ rc - 2.0 * coef @ g + coef @ G @ coef, coef
+def _joint_fit(r, fixed, B, X, cal, tolerance):
+    """Bounded joint fit of the parameters (bounded), base B and one signature X.
+
+    ``fixed`` holds the fold's products of the parameters' design D that do
+    not change between fits: (D·cal, DᵀD and Dᵀr over the calibration rows,
+    rᵀr); only the products with [B, X] are formed here.
+    """
+    Dz, DD, Dr, rr = fixed
+    E = B if X is None else np.hstack([B, X])
+    Ez = E * cal[:, None]
+    p, m = DD.shape[0], E.shape[1]
+    G = np.empty((p + m, p + m))
+    G[:p, :p] = DD
+    G[:p, p:] = Dz.T @ E
+    G[p:, :p] = G[:p, p:].T
+    G[p:, p:] = Ez.T @ E
+    g = np.concatenate([Dr, Ez.T @ r])
+    coef = box_solve(G, g, p, tolerance)
+    return rr - 2.0 * coef @ g + coef @ G @ coef, coef
 
 
 def _joint_choice(r, tensors, grams, B, recal, f, cal, bounds, max_rounds, shortlist):
@@ -202,6 +233,9 @@ def _joint_choice(r, tensors, grams, B, recal, f, cal, bounds, max_rounds, short
     """
     D = recal.designs[f]
     p = D.shape[1]
+    Dz = D * cal[:, None]
+    rz = r * cal
+    fixed = (Dz, Dz.T @ D, Dz.T @ r, rz @ r)
     starts = [recal.theta[f], np.zeros(p)]
     picked, best = None, None
     for _ in range(max_rounds):
@@ -213,7 +247,9 @@ def _joint_choice(r, tensors, grams, B, recal, f, cal, bounds, max_rounds, short
                 pool[(i, v)] = None
         for i, v in pool:
             X = tensors[i]
-            sse, coef = _joint_fit(r, D, B, None if X is None else X[:, v, :], cal, recal.tolerance)
+            sse, coef = _joint_fit(
+                r, fixed, B, None if X is None else X[:, v, :], cal, recal.tolerance
+            )
             if best is None or sse < best[0]:
                 best = (sse, (i, v), coef)
         if best[1] == picked:
@@ -260,7 +296,9 @@ def evaluate(r, base, make, settings, bounds, recal=None, max_rounds=3, shortlis
     choices = []
     tensors = [make(s) for s in settings] if make is not None else [None]
     settings = list(settings) if make is not None else [()]
-    grams = [_grams(X, bounds) for X in tensors]
+    grams = [
+        None if X is None else _cached_grams(make, s, X, bounds) for X, s in zip(tensors, settings)
+    ]
     for f, (start, stop) in enumerate(bounds):
         cal = np.ones(n, dtype=bool)
         cal[start:stop] = False

@@ -48,7 +48,7 @@ class GapReport:
     named : list of str
         Every effect added, in order.
     rmse_before, rmse_after, peak_before, peak_after : float
-        Held-out RMSE and peak |gap| of the simulation alone and with the
+        Held-out RMSE and peak ``|gap|`` of the simulation alone and with the
         named effects added.
     rmse_recalibrated : float
         Held-out RMSE once the simulation's own parameters (or gain and
