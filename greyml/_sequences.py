@@ -23,7 +23,9 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
+#: Name of the row-index level that holds the test labels.
 TEST_LEVEL = "test"
+#: Name of the row-index level that holds the seconds from each test's start.
 TIME_LEVEL = "time_s"
 
 __all__ = [

@@ -296,11 +296,11 @@ class ANFISGrid(_ANFISBase):
         Step length per epoch.
     checking_ : str
         What served as checking data.
-    x_mean_, x_scale_ : ndarray of shape (n_features_in_,)
+    x_mean_, x_scale_ : ndarray of shape (``n_features_in_``,)
     y_mean_, y_scale_ : float
         The standardisation applied before training.
     n_features_in_ : int
-    feature_names_in_ : ndarray of shape (n_features_in_,)
+    feature_names_in_ : ndarray of shape (``n_features_in_``,)
 
     See Also
     --------
@@ -477,7 +477,7 @@ validation_fraction, error_goal
 
     Attributes
     ----------
-    cluster_centres_ : ndarray of shape (n_clusters, n_features_in_)
+    cluster_centres_ : ndarray of shape (n_clusters, ``n_features_in_``)
         c-means centres in the inputs' units (before hybrid learning).
     fpc_ : float
         Fuzzy partition coefficient of the clustering (1 = crisp).

@@ -36,7 +36,7 @@ class AGO(OneToOneFeatureMixin, TransformerMixin, BaseEstimator):
     ----------
     n_features_in_ : int
         Number of columns seen in ``fit``.
-    feature_names_in_ : ndarray of shape (n_features_in_,)
+    feature_names_in_ : ndarray of shape (``n_features_in_``,)
         Column names seen in ``fit`` (DataFrame input only).
 
     See Also
@@ -137,7 +137,7 @@ class AccumulatedTargetRegressor(RegressorMixin, BaseEstimator):
     regressor_ : estimator
         The fitted clone of ``regressor``, fitted to the accumulated target.
     n_features_in_ : int
-    feature_names_in_ : ndarray of shape (n_features_in_,)
+    feature_names_in_ : ndarray of shape (``n_features_in_``,)
         Column names seen in ``fit`` (DataFrame input only).
 
     Notes

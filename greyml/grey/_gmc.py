@@ -256,7 +256,7 @@ class GMC(_GreyConvolutionModel):
     ----------
     development_coef_ : float
         b₁.
-    driving_coef_ : ndarray of shape (n_features_in_,)
+    driving_coef_ : ndarray of shape (``n_features_in_``,)
         b₂…b_N, one per column of ``X``.
     control_ : float
         u, the grey control parameter.
@@ -269,7 +269,7 @@ class GMC(_GreyConvolutionModel):
     n_iter_ : int
         Optimiser iterations run (1 for ``"ls"``, one least-squares solve).
     n_features_in_ : int
-    feature_names_in_ : ndarray of shape (n_features_in_,)
+    feature_names_in_ : ndarray of shape (``n_features_in_``,)
 
     See Also
     --------

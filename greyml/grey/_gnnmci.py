@@ -60,7 +60,7 @@ class GNNMCI(_GreyConvolutionModel):
     ----------
     development_coef_ : float
         w₁₁ = b₁.
-    driving_coef_ : ndarray of shape (n_features_in_,)
+    driving_coef_ : ndarray of shape (``n_features_in_``,)
         The driving weights w₂ⱼ = bⱼ.
     control_ : float
         u.
@@ -83,7 +83,7 @@ class GNNMCI(_GreyConvolutionModel):
     GMC midpoint response (:func:`greyml.grey.gnnmci_layers` shows each layer;
     a test checks they agree). greyml therefore evaluates the network through
     the shared O(n) response of :mod:`greyml.grey`, which cannot overflow in
-    the layer products when |b₁k| is large. What distinguishes GNNMCI from
+    the layer products when ``|b₁k|`` is large. What distinguishes GNNMCI from
     ``GMC(solver="ls")`` is its training: the weights minimise the error of
     the whole trajectory rather than of the grey differential equation.
 

@@ -366,7 +366,7 @@ def gnnmci_layers(X1, b1, coef, control, x0):
     Since w₃·b = 1, d = x̂₁⁽¹⁾(1)e^{−b₁k} + Σⱼ bⱼGⱼ(k) + uG_u(k): the GMC
     midpoint response (:func:`gmc_response`), which is how the network is
     evaluated in training and prediction. This function exists to show and
-    test that mapping; for large |b₁k| its products overflow where the
+    test that mapping; for large ``|b₁k|`` its products overflow where the
     response does not.
 
     Parameters

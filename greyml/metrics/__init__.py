@@ -6,8 +6,8 @@ figures the seed papers report for a compensation model:
 - :func:`rmse`: root mean squared error;
 - :func:`correlation`: Pearson R;
 - :func:`nash_sutcliffe`: the efficiency E = 1 - SSE / SST;
-- :func:`residual_band`: max |y - ŷ|, the "±" band of the residual;
-- :func:`improvement`: 1 - max |y - ŷ| / max |y|.
+- :func:`residual_band`: ``max |y - ŷ|``, the "±" band of the residual;
+- :func:`improvement`: ``1 - max |y - ŷ| / max |y|``.
 
 The scorers in :data:`SCORERS` (``"neg_rmse"``, ``"correlation"``,
 ``"nash_sutcliffe"``, ``"neg_residual_band"``, ``"improvement"``) plug them

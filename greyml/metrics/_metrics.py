@@ -455,7 +455,7 @@ def improvement(y_true, y_pred):
 
     See Also
     --------
-    residual_band : The numerator, max |y - ŷ|.
+    residual_band : The numerator, ``max |y - ŷ|``.
 
     Notes
     -----

@@ -74,17 +74,17 @@ class MLPBaseline(RegressorMixin, BaseEstimator):
     ----------
     coefs_ : list of two ndarrays
         Weights in the standardised space, as in ``MLPRegressor``:
-        ``coefs_[0]`` of shape (n_features_in_, n_hidden) (inputs to hidden),
+        ``coefs_[0]`` of shape (``n_features_in_``, n_hidden) (inputs to hidden),
         ``coefs_[1]`` of shape (n_hidden, 1) (hidden to output).
     intercepts_ : list of two ndarrays
         Biases: ``intercepts_[0]`` of shape (n_hidden,), ``intercepts_[1]`` of
         shape (1,).
-    x_mean_, x_scale_ : ndarray of shape (n_features_in_,)
+    x_mean_, x_scale_ : ndarray of shape (``n_features_in_``,)
         Mean and standard deviation of each column of ``X`` in ``fit``; the
-        network sees (X − x_mean_) / x_scale_.
+        network sees ``(X − x_mean_) / x_scale_``.
     y_mean_, y_scale_ : float
         Mean and standard deviation of ``y`` in ``fit`` (``y_scale_`` is 1 for a
-        constant target); the prediction is y_mean_ + y_scale_ · network output.
+        constant target); the prediction is ``y_mean_ + y_scale_ ·`` network output.
     loss_ : float
         Training MSE of the kept network on the standardised target (the
         quantity compared with ``goal``; times ``y_scale_**2`` in units of y²).
@@ -103,7 +103,7 @@ class MLPBaseline(RegressorMixin, BaseEstimator):
     checking_ : str
         Which rows were held out as checking data.
     n_features_in_ : int
-    feature_names_in_ : ndarray of shape (n_features_in_,)
+    feature_names_in_ : ndarray of shape (``n_features_in_``,)
 
     See Also
     --------

@@ -24,7 +24,7 @@ def mantegna_sigma(beta):
 
 
 def levy_steps(shape, beta, rng, sigma=None):
-    """Lévy-flight steps s = u / |v|^{1/β}, u ~ N(0, σ_u²), v ~ N(0, 1) (Mantegna)."""
+    """Lévy-flight steps ``s = u / |v|^(1/β)``, u ~ N(0, σ_u²), v ~ N(0, 1) (Mantegna)."""
     if sigma is None:
         sigma = mantegna_sigma(beta)
     u = rng.standard_normal(shape) * sigma

@@ -35,7 +35,7 @@ class GreyInfluenceSelector(SelectorMixin, BaseEstimator):
     Seed 001's selection of temperature sensors: the GM(1,N) model of the target
     (e.g. a displacement) against every candidate sensor gives each sensor an
     influence weight bⱼ; fuzzy c-means groups the sensors into ``n_clusters``
-    clusters; from each cluster the sensor with the largest influence |bⱼ| is
+    clusters; from each cluster the sensor with the largest influence ``|bⱼ|`` is
     kept. The sensors are normalised first, so that their weights can be
     compared.
 
@@ -73,22 +73,22 @@ class GreyInfluenceSelector(SelectorMixin, BaseEstimator):
 
     Attributes
     ----------
-    influence_ : ndarray of shape (n_features_in_,)
+    influence_ : ndarray of shape (``n_features_in_``,)
         GM(1,N) influence weight bⱼ of every sensor (normalised data).
     development_coef_ : float
         The GM(1,N) development coefficient a.
-    membership_ : ndarray of shape (n_clusters, n_features_in_)
+    membership_ : ndarray of shape (n_clusters, ``n_features_in_``)
         Fuzzy membership of every sensor in every cluster.
-    clusters_ : ndarray of shape (n_features_in_,)
+    clusters_ : ndarray of shape (``n_features_in_``,)
         The cluster each sensor belongs to most.
-    support_ : ndarray of bool, shape (n_features_in_,)
+    support_ : ndarray of bool, shape (``n_features_in_``,)
         The kept sensors.
     selected_ : list of str
         Names of the kept sensors, cluster by cluster in order of influence.
     n_iter_ : int
         c-means iterations run.
     n_features_in_ : int
-    feature_names_in_ : ndarray of shape (n_features_in_,)
+    feature_names_in_ : ndarray of shape (``n_features_in_``,)
 
     See Also
     --------
