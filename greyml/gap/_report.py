@@ -69,6 +69,27 @@ class GapReport:
     gap, corrected : Series
         The gap, and what is left of it on held-out tests once the named
         effects are added.
+
+    Examples
+    --------
+    >>> import numpy as np, pandas as pd
+    >>> from greyml import make_test_index
+    >>> from greyml.gap import diagnose_gap
+    >>> t = np.arange(120) * 60.0
+    >>> index = make_test_index(tests=np.repeat(["A", "B", "C"], 120), times=np.tile(t, 3))
+    >>> sim = pd.DataFrame({"dz_um": np.tile(5 * (1 - np.exp(-t / 3600)), 3)}, index=index)
+    >>> noise = 0.01 * np.random.default_rng(0).standard_normal(360)
+    >>> real = sim.assign(dz_um=sim["dz_um"] + 0.5 * np.tile(t, 3) / 3600 + noise)
+    >>> report = diagnose_gap(real, sim, target="dz_um", random_state=0)
+    >>> report.named
+    ['drift']
+    >>> report.where.loc[report.where["by"] == "test", ["segment", "share"]].round(2)
+      segment  share
+    1       A   0.33
+    2       B   0.33
+    3       C   0.33
+    >>> sorted(report.to_dict())[:4]
+    ['cause', 'causes', 'cross_correlation', 'named']
     """
 
     target: str

@@ -54,6 +54,13 @@ def random_tests(machine, rng, n_tests=6, hours=5.5):
     least two: an effect seen in one test alone cannot be checked on another)
     follow 30-120 min of spindle (first input) work in the test's starting
     air, so they start away from equilibrium.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> tests = random_tests("vmc", np.random.default_rng(0), n_tests=3)
+    >>> [t.label for t in tests], [t.history is not None for t in tests]
+    (['T1', 'T2', 'T3'], [True, True, True])
     """
     m = _machine(machine)
     warm = rng.random(n_tests) < 0.7
@@ -90,6 +97,15 @@ def perturb_parameters(machine, error, rng, *, kind="class"):
     heat source's power, as a material constant or a loss estimate is off.
     ``kind="element"``: every capacity, link, convection coefficient, power
     and displacement weight off independently (a harder case).
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from greyml.simulation import vmc
+    >>> m = vmc()
+    >>> off = perturb_parameters(m, 0.05, np.random.default_rng(0))
+    >>> [round(a / b, 4) for a, b in zip(off.capacity[:2], m.capacity[:2])]
+    [1.0137, 1.0137]
     """
     m = _machine(machine)
     if kind not in ("class", "element"):
@@ -153,6 +169,15 @@ def simulator_sensitivities(machine, tests, target, *, effects=None, step=0.01):
     Returns
     -------
     DataFrame indexed by (test, time_s)
+
+    Examples
+    --------
+    >>> from greyml.simulation import Effects, Programme
+    >>> tests = {"A": Programme().run(60, spindle_rpm=8000).dwell(60)}
+    >>> S = simulator_sensitivities("vmc", tests, "dy_um", effects=Effects().without("probe_drift"))
+    >>> list(S.columns)  # the feed-driven sources are off in this test: dropped
+    ['capacity', 'conductance', 'convection', 'expansion',
+     'power: spindle bearings', 'power: spindle motor']
     """
     m = _machine(machine)
     effects = (Effects() if effects is None else effects).without("noise")
@@ -171,7 +196,18 @@ def simulator_sensitivities(machine, tests, target, *, effects=None, step=0.01):
 
 @dataclass
 class WithheldCase:
-    """One withheld-effect case: the data the diagnosis gets, and the truth."""
+    """One withheld-effect case: the data the diagnosis gets, and the truth.
+
+    Made by :func:`withheld_case`; ``real``, ``sim``, ``sensitivities`` and
+    ``roles`` go to :func:`diagnose_gap`, the rest is the truth to check it
+    against.
+
+    Examples
+    --------
+    >>> case = withheld_case(("ambient",), 10, 0, n_tests=3)
+    >>> sorted(case.roles)
+    ['ambient', 'drivers', 'sensors', 'target']
+    """
 
     real: pd.DataFrame
     sim: pd.DataFrame
@@ -202,6 +238,13 @@ def withheld_case(
     With ``param_error``, the simulation also runs with its parameters off
     (:func:`perturb_parameters`); its sensitivities are computed at those
     wrong parameters, as a user would compute them.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> case = withheld_case(("drift",), 10, 0, n_tests=3)
+    >>> case.roles["target"], round(float(np.abs(case.effect).max() / np.std(case.noise)), 3)
+    ('dy_um', 10.0)
     """
     m = _machine(machine)
     target = target or main_target(m)
@@ -309,7 +352,21 @@ def _run_case(spec, machine, target, kind, n_tests, n_sensors, use_sensitivities
 
 @dataclass
 class WithheldValidation:
-    """Every case's outcome (``cases``) and the summaries the issue asks for."""
+    """Every case's outcome (``cases``) and its summaries.
+
+    Made by :func:`validate_withheld`: ``recall()``, ``confusion()``,
+    ``pairs()``, ``false_alarms()`` and ``shrinkage()`` summarise ``cases``.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> cases = pd.DataFrame({"withheld": ["none", "drift"], "size": [0.0, 10.0],
+    ...                       "param_error": [0.0, 0.0], "cause": ["none", "drift"],
+    ...                       "top1": [False, True], "top2": [False, True],
+    ...                       "false_alarm": [False, False]})
+    >>> WithheldValidation(cases).confusion().values.tolist()
+    [[1, 0], [0, 1]]
+    """
 
     cases: pd.DataFrame
 
@@ -416,6 +473,15 @@ def validate_withheld(
     Returns
     -------
     WithheldValidation
+
+    Examples
+    --------
+    One case with a withheld probe drift and one with nothing withheld:
+
+    >>> v = validate_withheld(("drift",), sizes=(10,), n_seeds=1, param_errors=(0.0,),
+    ...                       pairs=(), n_null=1, n_tests=3, n_sensors=3)
+    >>> v.cases[["withheld", "cause"]].values.tolist()
+    [['none', 'none'], ['drift', 'drift']]
     """
     from joblib import Parallel, delayed
 
