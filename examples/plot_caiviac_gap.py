@@ -61,6 +61,9 @@ numbers are the ones to trust, and ``greyml.gap`` was still changing):
   seed and not with most others.) With T4 as the air, ``ambient`` is named
   or not depending on the calibration cycle, the speed exponent, the seed of
   the placebos and the version of ``greyml.gap``, so we do not believe it.
+  (When this was last run it was named, together with ``heat_source`` and
+  ``nonlinear_expansion``, but its own shrinkage only just beat the best
+  placebo's.)
   T4 also rises with the spindle, by 2 to 5 °C at 2500 rpm and above: it is
   no clean air sensor. ``initial_state`` is not named.
 * *What we believe*: the sensors that do best as the "air" in the scan are
