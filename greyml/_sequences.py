@@ -174,6 +174,8 @@ def test_segments(X, n_samples: int | None = None) -> list[Segment]:
 def test_ids(X) -> np.ndarray:
     """The test label of every row, for ``groups=`` of scikit-learn splitters.
 
+    Examples
+    --------
     >>> import pandas as pd
     >>> idx = pd.MultiIndex.from_tuples(
     ...     [("I", 0), ("I", 10), ("II", 0)], names=["test", "time_s"])
@@ -189,7 +191,22 @@ def test_ids(X) -> np.ndarray:
 
 
 def make_test_index(tests, times) -> pd.MultiIndex:
-    """Build greyml's ``(test, time_s)`` row index from per-row labels and times."""
+    """Build greyml's ``(test, time_s)`` row index from per-row labels and times.
+
+    Examples
+    --------
+    Two tests, the second starting its clock again at 0 s:
+
+    >>> import pandas as pd
+    >>> from greyml import make_test_index, test_ids
+    >>> index = make_test_index(["I", "I", "II"], [0, 60, 0])
+    >>> list(index.names)
+    ['test', 'time_s']
+    >>> index.tolist()
+    [('I', 0.0), ('I', 60.0), ('II', 0.0)]
+    >>> test_ids(pd.DataFrame({"T1_C": [20.0, 20.5, 21.0]}, index=index)).tolist()
+    ['I', 'I', 'II']
+    """
     return pd.MultiIndex.from_arrays(
         [np.asarray(tests), np.asarray(times, dtype=float)],
         names=[TEST_LEVEL, TIME_LEVEL],

@@ -717,6 +717,13 @@ def main(argv=None):
         The exit code: 0 on success, 2 on a usage error or when the
         subcommand fails (the message is printed to standard error as
         ``greyml <command>: error: <message>``, without a traceback).
+
+    Examples
+    --------
+    >>> from greyml.cli import main
+    >>> main(["--version"])  # doctest: +ELLIPSIS
+    greyml ...
+    0
     """
     parser = build_parser()
     try:

@@ -26,6 +26,18 @@ def caiviac_candidates():
     ``$GREYML_CAIVIAC`` if set, then ``../shared/realdata/caiviac`` relative
     to the repository root (the folder holding the ``greyml`` package) and to
     the current directory.
+
+    Examples
+    --------
+    The folders depend on where greyml and the current directory are; the
+    last one always ends in ``shared/realdata/caiviac``:
+
+    >>> from greyml.datasets import caiviac_candidates
+    >>> folders = caiviac_candidates()
+    >>> type(folders).__name__, len(folders) >= 1
+    ('list', True)
+    >>> folders[-1].parts[-3:]
+    ('shared', 'realdata', 'caiviac')
     """
     out = []
     env = os.environ.get("GREYML_CAIVIAC")

@@ -60,6 +60,20 @@ def bunch_from_frame(frame, *, sensors, targets, sensor_groups, description, inp
     Bunch
         ``frame``, ``sensors``, ``targets``, ``inputs``, ``sensor_groups``,
         ``tests`` (labels in order) and ``description``.
+
+    Examples
+    --------
+    >>> import pandas as pd
+    >>> from greyml import make_test_index
+    >>> from greyml.datasets import bunch_from_frame
+    >>> frame = pd.DataFrame(
+    ...     {"spindle_rpm": [4000.0, 0.0, 0.0], "T1_C": [20.0, 20.4, 20.1],
+    ...      "dz_um": [0.0, 3.1, 0.0]},
+    ...     index=make_test_index(["I", "I", "II"], [0, 60, 0]))
+    >>> data = bunch_from_frame(frame, sensors=["T1_C"], targets=["dz_um"],
+    ...                         sensor_groups={"T1_C": "spindle"}, description="Two tests.")
+    >>> data.tests, data.inputs, data.sensors, data.targets
+    (['I', 'II'], ['spindle_rpm'], ['T1_C'], ['dz_um'])
     """
     if inputs is None:
         inputs = [c for c in (*OPERATING_INPUTS, "ambient_C") if c in frame.columns]

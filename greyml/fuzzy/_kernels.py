@@ -54,6 +54,18 @@ def log_firing(X, centres, widths):
     Returns
     -------
     ndarray of shape (n, R)
+
+    Examples
+    --------
+    Two rules on one input, centred at 0 and 2 with σ = 1. Their firing
+    strengths e^{−½((x − c)/σ)²} at x = 0 and x = 1:
+
+    >>> import numpy as np
+    >>> from greyml.fuzzy import log_firing
+    >>> X = np.array([[0.0], [1.0]])
+    >>> logw = log_firing(X, centres=np.array([[0.0], [2.0]]), widths=np.ones((2, 1)))
+    >>> np.round(np.exp(logw), 6).tolist()
+    [[1.0, 0.135335], [0.606531, 0.606531]]
     """
     inv2 = 1.0 / widths**2
     # expanded square: three matrix products instead of an (n, R, p) tensor
@@ -62,7 +74,20 @@ def log_firing(X, centres, widths):
 
 
 def normalised_firing(logw):
-    """Normalised firing strengths w̄ = w / Σ w, computed as a softmax."""
+    """Normalised firing strengths w̄ = w / Σ w, computed as a softmax.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from greyml.fuzzy import normalised_firing
+    >>> np.round(normalised_firing(np.log([[1.0, 3.0]])), 6).tolist()
+    [[0.25, 0.75]]
+
+    A sample far from every rule (w underflows to 0) still gets weights:
+
+    >>> normalised_firing(np.array([[-1000.0, -1000.0]])).tolist()
+    [[0.5, 0.5]]
+    """
     shifted = logw - logw.max(axis=1, keepdims=True)
     w = np.exp(shifted)
     w /= w.sum(axis=1, keepdims=True)
@@ -82,6 +107,24 @@ def anfis_forward(X, mf_centres, mf_widths, mf_of_rule, consequents):
     wbar : ndarray of shape (n, R)
     rule_out : ndarray of shape (n, R)
         Each rule's consequent f_r(x) = θ_r0 + Σⱼ θ_rj xⱼ.
+
+    Examples
+    --------
+    Two rules on one input, with MFs centred at 0 and 2 and consequents
+    f₁ = x and f₂ = 2. Halfway between the centres both fire equally, so
+    ŷ(1) = ½·1 + ½·2:
+
+    >>> import numpy as np
+    >>> from greyml.fuzzy import anfis_forward
+    >>> y, wbar, rule_out = anfis_forward(
+    ...     np.array([[1.0]]),
+    ...     mf_centres=np.array([0.0, 2.0]),
+    ...     mf_widths=np.array([1.0, 1.0]),
+    ...     mf_of_rule=np.array([[0], [1]]),
+    ...     consequents=np.array([[0.0, 1.0], [2.0, 0.0]]),
+    ... )
+    >>> np.round(y, 6).tolist(), np.round(wbar, 6).tolist(), rule_out.tolist()
+    ([1.5], [[0.5, 0.5]], [[1.0, 2.0]])
     """
     C, S = _rule_arrays(mf_centres, mf_widths, mf_of_rule)
     wbar = normalised_firing(log_firing(X, C, S))
@@ -115,6 +158,17 @@ def solve_consequents(wbar, X, y, alpha):
     Returns
     -------
     consequents : ndarray of shape (R, p + 1)
+
+    Examples
+    --------
+    One rule that always fires is ordinary linear regression: y = 1 + 2x.
+
+    >>> import numpy as np
+    >>> from greyml.fuzzy import solve_consequents
+    >>> X = np.array([[0.0], [1.0], [2.0]])
+    >>> theta = solve_consequents(np.ones((3, 1)), X, np.array([1.0, 3.0, 5.0]), alpha=0.0)
+    >>> np.round(theta, 6).tolist()
+    [[1.0, 2.0]]
     """
     n, R = wbar.shape
     q = X.shape[1] + 1
@@ -159,6 +213,22 @@ def premise_gradient(X, err, wbar, rule_out, y_hat, mf_centres, mf_widths, mf_of
     Returns
     -------
     grad_centres, grad_widths : ndarray, shaped like ``mf_centres``
+
+    Examples
+    --------
+    Rules centred at 0 and 2 (σ = 1) with constant consequents 0 and 2, one
+    sample x = 1 whose target is 0: ŷ = 1, e = 1, and ∂E/∂g = e·w̄·(f − ŷ) =
+    (−½, ½). Moving either centre to the right (towards x for the first
+    rule, away from it for the second) lowers the error:
+
+    >>> import numpy as np
+    >>> from greyml.fuzzy import anfis_forward, premise_gradient
+    >>> X = np.array([[1.0]])
+    >>> c, s, rules = np.array([0.0, 2.0]), np.array([1.0, 1.0]), np.array([[0], [1]])
+    >>> y_hat, wbar, rule_out = anfis_forward(X, c, s, rules, np.array([[0.0, 0.0], [2.0, 0.0]]))
+    >>> grad_c, grad_s = premise_gradient(X, y_hat - 0.0, wbar, rule_out, y_hat, c, s, rules)
+    >>> np.round(grad_c, 6).tolist(), np.round(grad_s, 6).tolist()
+    ([-0.5, -0.5], [-0.5, 0.5])
     """
     C, S = _rule_arrays(mf_centres, mf_widths, mf_of_rule)
     G = err[:, None] * wbar * (rule_out - y_hat[:, None])  # (n, R): ∂E/∂g_r
@@ -183,6 +253,21 @@ class JangStepSize:
     increase-then-reduction pairs (the error alternating) shrink it by
     ``decrease``. The window slides, as in MATLAB's implementation, so a long
     run of reductions grows k on every epoch.
+
+    Examples
+    --------
+    Four reductions in a row grow the step by 10 %:
+
+    >>> from greyml.fuzzy import JangStepSize
+    >>> step = JangStepSize(initial=0.01)
+    >>> [round(step.update(e), 6) for e in [5, 4, 3, 2, 1]]
+    [0.01, 0.01, 0.01, 0.01, 0.011]
+
+    An alternating error shrinks it by 10 %:
+
+    >>> step = JangStepSize(initial=0.01)
+    >>> [round(step.update(e), 6) for e in [1, 2, 1, 2, 1]]
+    [0.01, 0.01, 0.01, 0.01, 0.009]
     """
 
     def __init__(self, initial=0.01, increase=1.1, decrease=0.9):
@@ -253,6 +338,22 @@ def hybrid_learning(
     dict with ``mf_centres``, ``mf_widths``, ``consequents`` (the kept epoch's),
     ``best_epoch`` (1-based), ``train_error`` and ``check_error`` (RMSE per
     epoch; the latter empty without checking data) and ``step_size`` per epoch.
+
+    Examples
+    --------
+    Two rules learn the kink of ``y = |x − 0.4|``:
+
+    >>> import numpy as np
+    >>> from greyml.fuzzy import JangStepSize, hybrid_learning
+    >>> X = np.linspace(0.0, 1.0, 21)[:, None]
+    >>> y = np.abs(X[:, 0] - 0.4)
+    >>> result = hybrid_learning(
+    ...     X, y, np.array([0.0, 1.0]), np.array([0.3, 0.3]), np.array([[0], [1]]),
+    ...     n_epochs=20, alpha=0.0, step=JangStepSize(0.05), min_width=0.01)
+    >>> result["best_epoch"], result["consequents"].shape
+    (20, (2, 2))
+    >>> np.round(result["train_error"][[0, -1]], 4).tolist()
+    [0.0163, 0.0053]
     """
     c = np.array(mf_centres, dtype=float)
     s = np.array(mf_widths, dtype=float)
@@ -327,6 +428,18 @@ def fuzzy_cmeans(data, n_clusters, m, tol, max_iter, rng, n_init=1):
     n_iter : int
     fpc : float
         Fuzzy partition coefficient (1 = crisp, 1/c = uniform).
+
+    Examples
+    --------
+    Two well separated groups of points:
+
+    >>> import numpy as np
+    >>> from greyml.fuzzy import fuzzy_cmeans
+    >>> data = np.array([[0.0], [0.1], [0.2], [5.0], [5.1], [5.2]])
+    >>> centres, u, n_iter, fpc = fuzzy_cmeans(
+    ...     data, n_clusters=2, m=2.0, tol=1e-6, max_iter=100, rng=np.random.default_rng(0))
+    >>> np.round(np.sort(centres[:, 0]), 3).tolist(), u.shape, round(fpc, 3)
+    ([0.1, 5.1], (2, 6), 0.999)
     """
     n = data.shape[0]
     best, best_objective = None, np.inf
@@ -344,7 +457,20 @@ def fuzzy_cmeans(data, n_clusters, m, tol, max_iter, rng, n_init=1):
 
 
 def fcm_memberships(data, centres, m):
-    """Fuzzy c-means memberships of every row for fixed centres, shape (c, n)."""
+    """Fuzzy c-means memberships of every row for fixed centres, shape (c, n).
+
+    Examples
+    --------
+    With m = 2 the memberships go as 1/d²: x = 0.5 lies at distances 0.5 and
+    1.5 from centres 0 and 2, so its memberships are 4 : 4/9, i.e. 0.9 : 0.1;
+    x = 1 lies halfway.
+
+    >>> import numpy as np
+    >>> from greyml.fuzzy import fcm_memberships
+    >>> u = fcm_memberships(np.array([[0.5], [1.0]]), np.array([[0.0], [2.0]]), m=2.0)
+    >>> np.round(u, 6).tolist()
+    [[0.9, 0.5], [0.1, 0.5]]
+    """
     d = np.sqrt(((data[None, :, :] - centres[:, None, :]) ** 2).sum(axis=2))
     d = np.fmax(d, np.finfo(float).eps)
     inv = d ** (-2.0 / (m - 1.0))

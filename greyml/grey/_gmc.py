@@ -28,7 +28,27 @@ __all__ = ["GMC", "GreyConditioningWarning"]
 
 
 class GreyConditioningWarning(UserWarning):
-    """A grey model's least-squares system is rank deficient or ill-conditioned."""
+    """A grey model's least-squares system is rank deficient or ill-conditioned.
+
+    Examples
+    --------
+    Two identical sensors make the GM(1,N) system rank deficient; the fit
+    warns and returns the minimum-norm solution, which splits the influence
+    equally:
+
+    >>> import warnings
+    >>> import numpy as np
+    >>> from greyml.grey import GreyConditioningWarning, fit_gm1n
+    >>> x = np.array([1.0, 1.2, 1.5, 1.9, 2.2])
+    >>> y = np.array([0.5, 0.9, 1.4, 1.6, 2.1])
+    >>> with warnings.catch_warnings(record=True) as caught:
+    ...     warnings.simplefilter("always")
+    ...     a, b = fit_gm1n(np.column_stack([x, x]), y)
+    >>> [w.category.__name__ for w in caught]
+    ['GreyConditioningWarning']
+    >>> bool(np.isclose(b[0], b[1]))
+    True
+    """
 
 
 _SOLVERS = ("ls", "pso", "cs")

@@ -51,7 +51,19 @@ def _as_bounds(bounds, n):
 
 
 def ago(x, bounds=None):
-    """1-AGO: cumulative sum along axis 0, restarted at every test start."""
+    """1-AGO: cumulative sum along axis 0, restarted at every test start.
+
+    Examples
+    --------
+    >>> from greyml.grey import ago
+    >>> ago([1, 2, 3]).tolist()
+    [1.0, 3.0, 6.0]
+
+    Two tests of two rows each: the sum starts again at row 2.
+
+    >>> ago([1, 2, 3, 4], bounds=[(0, 2), (2, 4)]).tolist()
+    [1.0, 3.0, 3.0, 7.0]
+    """
     x = np.asarray(x, dtype=float)
     out = np.empty_like(x)
     for a, b in _as_bounds(bounds, x.shape[0]):
@@ -60,7 +72,20 @@ def ago(x, bounds=None):
 
 
 def iago(x1, bounds=None):
-    """Inverse AGO: first difference within each test, x⁽⁰⁾(1) = x⁽¹⁾(1)."""
+    """Inverse AGO: first difference within each test, x⁽⁰⁾(1) = x⁽¹⁾(1).
+
+    Examples
+    --------
+    >>> from greyml.grey import ago, iago
+    >>> iago([1, 3, 6]).tolist()
+    [1.0, 2.0, 3.0]
+
+    It undoes :func:`ago` test by test:
+
+    >>> bounds = [(0, 2), (2, 4)]
+    >>> iago(ago([1, 2, 3, 4], bounds), bounds).tolist()
+    [1.0, 2.0, 3.0, 4.0]
+    """
     x1 = np.asarray(x1, dtype=float)
     out = np.empty_like(x1)
     for a, b in _as_bounds(bounds, x1.shape[0]):
@@ -74,6 +99,17 @@ def background(x1, bounds=None):
     """Background values z⁽¹⁾(k) = ½(x⁽¹⁾(k) + x⁽¹⁾(k−1)) for k = 2..n of each test.
 
     Returns the rows k = 2..n of every test stacked (``n − n_tests`` rows).
+
+    Examples
+    --------
+    >>> from greyml.grey import background
+    >>> background([1, 3, 6]).tolist()  # ½(1 + 3), ½(3 + 6)
+    [2.0, 4.5]
+
+    A test of n rows gives n − 1 values:
+
+    >>> background([1, 3, 6, 10], bounds=[(0, 2), (2, 4)]).tolist()
+    [2.0, 8.0]
     """
     x1 = np.asarray(x1, dtype=float)
     parts = [0.5 * (x1[a + 1 : b] + x1[a : b - 1]) for a, b in _as_bounds(bounds, len(x1))]
@@ -89,6 +125,16 @@ def gm1n_design(y, X, bounds=None):
     """GM(1,N) least-squares system ``B θ ≈ Y`` for θ = (a, b₂…b_N).
 
     B = [−z₁⁽¹⁾(k), x₂⁽¹⁾(k), …, x_N⁽¹⁾(k)], Y = x₁⁽⁰⁾(k), k = 2..n per test.
+
+    Examples
+    --------
+    x₁ = (1, 2, 4) and one driver held at 1: x₁⁽¹⁾ = (1, 3, 7), so
+    z₁⁽¹⁾ = (2, 5), and x₂⁽¹⁾ = (1, 2, 3).
+
+    >>> from greyml.grey import gm1n_design
+    >>> B, Y = gm1n_design([1.0, 2.0, 4.0], [[1.0], [1.0], [1.0]])
+    >>> B.tolist(), Y.tolist()
+    ([[-2.0, 2.0], [-5.0, 3.0]], [2.0, 4.0])
     """
     y = np.asarray(y, dtype=float)
     X = np.asarray(X, dtype=float)
@@ -103,6 +149,17 @@ def gm1n_lstsq(y, X, bounds=None):
 
     Returns ``(a, b, rank, singular_values)`` with ``a`` the development
     coefficient and ``b`` (shape ``(N-1,)``) the driving (influence) coefficients.
+
+    Examples
+    --------
+    The system of :func:`gm1n_design`'s example, −2a + 2b = 2 and
+    −5a + 3b = 4, has the exact solution a = −0.5, b = 0.5:
+
+    >>> import numpy as np
+    >>> from greyml.grey import gm1n_lstsq
+    >>> a, b, rank, _ = gm1n_lstsq([1.0, 2.0, 4.0], [[1.0], [1.0], [1.0]])
+    >>> round(float(a), 6), np.round(b, 6).tolist(), int(rank)
+    (-0.5, [0.5], 2)
     """
     B, Y = gm1n_design(y, X, bounds)
     theta, _, rank, sv = np.linalg.lstsq(B, Y, rcond=None)
@@ -114,6 +171,16 @@ def gmc_design(y, X, bounds=None):
 
     x₁⁽⁰⁾(k) + b₁z₁⁽¹⁾(k) = Σⱼ bⱼ zⱼ⁽¹⁾(k) + u, k = 2..n per test, so
     B = [−z₁⁽¹⁾, z₂⁽¹⁾, …, z_N⁽¹⁾, 1] and Y = x₁⁽⁰⁾.
+
+    Examples
+    --------
+    x₁ = (1, 2, 4) gives z₁⁽¹⁾ = (2, 5); a driver held at 1 gives
+    x₂⁽¹⁾ = (1, 2, 3) and z₂⁽¹⁾ = (1.5, 2.5).
+
+    >>> from greyml.grey import gmc_design
+    >>> B, Y = gmc_design([1.0, 2.0, 4.0], [[1.0], [1.0], [1.0]])
+    >>> B.tolist(), Y.tolist()
+    ([[-2.0, 1.5, 1.0], [-5.0, 2.5, 1.0]], [2.0, 4.0])
     """
     y = np.asarray(y, dtype=float)
     X = np.asarray(X, dtype=float)
@@ -124,7 +191,25 @@ def gmc_design(y, X, bounds=None):
 
 
 def gmc_lstsq(y, X, bounds=None):
-    """GMC(1,N) by least squares. Returns ``(b1, b, u, rank, singular_values)``."""
+    """GMC(1,N) by least squares. Returns ``(b1, b, u, rank, singular_values)``.
+
+    Examples
+    --------
+    A series that obeys the grey equation exactly with b₁ = 0.4, b₂ = 0.5 and
+    u = 0.1: as z₁⁽¹⁾(k) = x₁⁽¹⁾(k−1) + ½x₁⁽⁰⁾(k), each value solves
+    (1 + ½b₁)x₁⁽⁰⁾(k) = b₂z₂⁽¹⁾(k) + u − b₁x₁⁽¹⁾(k−1).
+
+    >>> import numpy as np
+    >>> from greyml.grey import ago, background, gmc_lstsq
+    >>> X = np.array([[1.0], [2.0], [1.0], [3.0], [2.0]])
+    >>> z2 = background(ago(X))[:, 0]
+    >>> y = [1.0]
+    >>> for k in range(1, 5):
+    ...     y.append((0.5 * z2[k - 1] + 0.1 - 0.4 * sum(y)) / (1 + 0.5 * 0.4))
+    >>> b1, b, u, rank, _ = gmc_lstsq(y, X)
+    >>> np.round([b1, *b, u], 6).tolist(), int(rank)
+    ([0.4, 0.5, 0.1], 3)
+    """
     B, Y = gmc_design(y, X, bounds)
     theta, _, rank, sv = np.linalg.lstsq(B, Y, rcond=None)
     return theta[0], theta[1:-1], theta[-1], rank, sv
@@ -185,6 +270,21 @@ def gmc_response(f, b1, x0, form="trapezoid"):
     P(1) = x0 + ½f(1), and x̂(k) = P(k) − ½f(k); the midpoint sum obeys
     M(k) = a·M(k−1) + ½√a·(f(k) + f(k−1)), M(1) = x0. Both are first-order linear
     filters, run by :func:`scipy.signal.lfilter` in compiled code.
+
+    Examples
+    --------
+    With b₁ = ln 2 (a = ½), a constant forcing f = 1 and x0 = 1, the
+    trapezoid form gives x̂(2) = ½·1 + ½·½·1 + ½·1 = 1.25, and so on:
+
+    >>> import numpy as np
+    >>> from greyml.grey import gmc_response
+    >>> np.round(gmc_response([1.0, 1.0, 1.0], np.log(2), 1.0), 6).tolist()
+    [1.0, 1.25, 1.375]
+
+    Without development (b₁ = 0) the forcing simply accumulates:
+
+    >>> np.round(gmc_response([1.0, 1.0, 1.0], 0.0, 1.0), 6).tolist()
+    [1.0, 2.0, 3.0]
     """
     f = np.asarray(f, dtype=float)
     n = f.shape[0]
@@ -214,6 +314,24 @@ def gmc_predict(X1, b1, coef, control, bounds=None, form="trapezoid", initial="m
 
     ``X1`` holds the 1-AGO of the drivers (per test). Values of an exploding
     trajectory come back as ``inf`` (never NaN); callers decide what to do.
+
+    Examples
+    --------
+    One driver, b₁ = 0.4, b₂ = 0.5, u = 0.1. The first value is the grey
+    equation at k = 1: f(1)/(1 + b₁) = (0.5·1 + 0.1)/1.4 = 0.428571.
+
+    >>> import numpy as np
+    >>> from greyml.grey import ago, gmc_predict
+    >>> X1 = ago(np.array([[1.0], [2.0], [1.0], [3.0]]))
+    >>> np.round(gmc_predict(X1, 0.4, [0.5], 0.1), 6).tolist()
+    [0.428571, 0.859805, 1.161504, 1.69616]
+
+    Split into two tests, each starts afresh from its own first value:
+
+    >>> bounds = [(0, 2), (2, 4)]
+    >>> X1 = ago(np.array([[1.0], [2.0], [1.0], [3.0]]), bounds)
+    >>> np.round(gmc_predict(X1, 0.4, [0.5], 0.1, bounds), 6).tolist()
+    [0.428571, 0.859805, 0.428571, 1.109805]
     """
     X1 = np.asarray(X1, dtype=float)
     out = np.empty(X1.shape[0])
@@ -239,6 +357,23 @@ def gmc_predict_population(X1, params, bounds=None, form="trapezoid", initial="m
     ``params`` has shape ``(P, N+1)``; returns ``(n, P)``. The forcing of all
     candidates is one matrix product; each candidate's recursion is one compiled
     :func:`~scipy.signal.lfilter` call per test.
+
+    Examples
+    --------
+    Three candidates: the coefficients of :func:`gmc_predict`'s example, the
+    same without the driver, and one whose response explodes (b₁ ≪ 0):
+
+    >>> import numpy as np
+    >>> from greyml.grey import ago, gmc_predict, gmc_predict_population
+    >>> X1 = ago(np.array([[1.0], [2.0], [1.0], [3.0]]))
+    >>> params = [[0.4, 0.5, 0.1], [0.4, 0.0, 0.1], [-400.0, 0.5, 0.1]]
+    >>> P = gmc_predict_population(X1, params)
+    >>> P.shape
+    (4, 3)
+    >>> bool(np.allclose(P[:, 0], gmc_predict(X1, 0.4, [0.5], 0.1)))
+    True
+    >>> np.isinf(P[:, 2]).tolist()
+    [True, True, True, True]
     """
     X1 = np.asarray(X1, dtype=float)
     params = np.atleast_2d(np.asarray(params, dtype=float))
@@ -267,6 +402,19 @@ def gmc_sse_population(X1, y, params, bounds=None, form="trapezoid", initial="mo
     """Σ(x̂₁⁽⁰⁾ − x₁⁽⁰⁾)² for each candidate, shape ``(P,)``, always finite.
 
     A candidate whose trajectory explodes or overflows gets :data:`LARGE_LOSS`.
+
+    Examples
+    --------
+    Data from the first candidate: its loss is 0, the exploding third one
+    gets 1e200.
+
+    >>> import numpy as np
+    >>> from greyml.grey import ago, gmc_predict, gmc_sse_population
+    >>> X1 = ago(np.array([[1.0], [2.0], [1.0], [3.0]]))
+    >>> y = gmc_predict(X1, 0.4, [0.5], 0.1)
+    >>> params = [[0.4, 0.5, 0.1], [0.4, 0.0, 0.1], [-400.0, 0.5, 0.1]]
+    >>> np.round(gmc_sse_population(X1, y, params), 6).tolist()
+    [0.0, 4.810897, 1e+200]
     """
     pred = gmc_predict_population(X1, params, bounds, form, initial)
     with np.errstate(over="ignore", invalid="ignore"):
@@ -285,6 +433,17 @@ def gmc_basis(X1, b1, bounds=None, form="trapezoid", initial="model"):
     with bⱼ = 1 and every other coefficient 0; the last column is u's. All
     columns run through one :func:`~scipy.signal.lfilter` call per test.
     Non-finite entries (an exploding response) come back as ``inf``.
+
+    Examples
+    --------
+    >>> import numpy as np
+    >>> from greyml.grey import ago, gmc_basis, gmc_predict
+    >>> X1 = ago(np.array([[1.0], [2.0], [1.0], [3.0]]))
+    >>> phi = gmc_basis(X1, 0.4)
+    >>> phi.shape
+    (4, 2)
+    >>> bool(np.allclose(phi @ [0.5, 0.1], gmc_predict(X1, 0.4, [0.5], 0.1)))
+    True
     """
     X1 = np.asarray(X1, dtype=float)
     n = X1.shape[0]
@@ -325,6 +484,21 @@ def gmc_separable(X1, y, b1, bounds=None, form="trapezoid", initial="model"):
         Finite; :data:`LARGE_LOSS` for a candidate whose response explodes.
     theta : ndarray of shape (P, N)
         (b₂…b_N, u) per candidate (zeros where the response explodes).
+
+    Examples
+    --------
+    Data made with b₁ = 0.4, b₂ = 0.5 and u = 0.1: of three candidate b₁,
+    the true one fits exactly, with the true linear coefficients.
+
+    >>> import numpy as np
+    >>> from greyml.grey import ago, gmc_predict, gmc_separable
+    >>> X1 = ago(np.array([[1.0], [2.0], [1.0], [3.0]]))
+    >>> y = gmc_predict(X1, 0.4, [0.5], 0.1)
+    >>> sse, theta = gmc_separable(X1, y, [0.2, 0.4, 0.6])
+    >>> np.round(sse, 6).tolist()
+    [0.003932, 0.0, 0.004839]
+    >>> np.round(theta[1], 6).tolist()
+    [0.5, 0.1]
     """
     b1 = np.atleast_1d(np.asarray(b1, dtype=float))
     y = np.asarray(y, dtype=float)
@@ -381,6 +555,22 @@ def gnnmci_layers(X1, b1, coef, control, x0):
     dict of ndarray
         ``"A"``, ``"B"`` (shape (n−1,)), ``"C"`` (shape (n−1, N+1): c₁, the
         inputs' units, u's unit) and ``"D"`` (shape (n−1,)).
+
+    Examples
+    --------
+    The output layer reproduces the midpoint time response from k = 2 on:
+
+    >>> import numpy as np
+    >>> from greyml.grey import ago, gmc_response, gnnmci_layers
+    >>> X1 = ago(np.array([[1.0], [2.0], [1.0], [3.0]]))
+    >>> layers = gnnmci_layers(X1, 0.4, [0.5], 0.1, x0=1.0)
+    >>> [layers[name].shape for name in "ABCD"]
+    [(3,), (3,), (3, 3), (3,)]
+    >>> np.round(layers["B"], 6).tolist()  # the sigmoid of 0.4k, k = 1, 2, 3
+    [0.598688, 0.689974, 0.768525]
+    >>> f = 0.5 * X1[:, 0] + 0.1
+    >>> bool(np.allclose(layers["D"], gmc_response(f, 0.4, 1.0, "midpoint")[1:]))
+    True
     """
     X1 = np.asarray(X1, dtype=float)
     n = X1.shape[0]

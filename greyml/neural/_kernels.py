@@ -41,19 +41,46 @@ ACTIVATIONS = ("logistic", "tanh")
 
 
 def n_params(n_in: int, n_hidden: int) -> int:
-    """Number of weights and biases of an ``n_in``-``n_hidden``-1 network."""
+    """Number of weights and biases of an ``n_in``-``n_hidden``-1 network.
+
+    Examples
+    --------
+    A 2-3-1 network: 2 × 3 input weights, 3 hidden biases, 3 output weights
+    and the output bias.
+
+    >>> from greyml.neural import n_params
+    >>> n_params(2, 3)
+    13
+    """
     return n_hidden * (n_in + 2) + 1
 
 
 def pack(W, b, v, c) -> np.ndarray:
-    """Flat parameter vector ``[W.ravel(), b, v, c]``."""
+    """Flat parameter vector ``[W.ravel(), b, v, c]``.
+
+    Examples
+    --------
+    >>> from greyml.neural import pack
+    >>> pack(W=[[1.0, 2.0]], b=[3.0, 4.0], v=[5.0, 6.0], c=7.0).tolist()
+    [1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0]
+    """
     return np.concatenate(
         [np.ravel(W), np.ravel(b), np.ravel(v), np.atleast_1d(np.asarray(c, dtype=float))]
     ).astype(float, copy=False)
 
 
 def unpack(p, n_in: int, n_hidden: int):
-    """``(W, b, v, c)`` from a flat parameter vector (views, not copies)."""
+    """``(W, b, v, c)`` from a flat parameter vector (views, not copies).
+
+    Examples
+    --------
+    The inverse of :func:`pack`, for one input and two hidden units:
+
+    >>> from greyml.neural import unpack
+    >>> W, b, v, c = unpack([1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0], n_in=1, n_hidden=2)
+    >>> W.tolist(), b.tolist(), v.tolist(), c
+    ([[1.0, 2.0]], [3.0, 4.0], [5.0, 6.0], 7.0)
+    """
     p = np.asarray(p, dtype=float)
     k = n_in * n_hidden
     W = p[:k].reshape(n_in, n_hidden)
@@ -64,7 +91,20 @@ def unpack(p, n_in: int, n_hidden: int):
 
 
 def hidden(X, W, b, activation: str = "logistic") -> np.ndarray:
-    """Hidden-layer outputs σ(X W + b), shape (n_samples, n_hidden)."""
+    """Hidden-layer outputs σ(X W + b), shape (n_samples, n_hidden).
+
+    Examples
+    --------
+    At z = 0 and z = ln 3 the logistic function is ½ and ¾, tanh 0 and 0.8:
+
+    >>> import numpy as np
+    >>> from greyml.neural import hidden
+    >>> X, W, b = np.zeros((1, 1)), np.ones((1, 2)), np.array([0.0, np.log(3.0)])
+    >>> np.round(hidden(X, W, b), 6).tolist()
+    [[0.5, 0.75]]
+    >>> np.round(hidden(X, W, b, "tanh"), 6).tolist()
+    [[0.0, 0.8]]
+    """
     Z = X @ W
     Z += b
     if activation == "logistic":
@@ -81,14 +121,37 @@ def hidden(X, W, b, activation: str = "logistic") -> np.ndarray:
 
 
 def mlp_forward(X, p, n_hidden: int, activation: str = "logistic") -> np.ndarray:
-    """Network output ŷ of shape (n_samples,) for inputs ``X`` (n_samples, n_in)."""
+    """Network output ŷ of shape (n_samples,) for inputs ``X`` (n_samples, n_in).
+
+    Examples
+    --------
+    One hidden unit: ŷ = 2σ(x) + 1, so ŷ(0) = 2 and ŷ(ln 3) = 2.5.
+
+    >>> import numpy as np
+    >>> from greyml.neural import mlp_forward, pack
+    >>> p = pack(W=[[1.0]], b=[0.0], v=[2.0], c=1.0)
+    >>> np.round(mlp_forward(np.array([[0.0], [np.log(3.0)]]), p, n_hidden=1), 6).tolist()
+    [2.0, 2.5]
+    """
     X = np.asarray(X, dtype=float)
     W, b, v, c = unpack(p, X.shape[1], n_hidden)
     return hidden(X, W, b, activation) @ v + c
 
 
 def mlp_residuals(X, y, p, n_hidden: int, activation: str = "logistic") -> np.ndarray:
-    """Residuals ŷ − y, shape (n_samples,)."""
+    """Residuals ŷ − y, shape (n_samples,).
+
+    Examples
+    --------
+    The network of :func:`mlp_forward`'s example against targets of 2:
+
+    >>> import numpy as np
+    >>> from greyml.neural import mlp_residuals, pack
+    >>> p = pack(W=[[1.0]], b=[0.0], v=[2.0], c=1.0)
+    >>> X, y = np.array([[0.0], [np.log(3.0)]]), np.array([2.0, 2.0])
+    >>> np.round(mlp_residuals(X, y, p, n_hidden=1), 6).tolist()
+    [0.0, 0.5]
+    """
     return mlp_forward(X, p, n_hidden, activation) - y
 
 
@@ -112,6 +175,18 @@ def mlp_jacobian(X, p, n_hidden: int, activation: str = "logistic", out=None):
     J : ndarray of shape (n_samples, n_params)
     y_hat : ndarray of shape (n_samples,)
         The network output at ``p``, computed on the way.
+
+    Examples
+    --------
+    For ŷ = 2σ(x) + 1 at x = 0: A = ½ and D = σ'(0)·v = ¼·2, so the
+    derivatives with respect to (W, b, v, c) are (0·½, ½, ½, 1).
+
+    >>> import numpy as np
+    >>> from greyml.neural import mlp_jacobian, pack
+    >>> p = pack(W=[[1.0]], b=[0.0], v=[2.0], c=1.0)
+    >>> J, y_hat = mlp_jacobian(np.array([[0.0]]), p, n_hidden=1)
+    >>> J.tolist(), y_hat.tolist()
+    ([[0.0, 0.5, 0.5, 1.0]], [2.0])
     """
     X = np.asarray(X, dtype=float)
     n, n_in = X.shape
@@ -161,6 +236,20 @@ def init_nguyen_widrow(
     Nguyen, D. and Widrow, B. (1990). Improving the learning speed of 2-layer
     neural networks by choosing initial values of the adaptive weights. IJCNN
     1990, vol. 3, 21-26.
+
+    Examples
+    --------
+    Whatever the draw, every hidden unit's input weights have the length
+    2β = 2 · 0.7 · 3^(1/2) = 2.424871 for 2 inputs and 3 logistic units:
+
+    >>> import numpy as np
+    >>> from greyml.neural import init_nguyen_widrow, unpack
+    >>> p = init_nguyen_widrow(2, 3, np.random.default_rng(0))
+    >>> p.shape
+    (13,)
+    >>> W, b, v, c = unpack(p, 2, 3)
+    >>> np.round(np.linalg.norm(W, axis=0), 6).tolist(), c
+    ([2.424871, 2.424871, 2.424871], 0.0)
     """
     beta = 0.7 * n_hidden ** (1.0 / n_in)
     W = rng.uniform(-1.0, 1.0, size=(n_in, n_hidden))
@@ -194,6 +283,18 @@ class LMResult:
         Epoch whose parameters were kept (0: the initial ones).
     stop : str
         Why training stopped: "goal", "max_iter", "max_fail", "min_grad" or "mu_max".
+
+    Examples
+    --------
+    With no epoch to run, the result holds the initial parameters and their
+    loss: ŷ = 2σ(0) + 1 = 2 against a target of 1.
+
+    >>> import numpy as np
+    >>> from greyml.neural import levenberg_marquardt, pack
+    >>> p = pack(W=[[1.0]], b=[0.0], v=[2.0], c=1.0)
+    >>> result = levenberg_marquardt(np.array([[0.0]]), np.array([1.0]), p, 1, max_iter=0)
+    >>> result.loss, result.val_loss, result.n_iter, result.best_iter, result.stop
+    (1.0, None, 0, 0, 'max_iter')
     """
 
     p: np.ndarray
@@ -254,6 +355,20 @@ def levenberg_marquardt(
     Returns
     -------
     LMResult
+
+    Examples
+    --------
+    Three logistic units fitted to a sine on 21 points:
+
+    >>> import numpy as np
+    >>> from greyml.neural import init_nguyen_widrow, levenberg_marquardt
+    >>> X = np.linspace(-2.0, 2.0, 21)[:, None]
+    >>> y = np.sin(X[:, 0])
+    >>> p0 = init_nguyen_widrow(1, 3, np.random.default_rng(0))
+    >>> start = levenberg_marquardt(X, y, p0, 3, max_iter=0)
+    >>> result = levenberg_marquardt(X, y, p0, 3, max_iter=200)
+    >>> round(start.loss, 2), bool(result.loss < 1e-3), result.p.shape
+    (0.79, True, (10,))
     """
     X = np.asarray(X, dtype=float)
     y = np.asarray(y, dtype=float)

@@ -32,6 +32,19 @@ def check_bounds(bounds, n_dim=None, x0=None):
 
     ``D`` is ``n_dim`` if given, else the bounds' length, else the number of
     columns of the starting points ``x0``.
+
+    Examples
+    --------
+    >>> from greyml.optimize import check_bounds
+    >>> lower, upper = check_bounds((0, [1, 2]))
+    >>> lower.tolist(), upper.tolist()
+    ([0.0, 0.0], [1.0, 2.0])
+    >>> [b.tolist() for b in check_bounds((-1, 1), n_dim=3)]
+    [[-1.0, -1.0, -1.0], [1.0, 1.0, 1.0]]
+    >>> check_bounds((1, 0))
+    Traceback (most recent call last):
+    ...
+    ValueError: bounds are out of order for parameter 0: lower 1 is not below upper 0.
     """
     try:
         lower, upper = bounds
@@ -68,7 +81,51 @@ def _check_count(owner, name, value, low=1):
 
 
 class PopulationOptimizer:
-    """Base class: stores settings, checks them in :meth:`minimize`."""
+    """Base class: stores settings, checks them in :meth:`minimize`.
+
+    A subclass names its settings in ``_param_names``, stores them in
+    ``__init__`` and implements ``population_size`` and ``minimize``; the
+    base class gives it ``get_params``, ``set_params``, ``repr`` and
+    equality, and helpers for the initial population, the evaluation of a
+    population and the result.
+
+    Examples
+    --------
+    A random search in a few lines:
+
+    >>> import numpy as np
+    >>> from greyml.optimize import PopulationOptimizer, check_bounds
+    >>> class RandomSearch(PopulationOptimizer):
+    ...     _param_names = ("n_points",)
+    ...
+    ...     def __init__(self, n_points=100):
+    ...         self.n_points = n_points
+    ...
+    ...     @property
+    ...     def population_size(self):
+    ...         return self.n_points
+    ...
+    ...     def minimize(self, fun, bounds, rng, x0=None):
+    ...         lower, upper = check_bounds(bounds, x0=x0)
+    ...         rng = self._check_rng(rng)
+    ...         pop = self._initial_population(self.n_points, lower, upper, rng, x0)
+    ...         values = self._evaluate(fun, pop)
+    ...         best = int(np.argmin(values))
+    ...         return self._result(pop[best], values[best], len(pop), 1, [values[best]],
+    ...                             "Random search")
+    >>> search = RandomSearch(n_points=50)
+    >>> search
+    RandomSearch(n_points=50)
+    >>> search.set_params(n_points=20) == RandomSearch(20)
+    True
+
+    A starting point ``x0`` joins the population, here at the optimum:
+
+    >>> sphere = lambda P: (P ** 2).sum(axis=1)
+    >>> res = search.minimize(sphere, (-1, 1), np.random.default_rng(0), x0=[[0.0, 0.0]])
+    >>> res.x.tolist(), res.fun, res.nfev
+    ([0.0, 0.0], 0.0, 20)
+    """
 
     def __repr__(self):
         args = ", ".join(f"{k}={v!r}" for k, v in self.get_params().items())

@@ -17,14 +17,38 @@ __all__ = ["CuckooSearch", "mantegna_sigma", "levy_steps"]
 
 
 def mantegna_sigma(beta):
-    """σ_u of Mantegna's algorithm for Lévy-stable steps of exponent ``beta``."""
+    """σ_u of Mantegna's algorithm for Lévy-stable steps of exponent ``beta``.
+
+    σ_u = [Γ(1 + β) sin(πβ/2) / (Γ((1 + β)/2) β 2^((β − 1)/2))]^(1/β).
+
+    Examples
+    --------
+    >>> from greyml.optimize import mantegna_sigma
+    >>> mantegna_sigma(1.0)  # Γ(2) sin(π/2) / (Γ(1) · 1 · 2⁰)
+    1.0
+    >>> round(mantegna_sigma(1.5), 6)
+    0.696575
+    """
     num = math.gamma(1.0 + beta) * math.sin(math.pi * beta / 2.0)
     den = math.gamma((1.0 + beta) / 2.0) * beta * 2.0 ** ((beta - 1.0) / 2.0)
     return (num / den) ** (1.0 / beta)
 
 
 def levy_steps(shape, beta, rng, sigma=None):
-    """Lévy-flight steps ``s = u / |v|^(1/β)``, u ~ N(0, σ_u²), v ~ N(0, 1) (Mantegna)."""
+    """Lévy-flight steps ``s = u / |v|^(1/β)``, u ~ N(0, σ_u²), v ~ N(0, 1) (Mantegna).
+
+    Examples
+    --------
+    Mostly short steps and now and then a very long one (heavy tails):
+
+    >>> import numpy as np
+    >>> from greyml.optimize import levy_steps
+    >>> s = levy_steps((100, 100), beta=1.5, rng=np.random.default_rng(0))
+    >>> s.shape
+    (100, 100)
+    >>> bool(np.abs(s).max() > 100 * np.median(np.abs(s)))
+    True
+    """
     if sigma is None:
         sigma = mantegna_sigma(beta)
     u = rng.standard_normal(shape) * sigma

@@ -22,7 +22,30 @@ __all__ = [
 
 
 class AmbientProfile:
-    """Base class: ``profile(t)`` gives the air temperature at times ``t`` (s)."""
+    """Base class: ``profile(t)`` gives the air temperature at times ``t`` (s).
+
+    Profiles add up, with each other and with numbers, and the sum keeps the
+    jumps of both.
+
+    Examples
+    --------
+    A profile of one's own: the air warms by 2 °C at 10 min. It declares the
+    jump, so the simulator ends a step there.
+
+    >>> import numpy as np
+    >>> from greyml.simulation import AmbientProfile, linear_drift
+    >>> class Step(AmbientProfile):
+    ...     def __call__(self, t):
+    ...         return np.where(np.asarray(t, dtype=float) < 600.0, 20.0, 22.0)
+    ...
+    ...     def breakpoints(self):
+    ...         return np.array([600.0])
+    >>> air = Step() + 0.5
+    >>> air([0.0, 600.0]).tolist(), air.breakpoints().tolist()
+    ([20.5, 22.5], [600.0])
+    >>> (Step() + linear_drift(0.0, 1.0))([3600.0]).tolist()  # plus 1 °C/h
+    [23.0]
+    """
 
     def __call__(self, t):  # pragma: no cover - abstract
         raise NotImplementedError

@@ -63,6 +63,18 @@ class HeatSource:
         ``Effects.extra_heat_source``.
     note : str, default=""
         Where the numbers come from.
+
+    Examples
+    --------
+    Bearing friction, 100 W at 8000 rpm: half the speed gives
+    100 · 0.5^(5/3) = 31.5 W.
+
+    >>> import numpy as np
+    >>> from greyml.simulation import HeatSource
+    >>> bearings = HeatSource("spindle bearings", "spindle_rpm", {"spindle": 1.0},
+    ...                       power_W=100.0, reference=8000.0, exponent=5 / 3)
+    >>> np.round(bearings.power([0.0, 4000.0, 8000.0]), 6).tolist()
+    [0.0, 31.498026, 100.0]
     """
 
     name: str
@@ -101,6 +113,26 @@ class TemperatureSensor:
         the node, stratification of the air, calibration).
     noise_C : float, default=0.05
         Standard deviation of the white measurement noise.
+
+    Examples
+    --------
+    A sensor in the node and one on its surface, 5 min behind, on a one-node
+    machine that settles 10 K above the air (see :class:`ThermalMachine`):
+
+    >>> from greyml.simulation import (
+    ...     Effects, HeatSource, Programme, TemperatureSensor, ThermalMachine, simulate_test)
+    >>> sensors = (
+    ...     TemperatureSensor("T1_C", "spindle", {"spindle": 1.0}),
+    ...     TemperatureSensor("T2_C", "spindle surface", {"spindle": 1.0}, lag_s=300.0),
+    ... )
+    >>> machine = ThermalMachine(
+    ...     "block", ("spindle",), (1000.0,), (), {"spindle": 10.0},
+    ...     (HeatSource("motor", "spindle_rpm", {"spindle": 1.0}, 100.0, 1000.0),),
+    ...     sensors, inputs=("spindle_rpm",), sample_s=300.0)
+    >>> test = simulate_test(machine, Programme().run(60, spindle_rpm=1000), 20.0,
+    ...                      Effects.none().with_("sensor_lag"))
+    >>> test[["T1_C", "T2_C"]].iloc[[1, -1]].round(2).to_numpy().tolist()  # 5 min, 1 h
+    [[29.5, 24.73], [30.0, 30.0]]
     """
 
     name: str
@@ -133,6 +165,25 @@ class FBGSensor:
         Weights of the node temperatures the grating itself is at.
     noise_ue : float, default=0.2
         Standard deviation of the white measurement noise in µε.
+
+    Examples
+    --------
+    A grating on a member that expands 1 µε/K, on a one-node machine that
+    settles 10 K above the air (see :class:`ThermalMachine`): 10 µε of
+    strain, plus 8.64 µε/°C · 10 °C with the cross-sensitivity effect.
+
+    >>> from greyml.simulation import (
+    ...     Effects, FBGSensor, HeatSource, Programme, ThermalMachine, simulate_test)
+    >>> fbg = FBGSensor("FBG1_ue", "spindle", strain={"spindle": 1.0}, nodes={"spindle": 1.0})
+    >>> machine = ThermalMachine(
+    ...     "block", ("spindle",), (1000.0,), (), {"spindle": 10.0},
+    ...     (HeatSource("motor", "spindle_rpm", {"spindle": 1.0}, 100.0, 1000.0),),
+    ...     temperature_sensors=(), fbg_sensors=(fbg,), inputs=("spindle_rpm",))
+    >>> run = Programme().run(60, spindle_rpm=1000)
+    >>> for effects in (Effects.none(), Effects.none().with_("fbg_cross_sensitivity")):
+    ...     print(round(float(simulate_test(machine, run, 20.0, effects)["FBG1_ue"].iloc[-1]), 6))
+    10.0
+    96.4
     """
 
     name: str
@@ -177,6 +228,40 @@ class ThermalMachine:
         Default sampling interval of its tests in s.
     description : str
         Where the machine and its numbers come from.
+
+    Examples
+    --------
+    The smallest machine: one node of 1000 J/K losing 10 W/K to the air
+    (time constant 100 s), heated with 100 W at 1000 rpm. It settles
+    100 W / 10 W/K = 10 K above the air, which a sensor in the node reads as
+    30 °C and one halfway to the air as 25 °C; the tool moves
+    2 µm/K · 10 K = 20 µm.
+
+    >>> from greyml.simulation import (
+    ...     Effects, HeatSource, Programme, TemperatureSensor, ThermalMachine, simulate_test)
+    >>> machine = ThermalMachine(
+    ...     name="block",
+    ...     nodes=("spindle",),
+    ...     capacity=(1000.0,),
+    ...     links=(),
+    ...     convection={"spindle": 10.0},
+    ...     sources=(HeatSource("motor", "spindle_rpm", {"spindle": 1.0}, 100.0, 1000.0),),
+    ...     temperature_sensors=(
+    ...         TemperatureSensor("T1_C", "spindle", {"spindle": 1.0}),
+    ...         TemperatureSensor("T2_C", "housing", {"spindle": 0.5, "ambient": 0.5}),
+    ...     ),
+    ...     displacement={"dz_um": {"spindle": 2.0}},
+    ...     inputs=("spindle_rpm",),
+    ...     sample_s=600.0,
+    ... )
+    >>> machine.sensor_names, machine.target_names
+    (['T1_C', 'T2_C'], ['dz_um'])
+    >>> A, B = machine.state_matrices()  # dT/dt = A T + B [power, air]
+    >>> A.tolist(), B.tolist()
+    ([[-0.01]], [[0.001, 0.01]])
+    >>> test = simulate_test(machine, Programme().run(60, spindle_rpm=1000), 20.0, Effects.none())
+    >>> test.iloc[-1].round(6).to_dict()
+    {'spindle_rpm': 0.0, 'ambient_C': 20.0, 'T1_C': 30.0, 'T2_C': 25.0, 'dz_um': 20.0}
     """
 
     name: str

@@ -24,6 +24,15 @@ class Segment:
         Mean axis feed while the axes move.
     c_rpm : float, default=0.0
         C-axis (rotary table or head) speed.
+
+    Examples
+    --------
+    >>> from greyml.simulation import Programme, Segment
+    >>> seg = Segment(600.0, spindle_rpm=4000.0)
+    >>> seg.value("spindle_rpm"), seg.value("feed_mm_min")
+    (4000.0, 0.0)
+    >>> Programme().then(seg).dwell(10).describe()
+    '10 min spindle_rpm 4000; 10 min stopped'
     """
 
     duration_s: float

@@ -54,6 +54,19 @@ class Effects:
         ballscrew nuts heated by feed) dissipate heat. Off: they do not.
     noise : bool, default=True
         White measurement noise on every sensor and on the displacement.
+
+    Examples
+    --------
+    >>> from greyml.simulation import Effects
+    >>> Effects.names()
+    ('ambient_coupling', 'sensor_lag', 'initial_disequilibrium', 'fbg_cross_sensitivity',
+     'probe_drift', 'extra_heat_source', 'noise')
+    >>> quiet = Effects().without("noise", "probe_drift")
+    >>> [name for name in Effects.names() if not getattr(quiet, name)]
+    ['probe_drift', 'noise']
+    >>> lag_only = Effects.none().with_("sensor_lag")
+    >>> [name for name in Effects.names() if getattr(lag_only, name)]
+    ['sensor_lag']
     """
 
     ambient_coupling: bool = True
@@ -115,6 +128,26 @@ class HeatingTest:
         Sampling interval; defaults to the machine's.
     note : str, default=""
         What the test is and where it comes from.
+
+    Examples
+    --------
+    The same hour at 4000 rpm, once from cold and once after 2 h at
+    8000 rpm and a 10 min pause: the warm test starts with the spindle
+    carrier well above its cold start, the air sensors where they were.
+
+    >>> from greyml.datasets import make_tests
+    >>> from greyml.simulation import Effects, HeatingTest, Programme, vmc
+    >>> run = Programme().run(60, spindle_rpm=4000)
+    >>> cold = HeatingTest("cold", run)
+    >>> warm = HeatingTest("warm", run, history=Programme().run(120, spindle_rpm=8000).dwell(10))
+    >>> effects = Effects.none().with_("initial_disequilibrium")
+    >>> data = make_tests(vmc(), [cold, warm], effects=effects)
+    >>> data.tests, data.frame.shape
+    (['cold', 'warm'], (122, 82))
+    >>> start = data.frame.xs(0.0, level="time_s")[data.sensors]
+    >>> warmer = start.loc["warm"] - start.loc["cold"]
+    >>> bool(warmer.max() > 10.0), round(float(warmer.min()), 6)
+    (True, 0.0)
     """
 
     label: str

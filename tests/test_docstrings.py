@@ -1,0 +1,62 @@
+"""Every public class and function has a numpydoc docstring with a runnable example.
+
+Issue #7: each name in a public module's ``__all__`` that is a class or a
+function carries an ``Examples`` section with at least one ``>>>`` line. The
+examples themselves run as doctests (``--doctest-modules`` in pytest's
+``addopts``); this checks that they exist.
+"""
+
+import importlib
+import inspect
+import re
+
+import pytest
+
+MODULES = [
+    "greyml",
+    "greyml.simulation",
+    "greyml.datasets",
+    "greyml.io",
+    "greyml.metrics",
+    "greyml.optimize",
+    "greyml.grey",
+    "greyml.fuzzy",
+    "greyml.neural",
+    "greyml.persist",
+    "greyml.cli",
+    "greyml.selection",
+    "greyml.gap",
+]
+
+# numpydoc section header: the title, then a line of dashes at least as long
+_EXAMPLES = re.compile(r"^Examples\n-{8,}\n", re.M)
+
+
+def _public_names():
+    names = []
+    for module_name in MODULES:
+        module = importlib.import_module(module_name)
+        for name in module.__all__:
+            obj = getattr(module, name)
+            if inspect.isclass(obj) or inspect.isfunction(obj):
+                names.append(pytest.param(obj, id=f"{module_name}.{name}"))
+    return names
+
+
+def test_every_module_exports_names():
+    for module_name in MODULES:
+        module = importlib.import_module(module_name)
+        assert module.__all__, module_name
+        for name in module.__all__:
+            assert hasattr(module, name), f"{module_name}.__all__ names missing {name!r}"
+
+
+@pytest.mark.parametrize("obj", _public_names())
+def test_has_examples_section(obj):
+    # the object's own docstring: a class does not inherit its base's here
+    doc = obj.__doc__
+    assert doc and doc.strip(), f"{obj.__qualname__} has no docstring"
+    doc = inspect.cleandoc(doc)
+    match = _EXAMPLES.search(doc)
+    assert match, f"{obj.__qualname__}'s docstring has no numpydoc 'Examples' section"
+    assert ">>>" in doc[match.end() :], f"{obj.__qualname__}'s Examples section has no '>>>'"
