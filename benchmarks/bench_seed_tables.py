@@ -90,6 +90,8 @@ import pandas as pd
 from _common import package_versions as _package_versions
 from _common import write_json
 
+from greyml._commands import scores  # the seeds' figures, shared with `greyml demo`
+
 # -- (a) seed 001 on the VMC -----------------------------------------------------
 VMC_TARGET = "dy_um"
 TRAIN_TEST = "IV"
@@ -304,25 +306,6 @@ GANTRY_MODELS = (
 # ------------------------------------------------------------------------------
 # Fitting and scoring
 # ------------------------------------------------------------------------------
-
-
-def scores(y_true, y_pred):
-    """The seeds' figures; a figure that cannot be computed is NaN."""
-    from greyml import metrics
-
-    out = {}
-    for key, fn in (
-        ("RMSE", metrics.rmse),
-        ("band", metrics.residual_band),
-        ("R", metrics.correlation),
-        ("E", metrics.nash_sutcliffe),
-        ("improvement", metrics.improvement),
-    ):
-        try:
-            out[key] = float(fn(y_true, y_pred))
-        except (ValueError, FloatingPointError):
-            out[key] = float("nan")
-    return out
 
 
 def fit_model(spec, X, y, random_state):
