@@ -244,6 +244,23 @@ def _placebo_improvements(ctx, base, before, cand, rng, n_placebo, recal=None, b
     return np.array(out)
 
 
+def _row(effect, detail, step=None, ev=None, significant=False, number=0, placebo=np.nan):
+    """One row of ``causes``: ``ev`` scored against ``step``'s starting gap (NaN if unscored)."""
+    scored = step is not None and ev is not None
+    return {
+        "effect": effect,
+        "detail": detail,
+        "rmse_before": step["rmse_before"] if scored else np.nan,
+        "rmse_after": ev.rmse if scored else np.nan,
+        "shrinkage": 1.0 - ev.rmse / step["rmse_before"] if scored else np.nan,
+        "significant": significant,
+        "step": number,
+        "placebo_shrinkage": placebo,
+        "peak_before": step["peak_before"] if scored else np.nan,
+        "peak_after": ev.peak if scored else np.nan,
+    }
+
+
 def _best(placebo):
     """The best placebo's shrinkage, or NaN when none was tried."""
     finite = placebo[np.isfinite(placebo)]
@@ -578,67 +595,27 @@ def diagnose_gap(
             kept = True
 
     for best, ev, step in named:
-        shrink = 1.0 - ev.rmse / step["rmse_before"]
         detail = best.describe(best.variants[ev.variant], ev.tau)
         if step["ties"]:
             detail += f"; indistinguishable from {', '.join(step['ties'])}"
         if step.get("pair"):
             detail += f"; named as a pair with {step['pair']} (together they beat the placebos)"
-        rows.append(
-            {
-                "effect": best.effect,
-                "detail": detail,
-                "rmse_before": step["rmse_before"],
-                "rmse_after": ev.rmse,
-                "shrinkage": shrink,
-                "significant": True,
-                "step": step["step"],
-                "placebo_shrinkage": step["placebo_max"],
-                "peak_before": step["peak_before"],
-                "peak_after": ev.peak,
-            }
-        )
+        rows.append(_row(best.effect, detail, step, ev, True, step["step"], step["placebo_max"]))
     last = steps[-1] if steps else None
     if last is not None and not last["significant"]:
-        for shrink, cand, ev in last["scored"]:
+        for _, cand, ev in last["scored"]:
+            first = cand is last["scored"][0][1]
+            detail = cand.describe(cand.variants[ev.variant], ev.tau)
             rows.append(
-                {
-                    "effect": cand.effect,
-                    "detail": cand.describe(cand.variants[ev.variant], ev.tau),
-                    "rmse_before": last["rmse_before"],
-                    "rmse_after": ev.rmse,
-                    "shrinkage": shrink,
-                    "significant": False,
-                    "step": 0,
-                    "placebo_shrinkage": last["placebo_max"]
-                    if cand is last["scored"][0][1]
-                    else np.nan,
-                    "peak_before": last["peak_before"],
-                    "peak_after": ev.peak,
-                }
+                _row(
+                    cand.effect, detail, last, ev, placebo=last["placebo_max"] if first else np.nan
+                )
             )
-    unscored = [
-        (
-            cand.effect,
-            "named, then dropped: the other named effects explain the gap as well without it",
-        )
-        for cand in dropped
-    ] + [(effect, f"not tried: {why}") for effect, why in skipped.items()]
-    for effect, detail in unscored:
-        rows.append(
-            {
-                "effect": effect,
-                "detail": detail,
-                "rmse_before": np.nan,
-                "rmse_after": np.nan,
-                "shrinkage": np.nan,
-                "significant": False,
-                "step": 0,
-                "placebo_shrinkage": np.nan,
-                "peak_before": np.nan,
-                "peak_after": np.nan,
-            }
-        )
+    for cand in dropped:
+        detail = "named, then dropped: the other named effects explain the gap as well without it"
+        rows.append(_row(cand.effect, detail))
+    for effect, why in skipped.items():
+        rows.append(_row(effect, f"not tried: {why}"))
     causes = pd.DataFrame(rows, columns=_CAUSE_COLUMNS)
     final = before
     r_series = pd.Series(ctx.r, index=ctx.index, name="gap")
