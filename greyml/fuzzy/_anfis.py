@@ -21,6 +21,7 @@ from greyml._validation import (
     validate_sequences,
 )
 from greyml.fuzzy._kernels import (
+    NO_FIRE_LOG,
     JangStepSize,
     anfis_forward,
     fcm_memberships,
@@ -112,7 +113,15 @@ class _ANFISBase(RegressorMixin, BaseEstimator):
 
         # a column constant on the training rows (after a hold-out) keeps unit scale
         self.x_mean_, self.x_scale_, self.y_mean_, self.y_scale_ = standard_scaling(Xt, yt)
-        Xs = (Xt - self.x_mean_) / self.x_scale_
+        # ... and carries no information: the model ignores it (its standardised
+        # value is 0 everywhere, in checking data and in predict too), rather
+        # than letting a spike-wide MF on it switch off every rule elsewhere
+        constant = np.ptp(Xt, axis=0) == 0
+        if constant.any():
+            self._constant_inputs = constant
+        else:  # kept out of ordinary models (and of their saved files)
+            self.__dict__.pop("_constant_inputs", None)
+        Xs = self._scaled(Xt)
         ys = (yt - self.y_mean_) / self.y_scale_
 
         c0, s0, mf_of_rule, mf_input = self._initial_premise(Xs, ys, rng)
@@ -150,10 +159,20 @@ class _ANFISBase(RegressorMixin, BaseEstimator):
             alpha=self.alpha,
             step=step,
             min_width=MIN_WIDTH,
-            X_check=(Xc - self.x_mean_) / self.x_scale_ if len(yc) else None,
+            X_check=self._scaled(Xc) if len(yc) else None,
             y_check=(yc - self.y_mean_) / self.y_scale_ if len(yc) else None,
             error_goal=self.error_goal / self.y_scale_,
+            floor=NO_FIRE_LOG,
         )
+
+    def _scaled(self, X):
+        """Standardised inputs; columns constant on the training rows are 0."""
+        with np.errstate(over="ignore"):  # |x| near the float limit: inf, handled
+            Xs = (X - self.x_mean_) / self.x_scale_
+        constant = getattr(self, "_constant_inputs", None)
+        if constant is not None and constant.any():
+            Xs[:, constant] = 0.0
+        return Xs
 
     def predict(self, X):
         """Output of the fuzzy inference system at every row of ``X``.
@@ -168,10 +187,15 @@ class _ANFISBase(RegressorMixin, BaseEstimator):
         """
         check_is_fitted(self)
         Xa, _, _ = validate_sequences(self, X, reset=False, static=True)
-        Xs = (Xa - self.x_mean_) / self.x_scale_
+        Xs = self._scaled(Xa)
         with blas_threads_for(Xs.size * self.n_rules_):
             ys = anfis_forward(
-                Xs, self._mf_centres, self._mf_widths, self._mf_of_rule, self._consequents
+                Xs,
+                self._mf_centres,
+                self._mf_widths,
+                self._mf_of_rule,
+                self._consequents,
+                floor=NO_FIRE_LOG,
             )[0]
         return self.y_mean_ + self.y_scale_ * ys
 
@@ -321,6 +345,13 @@ class ANFISGrid(_ANFISBase):
     system AAᵀ + λI; MATLAB's recursive estimator with initial covariance
     γI is the same regularisation with λ = 1/γ. Widths are kept at or above
     10⁻³ standard deviations of their input.
+    Where no rule fires (every firing strength below e^−708, the smallest
+    normal double: far outside the training data) the prediction is the
+    training mean of y, as MATLAB's ``evalfis`` then gives the middle of the
+    output range; elsewhere the plain normalised firing strengths are used, bit
+    for bit (``greyml.fuzzy._kernels.NO_FIRE_LOG``). An input constant on
+    the training rows (a sensor that varies only in the checking data) is
+    ignored: its standardised value is taken as 0 in training and prediction.
 
     References
     ----------

@@ -34,7 +34,16 @@ __all__ = [
     "CHUNK_ROWS",
     "fuzzy_cmeans",
     "fcm_memberships",
+    "NO_FIRE_LOG",
 ]
+
+#: Log firing strength below which a rule does not fire: e^{−708.4} is the
+#: smallest normal double, so a sample whose every log firing strength lies
+#: below it has w = 0 in every rule in plain arithmetic (0/0 when normalised;
+#: MATLAB's ``evalfis`` then reports that no rule fired and outputs the middle
+#: of the output range). Passed as ``floor`` to :func:`normalised_firing`, it is
+#: the constant log strength of a default rule whose output is 0.
+NO_FIRE_LOG = float(np.log(np.finfo(float).tiny))
 
 #: Rows per block when the least-squares system is accumulated, which bounds
 #: memory at ``CHUNK_ROWS × R(p + 1)`` floats whatever the number of samples.
@@ -67,14 +76,27 @@ def log_firing(X, centres, widths):
     >>> np.round(np.exp(logw), 6).tolist()
     [[1.0, 0.135335], [0.606531, 0.606531]]
     """
-    inv2 = 1.0 / widths**2
-    # expanded square: three matrix products instead of an (n, R, p) tensor
-    quad = (X**2) @ inv2.T - 2.0 * X @ (centres * inv2).T + np.sum(centres**2 * inv2, axis=1)
+    with np.errstate(over="ignore", invalid="ignore"):
+        inv2 = 1.0 / widths**2
+        # expanded square: three matrix products instead of an (n, R, p) tensor
+        quad = (X**2) @ inv2.T - 2.0 * X @ (centres * inv2).T + np.sum(centres**2 * inv2, axis=1)
+    if not np.isfinite(quad).all():
+        # |x| beyond ~1e154 overflows x² (inf − inf = NaN): such a sample is
+        # infinitely far from the rule, log w = −inf
+        quad = np.where(np.isnan(quad), np.inf, quad)
     return -0.5 * np.maximum(quad, 0.0)
 
 
-def normalised_firing(logw):
+def normalised_firing(logw, floor=None):
     """Normalised firing strengths w̄ = w / Σ w, computed as a softmax.
+
+    With ``floor`` (a log firing strength, e.g. :data:`NO_FIRE_LOG`) a default
+    rule that fires everywhere at strength e^floor joins the sum:
+    w̄_r = w_r / (Σ w + e^floor). Its own weight, 1 − Σ w̄, is left out. Where
+    some rule fires well above the floor (log w > floor + 37) the default
+    rule's share is below the rounding of the sum and w̄ is bit for bit the
+    plain softmax; far from every rule w̄ → 0, so the output of
+    :func:`anfis_forward` goes to the default rule's output, 0.
 
     Examples
     --------
@@ -87,10 +109,23 @@ def normalised_firing(logw):
 
     >>> normalised_firing(np.array([[-1000.0, -1000.0]])).tolist()
     [[0.5, 0.5]]
+
+    unless a default rule is asked for, which then takes over:
+
+    >>> from greyml.fuzzy._kernels import NO_FIRE_LOG
+    >>> logw = np.array([[-1000.0, -1000.0], [-1.0, -2.0]])
+    >>> normalised_firing(logw, floor=NO_FIRE_LOG).round(6).tolist()
+    [[0.0, 0.0], [0.731059, 0.268941]]
     """
-    shifted = logw - logw.max(axis=1, keepdims=True)
+    top = logw.max(axis=1, keepdims=True)
+    if floor is not None:
+        top = np.maximum(top, floor)
+    shifted = logw - top
     w = np.exp(shifted)
-    w /= w.sum(axis=1, keepdims=True)
+    total = w.sum(axis=1, keepdims=True)
+    if floor is not None:
+        total += np.exp(floor - top)
+    w /= total
     return w
 
 
@@ -98,8 +133,12 @@ def _rule_arrays(mf_centres, mf_widths, mf_of_rule):
     return mf_centres[mf_of_rule], mf_widths[mf_of_rule]
 
 
-def anfis_forward(X, mf_centres, mf_widths, mf_of_rule, consequents):
+def anfis_forward(X, mf_centres, mf_widths, mf_of_rule, consequents, floor=None):
     """Output of the network and its normalised firing strengths.
+
+    ``floor``: see :func:`normalised_firing`. With it the output is finite for
+    every finite or infinite input: a rule whose weight is 0 contributes 0
+    even where its consequent overflows.
 
     Returns
     -------
@@ -127,9 +166,16 @@ def anfis_forward(X, mf_centres, mf_widths, mf_of_rule, consequents):
     ([1.5], [[0.5, 0.5]], [[1.0, 2.0]])
     """
     C, S = _rule_arrays(mf_centres, mf_widths, mf_of_rule)
-    wbar = normalised_firing(log_firing(X, C, S))
-    rule_out = consequents[:, 0] + X @ consequents[:, 1:].T
-    return np.einsum("nr,nr->n", wbar, rule_out), wbar, rule_out
+    wbar = normalised_firing(log_firing(X, C, S), floor)
+    with np.errstate(over="ignore", invalid="ignore"):
+        rule_out = consequents[:, 0] + X @ consequents[:, 1:].T
+        y = np.einsum("nr,nr->n", wbar, rule_out)
+    bad = ~np.isfinite(y)
+    if bad.any():
+        # 0·inf: a rule that does not fire at a far sample whose consequent overflows
+        with np.errstate(over="ignore", invalid="ignore"):
+            y[bad] = np.where(wbar[bad] > 0, wbar[bad] * rule_out[bad], 0.0).sum(axis=1)
+    return y, wbar, rule_out
 
 
 def _design_block(wbar, X):
@@ -306,6 +352,7 @@ def hybrid_learning(
     X_check=None,
     y_check=None,
     error_goal=0.0,
+    floor=None,
 ):
     """Jang's hybrid learning: per epoch, least squares for the consequents with
     the premise fixed, then one normalised gradient step on the premise with the
@@ -332,6 +379,9 @@ def hybrid_learning(
     X_check, y_check : ndarray or None
     error_goal : float
         Stop once the training RMSE reaches it.
+    floor : float or None
+        Log strength of a default rule with output 0 (see
+        :func:`normalised_firing`); ``None`` for none.
 
     Returns
     -------
@@ -356,13 +406,13 @@ def hybrid_learning(
     [0.0163, 0.0053]
     """
     c = np.array(mf_centres, dtype=float)
-    s = np.array(mf_widths, dtype=float)
+    s = np.maximum(np.array(mf_widths, dtype=float), min_width)
     checking = X_check is not None and len(X_check) > 0
     train_err, check_err, steps = [], [], []
     best = (np.inf, None)
     for epoch in range(n_epochs):
         C, S = _rule_arrays(c, s, mf_of_rule)
-        wbar = normalised_firing(log_firing(X, C, S))
+        wbar = normalised_firing(log_firing(X, C, S), floor)
         theta = solve_consequents(wbar, X, y, alpha)
         rule_out = theta[:, 0] + X @ theta[:, 1:].T
         y_hat = np.einsum("nr,nr->n", wbar, rule_out)
@@ -370,7 +420,7 @@ def hybrid_learning(
         e_train = _rmse(y_hat, y)
         train_err.append(e_train)
         if checking:
-            y_chk = anfis_forward(X_check, c, s, mf_of_rule, theta)[0]
+            y_chk = anfis_forward(X_check, c, s, mf_of_rule, theta, floor)[0]
             e_check = _rmse(y_chk, y_check)
             check_err.append(e_check)
             score = e_check

@@ -20,6 +20,8 @@ __all__ = [
     "background",
     "gm1n_design",
     "gm1n_lstsq",
+    "gm1n_conditioning",
+    "CONDITION_LIMIT",
     "gmc_design",
     "gmc_lstsq",
     "gmc_forcing",
@@ -38,6 +40,11 @@ __all__ = [
 #: Large enough to lose against any usable candidate, small enough that sums of a
 #: few of them stay finite.
 LARGE_LOSS = 1e200
+
+#: Condition number (of the column-scaled design) above which a least-squares
+#: system is called ill-conditioned: 1/√eps ≈ 6.7e7, where the solution has
+#: lost half of its significant digits to rounding.
+CONDITION_LIMIT = 1.0 / np.sqrt(np.finfo(float).eps)
 
 # Largest exponent we let a growing response reach before calling it exploded
 # (e^600 ~ 1e260 leaves room for the data's own magnitude below float max).
@@ -144,6 +151,20 @@ def gm1n_design(y, X, bounds=None):
     return B, _later_rows(y, bounds)
 
 
+def _scaled_lstsq(B, Y):
+    """Least squares on the design scaled to unit column norms.
+
+    A column's units must not decide the rank: sensors of 1e12 beside the
+    control column of ones would otherwise look rank deficient. Returns the
+    solution in the original units, the rank and the singular values of the
+    scaled design.
+    """
+    norms = np.sqrt(np.einsum("ij,ij->j", B, B))
+    norms = np.where((norms > 0) & np.isfinite(norms), norms, 1.0)
+    theta, _, rank, sv = np.linalg.lstsq(B / norms, Y, rcond=None)
+    return theta / norms, rank, sv
+
+
 def gm1n_lstsq(y, X, bounds=None):
     """Least-squares GM(1,N) coefficients.
 
@@ -162,8 +183,54 @@ def gm1n_lstsq(y, X, bounds=None):
     (-0.5, [0.5], 2)
     """
     B, Y = gm1n_design(y, X, bounds)
-    theta, _, rank, sv = np.linalg.lstsq(B, Y, rcond=None)
+    theta, rank, sv = _scaled_lstsq(B, Y)
     return theta[0], theta[1:], rank, sv
+
+
+def gm1n_conditioning(y, X, bounds=None, limit=CONDITION_LIMIT):
+    """Condition number of the GM(1,N) system and the columns of ``X`` that are
+    near-collinear after accumulation.
+
+    The design of :func:`gm1n_design` is scaled to unit column norms first
+    (so sensor units do not count), then κ = σ_max/σ_min from its singular
+    values. Each singular value below σ_max/``limit`` is a near-null direction
+    B̃v ≈ 0; the columns carrying most of such a v (|vⱼ| ≥ 0.1·max|v|) are the
+    near-collinear ones. Cheap: one SVD of an (n − n_tests) × N matrix.
+
+    Returns
+    -------
+    cond : float
+        κ of the column-scaled design; ``inf`` if exactly singular (or a column
+        is all zero).
+    groups : list of list of int
+        One group per near-null direction: indices into the columns of ``X``,
+        and ``-1`` for the target's own column −z₁⁽¹⁾. Empty when κ ≤ ``limit``.
+
+    Examples
+    --------
+    Two drivers, the second twice the first:
+
+    >>> import numpy as np
+    >>> from greyml.grey._kernels import gm1n_conditioning
+    >>> x = np.array([1.0, 1.2, 1.5, 1.9, 2.2, 2.0])
+    >>> y = np.array([0.5, 0.9, 1.4, 1.6, 2.1, 1.8])
+    >>> cond, groups = gm1n_conditioning(y, np.column_stack([x, np.sin(x), 2 * x]))
+    >>> bool(cond > 1e12), groups
+    (True, [[0, 2]])
+    """
+    B, _ = gm1n_design(y, X, bounds)
+    norms = np.sqrt(np.einsum("ij,ij->j", B, B))
+    if not np.all(norms > 0):
+        dead = [int(j) - 1 for j in np.flatnonzero(~(norms > 0))]
+        return float("inf"), [dead]
+    _, sv, vt = np.linalg.svd(B / norms, full_matrices=False)
+    with np.errstate(divide="ignore"):
+        cond = float(sv[0] / sv[-1])
+    groups = []
+    for k in np.flatnonzero(sv * limit < sv[0]):
+        v = np.abs(vt[k])
+        groups.append([int(j) - 1 for j in np.flatnonzero(v >= 0.1 * v.max())])
+    return cond, groups
 
 
 def gmc_design(y, X, bounds=None):
@@ -211,7 +278,7 @@ def gmc_lstsq(y, X, bounds=None):
     ([0.4, 0.5, 0.1], 3)
     """
     B, Y = gmc_design(y, X, bounds)
-    theta, _, rank, sv = np.linalg.lstsq(B, Y, rcond=None)
+    theta, rank, sv = _scaled_lstsq(B, Y)
     return theta[0], theta[1:-1], theta[-1], rank, sv
 
 

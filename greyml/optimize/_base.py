@@ -9,9 +9,16 @@ whose :meth:`PopulationOptimizer.minimize` takes
 * ``x0``: optional starting points placed in the initial population.
 
 and returns a :class:`scipy.optimize.OptimizeResult` with ``x``, ``fun``,
-``nfev``, ``nit`` and ``history`` (best value after each iteration). Losses that
-come back NaN or infinite are replaced by a large finite penalty, so a candidate
-that blows up simply loses.
+``nfev``, ``nit``, ``history`` (best value after each iteration) and
+``nfev_nonfinite``. Losses that come back NaN, ``+inf`` or ``-inf`` are replaced by
+a large finite penalty (:data:`PENALTY`), so a candidate that blows up simply
+loses; ``-inf`` is no better than NaN. An objective that raises an arithmetic
+error (e.g. ``FloatingPointError`` under ``numpy.errstate(all="raise")``) for a
+population is evaluated again row by row, and the rows that raise are
+penalised. NumPy's floating-point warnings (overflow in ``exp`` …) inside the
+objective are silenced, as their result is handled here. ``nfev_nonfinite``
+counts the penalised evaluations; if no evaluation at all was finite,
+:meth:`PopulationOptimizer.minimize` raises ``ValueError``.
 """
 
 from __future__ import annotations
@@ -25,6 +32,37 @@ __all__ = ["PopulationOptimizer", "PENALTY", "check_bounds"]
 
 #: Loss that replaces NaN or infinite objective values.
 PENALTY = 1e200
+
+
+class _Evaluations:
+    """Running count of the objective's evaluations and of the penalised ones."""
+
+    __slots__ = ("n", "n_nonfinite")
+
+    def __init__(self):
+        self.n = 0
+        self.n_nonfinite = 0
+
+
+def _losses(fun, pop):
+    """``fun(pop)`` as a float vector of length ``len(pop)``, NaN where it raised."""
+    # the objective's non-finite values are handled by the caller, so NumPy's
+    # warnings about producing them are not the user's concern
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore", under="ignore"):
+        try:
+            values = np.asarray(fun(pop), dtype=float).reshape(-1)
+        except ArithmeticError:
+            # FloatingPointError / OverflowError / ZeroDivisionError: find the
+            # rows that raise, keep the others
+            if pop.shape[0] == 1:
+                return np.array([np.nan])
+            return np.concatenate([_losses(fun, pop[i : i + 1]) for i in range(pop.shape[0])])
+    if values.shape[0] != pop.shape[0]:
+        raise ValueError(
+            f"The objective returned {values.shape[0]} values for a population "
+            f"of {pop.shape[0]}; it must return one loss per row."
+        )
+    return values
 
 
 def check_bounds(bounds, n_dim=None, x0=None):
@@ -155,14 +193,18 @@ class PopulationOptimizer:
 
     # helpers shared by the subclasses -------------------------------------
     @staticmethod
-    def _evaluate(fun, pop):
-        values = np.asarray(fun(pop), dtype=float).reshape(-1)
-        if values.shape[0] != pop.shape[0]:
-            raise ValueError(
-                f"The objective returned {values.shape[0]} values for a population "
-                f"of {pop.shape[0]}; it must return one loss per row."
-            )
-        values = np.where(np.isfinite(values), values, PENALTY)
+    def _evaluate(fun, pop, count=None):
+        """Losses of the population, NaN/±inf (or a raising row) → :data:`PENALTY`.
+
+        ``count`` (an ``_Evaluations``), if given, is advanced by the number of
+        rows and of penalised rows.
+        """
+        values = _losses(fun, pop)
+        finite = np.isfinite(values)
+        if count is not None:
+            count.n += values.shape[0]
+            count.n_nonfinite += int(values.shape[0] - np.count_nonzero(finite))
+        values = np.where(finite, values, PENALTY)
         return np.minimum(values, PENALTY)
 
     @staticmethod
@@ -187,9 +229,18 @@ class PopulationOptimizer:
             )
         return rng
 
-    @staticmethod
-    def _result(x, fun, nfev, nit, history, method):
-        return OptimizeResult(
+    def _result(self, x, fun, nfev, nit, history, method, count=None):
+        """The :class:`~scipy.optimize.OptimizeResult`; with ``count``, raise
+        ``ValueError`` if no evaluation was finite and report ``nfev_nonfinite``."""
+        nonfinite = None if count is None else count.n_nonfinite
+        if count is not None and count.n > 0 and nonfinite == count.n:
+            raise ValueError(
+                f"{type(self).__name__} ({method}): the objective returned no finite "
+                f"value in {count.n:,} evaluations (every loss was NaN, +inf or -inf, "
+                "or raised an arithmetic error). Check the objective and the bounds: "
+                "it must be finite somewhere inside them."
+            )
+        result = OptimizeResult(
             x=np.array(x, dtype=float),
             fun=float(fun),
             nfev=int(nfev),
@@ -198,3 +249,6 @@ class PopulationOptimizer:
             success=bool(np.isfinite(fun) and fun < PENALTY),
             message=f"{method}: iteration budget used",
         )
+        if nonfinite is not None:
+            result.nfev_nonfinite = int(nonfinite)
+        return result

@@ -10,6 +10,7 @@ from greyml._validation import check_real_param
 from greyml.optimize._base import (
     PopulationOptimizer,
     _check_count,
+    _Evaluations,
     check_bounds,
 )
 
@@ -133,7 +134,8 @@ class CuckooSearch(PopulationOptimizer):
         sigma = mantegna_sigma(beta)
 
         nests = self._initial_population(n, lower, upper, rng, x0)
-        fit = self._evaluate(fun, nests)
+        count = _Evaluations()
+        fit = self._evaluate(fun, nests, count)
         b = int(np.argmin(fit))
         best, best_f = nests[b].copy(), fit[b]
         history = np.empty(iters)
@@ -143,7 +145,7 @@ class CuckooSearch(PopulationOptimizer):
             steps = levy_steps(nests.shape, beta, rng, sigma)
             eggs = nests + alpha * steps * (nests - best) * rng.standard_normal(nests.shape)
             np.clip(eggs, lower, upper, out=eggs)
-            f_eggs = self._evaluate(fun, eggs)
+            f_eggs = self._evaluate(fun, eggs, count)
             keep = f_eggs <= fit
             nests[keep] = eggs[keep]
             fit[keep] = f_eggs[keep]
@@ -153,7 +155,7 @@ class CuckooSearch(PopulationOptimizer):
             shift = rng.random((n, 1)) * (nests[rng.permutation(n)] - nests[rng.permutation(n)])
             eggs = nests + shift * found
             np.clip(eggs, lower, upper, out=eggs)
-            f_eggs = self._evaluate(fun, eggs)
+            f_eggs = self._evaluate(fun, eggs, count)
             keep = f_eggs <= fit
             nests[keep] = eggs[keep]
             fit[keep] = f_eggs[keep]
@@ -163,4 +165,6 @@ class CuckooSearch(PopulationOptimizer):
                 best, best_f = nests[b].copy(), fit[b]
             history[t] = best_f
 
-        return self._result(best, best_f, n * (1 + 2 * iters), iters, history, "Cuckoo search")
+        return self._result(
+            best, best_f, n * (1 + 2 * iters), iters, history, "Cuckoo search", count
+        )

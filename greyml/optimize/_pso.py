@@ -8,6 +8,7 @@ from greyml._validation import check_real_param
 from greyml.optimize._base import (
     PopulationOptimizer,
     _check_count,
+    _Evaluations,
     check_bounds,
 )
 
@@ -130,8 +131,9 @@ class ParticleSwarm(PopulationOptimizer):
         vmax = kappa * span
 
         x = self._initial_population(n, lower, upper, rng, x0)
+        count = _Evaluations()
         v = (2.0 * rng.random(x.shape) - 1.0) * vmax
-        fx = self._evaluate(fun, x)
+        fx = self._evaluate(fun, x, count)
         pbest, pbest_f = x.copy(), fx.copy()
         g = int(np.argmin(pbest_f))
         gbest, gbest_f = pbest[g].copy(), pbest_f[g]
@@ -151,7 +153,7 @@ class ParticleSwarm(PopulationOptimizer):
                 # park particles on the bounds (≈10 % of coordinates in tests)
                 redraw = lower + rng.random(x.shape) * span
                 x[out] = redraw[out]
-            fx = self._evaluate(fun, x)
+            fx = self._evaluate(fun, x, count)
             better = fx < pbest_f
             pbest[better] = x[better]
             pbest_f[better] = fx[better]
@@ -160,4 +162,4 @@ class ParticleSwarm(PopulationOptimizer):
                 gbest, gbest_f = pbest[g].copy(), pbest_f[g]
             history[t] = gbest_f
 
-        return self._result(gbest, gbest_f, n * (iters + 1), iters, history, "PSO")
+        return self._result(gbest, gbest_f, n * (iters + 1), iters, history, "PSO", count)
