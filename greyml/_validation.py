@@ -53,6 +53,52 @@ def _check_numeric_frame(X, what="X"):
                 )
 
 
+def _check_columns(estimator, X, reset):
+    """X has at least one column and, after fit, the fitted columns in their order."""
+    name = type(estimator).__name__
+    shape = getattr(X, "shape", None)
+    if shape is not None and len(shape) == 2 and shape[1] == 0:
+        raise ValueError(
+            f"Found array with 0 feature(s) (shape={tuple(shape)}) while a minimum of 1 "
+            f"is required by {name}: X has no sensor columns."
+        )
+    fitted = getattr(estimator, "feature_names_in_", None)
+    if reset or fitted is None or not isinstance(X, pd.DataFrame):
+        return
+    given = [str(c) for c in X.columns]
+    fitted = [str(c) for c in fitted]
+    if given != fitted and sorted(given) == sorted(fitted):
+        k = next(i for i, (a, b) in enumerate(zip(given, fitted)) if a != b)
+        # scikit-learn's wording first, so its estimator checks recognise it
+        raise ValueError(
+            "The feature names should match those that were passed during fit.\n"
+            "Feature names must be in the same order as they were in fit: column "
+            f"{k + 1} of X is {given[k]!r} where {name} was fitted with {fitted[k]!r}. "
+            f"Reorder the columns, e.g. X[{name.lower()}.feature_names_in_]."
+        )
+
+
+def _check_numeric_target(y):
+    """y holds numbers: a clear message for text, dates or objects in the target."""
+    values = y.to_numpy() if isinstance(y, (pd.Series, pd.DataFrame)) else y
+    arr = np.asarray(values)
+    if arr.dtype.kind in "biufc":
+        return
+    if arr.dtype.kind not in "Mm":
+        try:
+            np.asarray(arr, dtype=np.float64)
+            return
+        except (TypeError, ValueError):
+            pass
+    example = arr.reshape(-1)[0] if arr.size else None
+    name = getattr(y, "name", None)
+    label = f" ({str(name)!r})" if name is not None else ""
+    raise ValueError(
+        f"The target y{label} has non-numeric values (dtype {arr.dtype}, first value "
+        f"{example!r}); give the measured target as numbers."
+    )
+
+
 def _check_finite(A: np.ndarray, names, segments, what: str):
     bad = ~np.isfinite(A)
     if not bad.any():
@@ -131,7 +177,9 @@ def validate_sequences(
     """
     segments = _segments_of(X, y)
     _check_numeric_frame(X)
+    _check_columns(estimator, X, reset)
     if y is not None:
+        _check_numeric_target(y)
         if isinstance(y, pd.DataFrame) and y.shape[1] == 1:
             y = y.iloc[:, 0]
         y_arr = np.asarray(y)
@@ -232,14 +280,25 @@ def require_y(estimator, y, why="give the measured target (e.g. the displacement
         )
 
 
+def _std(A):
+    """Standard deviation along axis 0 that does not overflow for |values| ~ 1e200."""
+    with np.errstate(over="ignore", invalid="ignore"):
+        std = np.asarray(A.std(axis=0))
+    if np.isfinite(std).all():
+        return std
+    peak = np.max(np.abs(A), axis=0)
+    peak = np.where(peak > 0, peak, 1.0)
+    return np.where(np.isfinite(std), std, peak * (A / peak).std(axis=0))
+
+
 def standard_scaling(X, y):
     """Means and standard deviations that standardise ``X`` (per column) and ``y``.
 
     A column (or a target) without spread keeps unit scale, so nothing is
     divided by zero. Returns ``(x_mean, x_scale, y_mean, y_scale)``.
     """
-    x_scale = X.std(axis=0)
-    y_scale = float(y.std())
+    x_scale = _std(X)
+    y_scale = float(_std(y))
     return (
         X.mean(axis=0),
         np.where(x_scale > 0, x_scale, 1.0),

@@ -186,7 +186,9 @@ class AccumulatedTargetRegressor(RegressorMixin, BaseEstimator):
         self : AccumulatedTargetRegressor
         """
         require_y(self, y)
-        _, ya, segments = validate_sequences(self, X, y, reset=True)
+        _, ya, segments = validate_sequences(
+            self, X, y, reset=True, min_rows=1, n_params_msg="an accumulated target"
+        )
         if ya.ndim != 1:
             raise ValueError(
                 f"AccumulatedTargetRegressor takes one target column; y has shape {ya.shape}."

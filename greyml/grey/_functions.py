@@ -7,11 +7,13 @@ import warnings
 import numpy as np
 from sklearn.base import BaseEstimator
 
-from greyml._sequences import segment_label, test_segments
-from greyml._validation import validate_sequences
+from greyml._sequences import segment_label
+from greyml._validation import column_names, validate_sequences
 from greyml.grey._gmc import GreyConditioningWarning
 from greyml.grey._kernels import (
+    CONDITION_LIMIT,
     ago,
+    gm1n_conditioning,
     gm1n_lstsq,
     gmc_forcing,
     gmc_initial,
@@ -24,12 +26,6 @@ __all__ = ["fit_gm1n", "simulate_gmc"]
 
 class _Inputs(BaseEstimator):
     """Holds what validation learns about a function's inputs (names, counts)."""
-
-
-def _validate(X, y, min_rows=None):
-    return validate_sequences(
-        _Inputs(), X, y, reset=True, min_samples_per_test=2, min_rows=min_rows
-    )
 
 
 def fit_gm1n(X, y):
@@ -58,8 +54,11 @@ def fit_gm1n(X, y):
     Warns
     -----
     GreyConditioningWarning
-        If the system is rank deficient (e.g. two identical sensors); the
-        minimum-norm solution is returned.
+        If the system is rank deficient (e.g. two identical sensors) or
+        ill-conditioned (condition number above 1/√eps ≈ 6.7e7 once every
+        column is scaled to unit norm, e.g. a sensor that is another plus
+        1e-10 noise); the warning names the columns involved. The minimum-norm
+        solution is returned.
 
     Examples
     --------
@@ -71,14 +70,29 @@ def fit_gm1n(X, y):
     >>> b.shape
     (2,)
     """
-    Xa, ya, segments = _validate(X, y, min_rows=lambda p: p + 1)
+    inputs = _Inputs()
+    Xa, ya, segments = validate_sequences(
+        inputs, X, y, reset=True, min_samples_per_test=2, min_rows=lambda p: p + 1
+    )
     n_features = Xa.shape[1]
-    a, b, rank, _ = gm1n_lstsq(ya, Xa, [(s.start, s.stop) for s in segments])
-    if rank < n_features + 1:
+    bounds = [(s.start, s.stop) for s in segments]
+    a, b, rank, sv = gm1n_lstsq(ya, Xa, bounds)
+    with np.errstate(divide="ignore"):
+        cond = float(sv[0] / sv[-1]) if sv.size else float("inf")
+    if rank < n_features + 1 or cond > CONDITION_LIMIT:
+        names = column_names(inputs, n_features)
+        _, groups = gm1n_conditioning(ya, Xa, bounds)
+        cols = ", ".join(names[j] if j >= 0 else "the target" for j in (groups or [[]])[0])
+        what = (
+            f"rank deficient (rank {rank} < {n_features + 1})"
+            if rank < n_features + 1
+            else f"ill-conditioned (condition number {cond:.1e} after column scaling)"
+        )
         warnings.warn(
-            f"GM(1,N) least-squares system is rank deficient (rank {rank} < "
-            f"{n_features + 1}): some columns are linear combinations of others "
-            "after accumulation; the minimum-norm solution is returned.",
+            f"GM(1,N) least-squares system is {what}: "
+            f"{cols or 'some columns'} are (nearly) linear combinations of each other "
+            "after accumulation, so their coefficients are unreliable; the minimum-norm "
+            "solution is returned. Drop or merge one of them.",
             GreyConditioningWarning,
             stacklevel=2,
         )
@@ -119,22 +133,17 @@ def simulate_gmc(X, development, driving, control=0.0, *, form="trapezoid", init
     >>> simulate_gmc(np.ones((3, 1)), 0.0, [1.0], initial="zero").tolist()
     [0.0, 1.5, 2.5]
     """
-    X = np.asarray(X, dtype=float) if not hasattr(X, "columns") else X
-    segments = test_segments(X)
-    Xa = np.asarray(X, dtype=float)
-    if Xa.ndim != 2:
-        raise ValueError(f"X must be 2-D (samples × drivers); got shape {Xa.shape}.")
+    Xa, _, segments = validate_sequences(_Inputs(), X, reset=True)
     driving = np.asarray(driving, dtype=float).reshape(-1)
     if driving.size != Xa.shape[1]:
         raise ValueError(
             f"driving has {driving.size} coefficients but X has {Xa.shape[1]} columns."
         )
-    if not np.isfinite(Xa).all():
-        r, c = np.argwhere(~np.isfinite(Xa))[0]
-        seg = next(s for s in segments if s.start <= r < s.stop)
-        raise ValueError(
-            f"X has a non-finite value in column {c} of {segment_label(seg)} at row {r}."
-        )
+    for what, value in [("development", development), ("control", control)]:
+        if not np.isfinite(value):
+            raise ValueError(f"simulate_gmc: {what} must be finite; got {value!r}.")
+    if not np.isfinite(driving).all():
+        raise ValueError(f"simulate_gmc: driving must be finite; got {driving.tolist()}.")
     out = np.empty(Xa.shape[0])
     X1 = ago(Xa, [(s.start, s.stop) for s in segments])
     for seg in segments:
@@ -142,4 +151,11 @@ def simulate_gmc(X, development, driving, control=0.0, *, form="trapezoid", init
         x0 = float(gmc_initial(f[0], development, initial))
         with np.errstate(over="ignore", invalid="ignore"):
             out[seg.slice] = iago(gmc_response(f, float(development), x0, form))
+        if not np.isfinite(out[seg.slice]).all():
+            raise ValueError(
+                f"simulate_gmc: the response of {segment_label(seg)} overflows: with "
+                f"development coefficient b1={float(development):g} over {seg.n} samples "
+                "it grows beyond floating point (b1 < 0 makes the response grow like "
+                "exp(-b1*k)). Check the coefficients or shorten the test."
+            )
     return out

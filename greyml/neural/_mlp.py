@@ -23,6 +23,7 @@ from greyml.neural._kernels import (
     init_nguyen_widrow,
     levenberg_marquardt,
     mlp_forward,
+    n_params,
     pack,
     unpack,
 )
@@ -259,8 +260,8 @@ class MLPBaseline(RegressorMixin, BaseEstimator):
             X,
             y,
             reset=True,
-            min_rows=2,
-            n_params_msg="a network (at least 2 rows are needed)",
+            min_rows=lambda p: n_params(p, n_hidden),
+            n_params_msg=lambda p: f"the weights of a {p}-{n_hidden}-1 network",
             reject_constant=True,
             static=True,
         )

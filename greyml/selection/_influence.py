@@ -288,6 +288,9 @@ class GreyInfluenceSelector(SelectorMixin, BaseEstimator):
             A DataFrame with ``X``'s index when ``X`` has a ``test`` index
             level, so the next step of a Pipeline still sees the tests.
         """
+        check_is_fitted(self)
+        # the bad value, its column and its test named before any column is dropped
+        validate_sequences(self, X, reset=False)
         return keep_test_index(self, X, super().transform(X))
 
     def _get_support_mask(self):

@@ -1,0 +1,250 @@
+"""The bad-input matrix over greyml's estimators, transformers and functions.
+
+Every case of :mod:`bad_inputs` runs against every entry point it applies to.
+A case passes when the entry point raises ValueError or TypeError with a
+message that names what was wrong and where (the regular expressions of the
+case), or, for the extreme-magnitude cases only, succeeds with finite output.
+"""
+
+import re
+import warnings
+
+import numpy as np
+import pytest
+from bad_inputs import CASES, valid_data
+from sklearn.linear_model import Ridge
+from sklearn.pipeline import make_pipeline
+
+from greyml import (
+    AGO,
+    ANFISFCM,
+    GMC,
+    GNNMCI,
+    AccumulatedTargetRegressor,
+    ANFISGrid,
+    GreyInfluenceSelector,
+    MLPBaseline,
+    TrainOnOneTest,
+    fit_gm1n,
+    simulate_gmc,
+)
+
+
+class Entry:
+    """How to drive one public entry point through fit and predict."""
+
+    def __init__(self, name, make, has, step=None):
+        self.name = name
+        self.make = make
+        self.has = frozenset(has)
+        self.step = step
+
+    def fit(self, X, y):
+        est = self.make()
+        if "y" in self.has:
+            return est.fit(X, y)
+        return est.fit(X)
+
+    def second(self, est, X):
+        if self.step is not None:
+            return getattr(est, self.step)(X)
+        return est.predict(X)
+
+
+class FunctionEntry(Entry):
+    """A function of the data with no second step (fit_gm1n, simulate_gmc)."""
+
+    def __init__(self, name, call, has):
+        super().__init__(name, None, has)
+        self.call = call
+
+    def fit(self, X, y):
+        return self.call(X, y)
+
+
+class SplitEntry(Entry):
+    """TrainOnOneTest: its 'fit' is listing the splits of the data."""
+
+    def fit(self, X, y):
+        return list(TrainOnOneTest(train_tests=["A"]).split(X, y))
+
+
+MODEL = ("y", "index", "names", "fitted", "model", "params", "constant")
+ENTRIES = [
+    Entry("AGO", AGO, ("index", "names", "fitted"), step="transform"),
+    Entry("AGO.inverse_transform", AGO, ("index", "names", "fitted"), step="inverse_transform"),
+    Entry("GMC-ls", lambda: GMC(solver="ls"), MODEL),
+    Entry("GMC-pso", lambda: GMC(solver="pso", n_population=6, max_iter=3, random_state=0), MODEL),
+    Entry(
+        "GMC-cuckoo",
+        lambda: GMC(solver="cs", n_population=6, max_iter=3, random_state=0),
+        MODEL,
+    ),
+    Entry("GNNMCI", lambda: GNNMCI(n_particles=6, max_iter=3, random_state=0), MODEL),
+    Entry("ANFISGrid", lambda: ANFISGrid(n_epochs=3, random_state=0), MODEL),
+    Entry("ANFISFCM", lambda: ANFISFCM(n_clusters=2, n_epochs=3, random_state=0), MODEL),
+    Entry(
+        "MLPBaseline",
+        lambda: MLPBaseline(hidden_layer_sizes=2, max_iter=5, n_restarts=1, random_state=0),
+        MODEL,
+    ),
+    # X goes to the wrapped regressor unchanged: its columns are that regressor's business
+    Entry(
+        "AccumulatedTargetRegressor",
+        lambda: AccumulatedTargetRegressor(Ridge()),
+        ("y", "index", "names", "fitted", "model"),
+    ),
+    Entry(
+        "GreyInfluenceSelector",
+        lambda: GreyInfluenceSelector(n_clusters=2, random_state=0),
+        MODEL,
+        step="transform",
+    ),
+    Entry(
+        "Pipeline(selector, GMC)",
+        lambda: make_pipeline(GreyInfluenceSelector(n_clusters=2, random_state=0), GMC()),
+        MODEL,
+    ),
+    # GM(1,N) has no constant term: a constant sensor accumulates to a usable ramp
+    FunctionEntry(
+        "fit_gm1n", lambda X, y: fit_gm1n(X, y), ("y", "index", "names", "model", "params")
+    ),
+    FunctionEntry(
+        "simulate_gmc",
+        lambda X, y: simulate_gmc(X, 0.3, np.ones(np.shape(X)[1] if np.ndim(X) == 2 else 1)),
+        ("index", "names"),
+    ),
+    # a splitter reads only the test labels, as scikit-learn's splitters do
+    SplitEntry("TrainOnOneTest.split", None, ("index", "labels_only")),
+]
+
+
+def _applies(case, entry):
+    if "labels_only" in entry.has:
+        return "index" in case.needs and not case.needs & {"y", "fitted"}
+    return case.needs <= entry.has
+
+
+PAIRS = [
+    pytest.param(entry, case, id=f"{entry.name}-{case.name}")
+    for entry in ENTRIES
+    for case in CASES
+    if _applies(case, entry)
+]
+
+
+def _finite_output(out):
+    arrays = out if isinstance(out, list) else [out]
+    for a in arrays:
+        a = np.asarray(a[0] if isinstance(a, tuple) else a, dtype=float)
+        assert np.isfinite(a).all(), "output holds NaN or inf"
+
+
+@pytest.mark.parametrize("entry, case", PAIRS)
+def test_bad_input(entry, case):
+    X, y = valid_data()
+    X0, y0 = X.copy(), y.copy()
+    if case.stage == "fit":
+        Xb, yb = case.corrupt(X, y)
+        run = lambda: entry.fit(Xb, yb)  # noqa: E731
+    else:
+        est = entry.fit(X, y)
+        Xb, _ = case.corrupt(X, y)
+        run = lambda: entry.second(est, Xb)  # noqa: E731
+    try:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            # scikit-learn's own note on an array after a DataFrame fit; its error follows
+            warnings.filterwarnings("ignore", "X does not have valid feature names")
+            out = run()
+    except (ValueError, TypeError) as err:
+        message = str(err)
+        for pattern in case.match:
+            assert re.search(pattern, message, re.IGNORECASE), (
+                f"{entry.name} on {case.name}: message lacks {pattern!r}:\n{message}"
+            )
+        assert not re.search(r"^\s*File |numpy\.core|ufunc", message), message
+    else:
+        assert case.finite_ok, f"{entry.name} accepted {case.name} without an error"
+        if case.stage == "predict" or not hasattr(out, "fit"):
+            _finite_output(out)
+        else:
+            _finite_output(entry.second(out, X))
+    # nothing the user gave is modified
+    assert X.equals(X0) and y.equals(y0)
+
+
+def test_matrix_size():
+    """The issue asks for at least 30 cases; every entry point meets most of them."""
+    assert len(CASES) >= 30
+    per_entry = {e.name: sum(_applies(c, e) for c in CASES) for e in ENTRIES}
+    models = [e.name for e in ENTRIES if {"model", "fitted"} <= e.has]
+    assert min(per_entry[name] for name in models) >= 30, per_entry
+    assert len(PAIRS) >= 30 * 10
+
+
+# -- bad parameters -----------------------------------------------------------
+
+PSO = {"solver": "pso"}
+PARAM_CASES = [
+    (GMC, {**PSO, "n_population": 0}, r"'n_population'.*GMC.*Got 0"),
+    (GMC, {**PSO, "n_population": -3}, r"'n_population'.*Got -3"),
+    (GMC, {**PSO, "max_iter": 0}, r"'max_iter'.*Got 0"),
+    (GMC, {**PSO, "max_iter": 2.5}, r"'max_iter'.*int.*Got 2.5"),
+    (GMC, {"solver": "cs", "n_population": 0}, r"'n_population'.*Got 0"),
+    (GMC, {"solver": "cuckoo"}, r"'solver'.*'cs'.*Got 'cuckoo'"),
+    (GMC, {**PSO, "bounds": (5.0, -5.0)}, r"bounds.*out of order.*lower 5.*upper -5"),
+    (GMC, {**PSO, "bounds": (np.nan, 1.0)}, r"bounds must be finite"),
+    (GMC, {**PSO, "bounds": (-1.0, 1.0, 2.0)}, r"bounds must be a pair"),
+    (GMC, {**PSO, "bounds": "wide"}, r"bounds must be a pair.*'wide'"),
+    (GMC, {"response": "spline"}, r"'response'.*Got 'spline'"),
+    (GMC, {**PSO, "random_state": "x"}, r"random_state.*got 'x'"),
+    (GNNMCI, {"n_particles": 0}, r"'n_particles'.*GNNMCI.*Got 0"),
+    (GNNMCI, {"max_iter": 0}, r"'max_iter'.*Got 0"),
+    (GNNMCI, {"bounds": (3.0, 1.0)}, r"out of order.*lower 3.*upper 1"),
+    (GNNMCI, {"c1": -1.0}, r"'c1'.*Got -1.0"),
+    (GNNMCI, {"inertia": (0.4, 0.9, 1)}, r"'inertia'.*pair"),
+    (GNNMCI, {"inertia": (np.nan, 0.4)}, r"'inertia\[0\]'.*Got nan"),
+    (ANFISGrid, {"n_epochs": 0}, r"'n_epochs'.*ANFISGrid.*Got 0"),
+    (ANFISGrid, {"n_mfs": 0}, r"'n_mfs'.*Got 0"),
+    (ANFISGrid, {"n_mfs": [2, 2]}, r"n_mfs for 2 inputs.*3 columns"),
+    (ANFISGrid, {"n_mfs": 5, "max_rules": 100}, r"125 rules.*max_rules=100"),
+    (ANFISGrid, {"max_rules": 0}, r"'max_rules'.*Got 0"),
+    (ANFISGrid, {"step_size": -0.1}, r"'step_size'.*Got -0.1"),
+    (ANFISGrid, {"validation_fraction": 1.5}, r"'validation_fraction'.*Got 1.5"),
+    (ANFISGrid, {"mf_overlap": 0.0}, r"'mf_overlap'.*Got 0.0"),
+    (ANFISGrid, {"step_decrease": 2.0}, r"step_decrease <= 1.*2.0"),
+    (ANFISFCM, {"n_clusters": 0}, r"'n_clusters'.*ANFISFCM.*Got 0"),
+    (ANFISFCM, {"n_clusters": 100}, r"too few samples.*100 clusters"),
+    (ANFISFCM, {"m": 1.0}, r"'m'.*Got 1.0"),
+    (ANFISFCM, {"fcm_tol": -1.0}, r"'fcm_tol'.*Got -1.0"),
+    (ANFISFCM, {"fcm_max_iter": 0}, r"'fcm_max_iter'.*Got 0"),
+    (MLPBaseline, {"hidden_layer_sizes": 0}, r"'hidden_layer_sizes'.*Got 0"),
+    (MLPBaseline, {"hidden_layer_sizes": (3, 3)}, r"one hidden layer.*\(3, 3\)"),
+    (MLPBaseline, {"hidden_layer_sizes": 40}, r"too few samples.*weights of a 3-40-1 network"),
+    (MLPBaseline, {"max_iter": 0}, r"'max_iter'.*Got 0"),
+    (MLPBaseline, {"n_restarts": 0}, r"'n_restarts'.*Got 0"),
+    (MLPBaseline, {"activation": "relu6"}, r"'activation'.*Got 'relu6'"),
+    (MLPBaseline, {"validation_fraction": -0.1}, r"'validation_fraction'.*Got -0.1"),
+    (MLPBaseline, {"goal": -1.0}, r"'goal'.*Got -1.0"),
+    (GreyInfluenceSelector, {"n_clusters": 0}, r"'n_clusters'.*Got 0"),
+    (GreyInfluenceSelector, {"n_clusters": 10}, r"n_clusters=10.*only 3 column"),
+    (GreyInfluenceSelector, {"m": 1.0}, r"'m'.*Got 1.0"),
+    (GreyInfluenceSelector, {"normalisation": "zscore2"}, r"'normalisation'.*Got 'zscore2'"),
+    (GreyInfluenceSelector, {"cluster_on": "x"}, r"'cluster_on'.*Got 'x'"),
+    (GreyInfluenceSelector, {"n_init": 0}, r"'n_init'.*Got 0"),
+    (GreyInfluenceSelector, {"tol": np.nan}, r"'tol'.*Got nan"),
+    (AccumulatedTargetRegressor, {"regressor": "ridge"}, r"ridge.*not.*estimator"),
+]
+
+
+@pytest.mark.parametrize(
+    "estimator, params, match",
+    PARAM_CASES,
+    ids=[f"{e.__name__}-{'-'.join(map(str, p.items()))}" for e, p, _ in PARAM_CASES],
+)
+def test_bad_parameter(estimator, params, match):
+    """Out-of-range, wrongly typed or inconsistent parameters fail at fit, named."""
+    X, y = valid_data()
+    with pytest.raises((ValueError, TypeError), match=match):
+        estimator(**params).fit(X, y)
