@@ -540,6 +540,15 @@ def _read_header(archive):
         info = archive.getinfo(_MODEL_MEMBER)
     except KeyError:
         raise _Corrupt(f"not a greyml model file (no {_MODEL_MEMBER} inside)") from None
+    # greyml writes model.json and arrays/<n>.npy, each once: anything else was added
+    names = archive.namelist()
+    if len(set(names)) != len(names):
+        raise _Corrupt("the archive holds two members of the same name; the file has been altered")
+    unexpected = [n for n in names if n != _MODEL_MEMBER and not _ARRAY_MEMBER.fullmatch(n)]
+    if unexpected:
+        raise _Corrupt(
+            f"the archive holds the unexpected member {unexpected[0]!r}; the file has been altered"
+        )
     if info.file_size > _MAX_JSON_BYTES:
         raise _Corrupt(f"{_MODEL_MEMBER} is implausibly large ({info.file_size} bytes)")
     try:
@@ -797,7 +806,28 @@ class _Reader:
         if "items" in node:
             dict.update(obj, self._pairs(node, depth))
         obj.__dict__.update({k: self.decode(v, depth) for k, v in state.items()})
+        if name.startswith("greyml."):
+            _check_greyml_params(obj, name)
         return obj
+
+
+def _check_greyml_params(estimator, name):
+    """A greyml estimator's parameters must pass the checks its ``fit`` runs.
+
+    A model fitted with its parameters passes them, so a failure means the file
+    was altered (e.g. ``initial`` or ``response`` of a GMC, which ``predict``
+    uses too).
+    """
+    for check in ("_check_params", "_check_common_params"):
+        method = getattr(estimator, check, None)
+        if method is None:
+            continue
+        try:
+            method()
+        except (ValueError, TypeError, AttributeError) as exc:  # AttributeError: one is missing
+            raise _Corrupt(
+                f"the {name} object has an invalid parameter: {str(exc).rstrip('.')}"
+            ) from None
 
 
 def _open_archive(path):
@@ -856,9 +886,10 @@ def load_model(path, *, trusted=None):
         If the file names a class, type or function outside the allowlist
         and ``trusted``; nothing has been built.
     ValueError
-        If the file is not a greyml model, is truncated or damaged, or was
-        written by a newer format version. The message is one line naming the
-        file.
+        If the file is not a greyml model, is truncated or damaged, was
+        written by a newer format version, holds archive members greyml does
+        not write, or gives a greyml estimator parameters its ``fit`` would
+        reject. The message is one line naming the file.
 
     Warns
     -----

@@ -3,6 +3,9 @@
 A LocalCluster of two worker processes, started and closed here, stands in for
 a real cluster: the workers are separate processes started by dask's nanny, as
 ``dask worker`` starts them, so the search really runs outside this process.
+A candidate whose fit raises (ANFISGrid over its rule limit) scores NaN with
+sklearn's FitFailedWarning under ``error_score=np.nan``, and its greyml error
+comes back from the worker under ``error_score="raise"``.
 """
 
 import os
@@ -13,11 +16,12 @@ import joblib
 import numpy as np
 import pytest
 from distributed import Client, LocalCluster, get_task_stream
+from sklearn.exceptions import FitFailedWarning
 from sklearn.model_selection import GridSearchCV, LeaveOneGroupOut
 from sklearn.pipeline import Pipeline
 from threadpoolctl import threadpool_info
 
-from greyml import ANFISFCM, GreyInfluenceSelector, MLPBaseline
+from greyml import ANFISFCM, ANFISGrid, GreyInfluenceSelector, MLPBaseline
 from greyml import test_ids as groups_of
 from greyml.datasets import load_vmc_tests
 from greyml.metrics import get_scorer
@@ -175,3 +179,98 @@ def test_workers_run_one_thread_each(client):
         # and greyml's own limit never raises it, for large products or small
         assert report["large"] and set(report["large"]) == {1}
         assert report["small"] and set(report["small"]) == {1}
+
+
+# -- a candidate that fails ----------------------------------------------------
+
+# ANFISGrid on the 4 drivers of conftest's gmc_tests: n_mfs=1 or 2 give 1 or 16
+# rules; n_mfs=3 gives 81, over max_rules=20, so its fit raises greyml's ValueError
+FAILING_MFS = 3
+MAX_RULES_MESSAGE = (
+    r"n_mfs=3 on 4 inputs would have 3 × 3 × 3 × 3 = 81 rules, more than max_rules=20"
+)
+
+
+def _search_with_a_failing_candidate(error_score, n_jobs):
+    return GridSearchCV(
+        ANFISGrid(n_epochs=3, max_rules=20),
+        {"n_mfs": [1, FAILING_MFS, 2]},
+        scoring=get_scorer("neg_rmse"),
+        cv=LeaveOneGroupOut(),
+        error_score=error_score,
+        n_jobs=n_jobs,
+    )
+
+
+def _fit_expecting_failures(search, X, y, groups):
+    """Fit, requiring sklearn's warnings about the failed candidate (and only those)."""
+    with (
+        pytest.warns(UserWarning, match="test scores are non-finite"),
+        pytest.warns(FitFailedWarning, match=MAX_RULES_MESSAGE) as caught,
+    ):
+        search.fit(X, y, groups=groups)
+    return search, [str(w.message) for w in caught if w.category is FitFailedWarning]
+
+
+@pytest.fixture
+def four_drivers(gmc_tests):
+    X, y = gmc_tests[["T1_C", "T2_C", "T3_C", "T4_C"]], gmc_tests["dz_um"]
+    return X, y, groups_of(X)
+
+
+@pytest.mark.timeout(300)
+def test_failing_candidate_on_dask_scores_nan_and_others_finish(client, four_drivers):
+    X, y, groups = four_drivers
+    n_splits = len(set(groups))
+    sequential, _ = _fit_expecting_failures(
+        _search_with_a_failing_candidate(np.nan, n_jobs=1), X, y, groups
+    )
+
+    with get_task_stream(client) as stream, joblib.parallel_config(backend="dask"):
+        distributed, messages = _fit_expecting_failures(
+            _search_with_a_failing_candidate(np.nan, n_jobs=-1), X, y, groups
+        )
+
+    assert stream.data, "no task ran on the cluster"
+    # sklearn's summary names how many fits failed and carries greyml's reason
+    (message,) = messages
+    assert f"{n_splits} fits failed out of a total of {3 * n_splits}" in message
+    assert "ValueError" in message and "Use ANFISFCM" in message
+
+    results = distributed.cv_results_
+    failing = [p["n_mfs"] == FAILING_MFS for p in results["params"]]
+    assert failing == [False, True, False]
+    for i, fails in enumerate(failing):
+        split_scores = [results[f"split{k}_test_score"][i] for k in range(n_splits)]
+        if fails:
+            assert np.all(np.isnan(split_scores))
+            assert np.isnan(results["mean_test_score"][i])
+            assert results["rank_test_score"][i] == 3  # ranked last
+        else:
+            assert np.all(np.isfinite(split_scores))
+    # the candidates that worked score exactly as in the sequential run
+    for key in ("mean_test_score", "std_test_score", "rank_test_score"):
+        np.testing.assert_array_equal(results[key], sequential.cv_results_[key], err_msg=key)
+    assert distributed.best_params_["n_mfs"] != FAILING_MFS
+    assert distributed.best_index_ == sequential.best_index_
+    np.testing.assert_array_equal(distributed.predict(X), sequential.predict(X))
+
+
+@pytest.mark.timeout(300)
+def test_failing_candidate_on_dask_raises_greyml_error(client, four_drivers):
+    X, y, groups = four_drivers
+    search = _search_with_a_failing_candidate("raise", n_jobs=-1)
+    # pytest turns any warning into an error here (filterwarnings=error), so a
+    # FitFailedWarning in place of the exception would fail this test
+    with (
+        get_task_stream(client) as stream,
+        joblib.parallel_config(backend="dask"),
+        pytest.raises(ValueError, match=MAX_RULES_MESSAGE) as exc_info,
+    ):
+        search.fit(X, y, groups=groups)
+    assert stream.data, "no task ran on the cluster"
+    # greyml's own exception, its whole message, back from the worker process
+    assert type(exc_info.value) is ValueError
+    assert str(exc_info.value).startswith("ANFISGrid with n_mfs=3 on 4 inputs")
+    assert str(exc_info.value).endswith("fewer MFs, or fewer inputs.")
+    assert not hasattr(search, "best_estimator_")
