@@ -208,3 +208,90 @@ def test_global_random_state_untouched(name):
     estimator = _all_estimators()[name].fit(X_ALL, Y_ALL)
     _output(estimator, X_ALL)
     assert _same_state(before, np.random.get_state())
+
+
+# -- 3-5 as hypothesis properties: any estimator, any data, any seed -----------
+
+
+def _fast_estimators(seed):
+    return {
+        "AGO": AGO(),
+        "GMC_ls": GMC(solver="ls"),
+        "GMC_pso": GMC(solver="pso", n_population=6, max_iter=3, random_state=seed),
+        "GMC_cs": GMC(solver="cs", n_population=6, max_iter=3, random_state=seed),
+        "GNNMCI": GNNMCI(n_particles=6, max_iter=3, random_state=seed),
+        "ANFISGrid": ANFISGrid(n_mfs=2, n_epochs=2, random_state=seed),
+        "ANFISFCM": ANFISFCM(n_clusters=2, n_epochs=2, random_state=seed),
+        "MLPBaseline": MLPBaseline(
+            hidden_layer_sizes=2, max_iter=5, n_restarts=1, random_state=seed
+        ),
+        "GreyInfluenceSelector": GreyInfluenceSelector(n_clusters=2, n_init=1, random_state=seed),
+        "AccumulatedTargetRegressor": AccumulatedTargetRegressor(Ridge()),
+    }
+
+
+FAST_NAMES = sorted(_fast_estimators(0))
+FAST_STOCHASTIC = [
+    "GMC_pso",
+    "GMC_cs",
+    "GNNMCI",
+    "ANFISFCM",
+    "ANFISGrid",
+    "MLPBaseline",
+    "GreyInfluenceSelector",
+]
+
+
+@st.composite
+def drifting_tests(draw):
+    """2-3 tests of 20-40 rows: random walks of three sensors and a GMC target."""
+    seed = draw(st.integers(0, 2**32 - 1))
+    lengths = draw(st.lists(st.integers(20, 40), min_size=2, max_size=3))
+    rng = np.random.default_rng(seed)
+    Xs, ys = [], []
+    for i, n in enumerate(lengths):
+        X = 20.0 + 0.3 * np.cumsum(rng.normal(size=(n, 3)), axis=0)
+        y = simulate_gmc(X - X[0], 0.3, np.array([0.8, -0.5, 0.3]), 0.0)
+        y = y + 0.01 * rng.normal(size=n)
+        index = make_test_index([f"t{i}"] * n, 10.0 * np.arange(n))
+        Xs.append(pd.DataFrame(X, index=index, columns=["T1_C", "T2_C", "T3_C"]))
+        ys.append(pd.Series(y, index=index, name="dz_um"))
+    return pd.concat(Xs), pd.concat(ys)
+
+
+@PROPERTY_SETTINGS
+@given(data=drifting_tests(), name=st.sampled_from(FAST_NAMES), as_array=st.booleans())
+def test_fit_never_mutates_inputs_property(data, name, as_array):
+    X0, y0 = data
+    if as_array:
+        X, y = X0.to_numpy(), y0.to_numpy()
+        X_keep, y_keep = X.copy(), y.copy()
+    else:
+        X, y = X0.copy(), y0.copy()
+        X_keep, y_keep = X0, y0
+    estimator = _fast_estimators(0)[name].fit(X, y)
+    _output(estimator, X)
+    if as_array:
+        assert np.array_equal(X, X_keep) and np.array_equal(y, y_keep)
+    else:
+        pd.testing.assert_frame_equal(X, X_keep)
+        pd.testing.assert_series_equal(y, y_keep)
+
+
+@PROPERTY_SETTINGS
+@given(data=drifting_tests(), name=st.sampled_from(FAST_STOCHASTIC), seed=st.integers(0, 2**31))
+def test_same_seed_bit_identical_property(data, name, seed):
+    X, y = data
+    first = _output(_fast_estimators(seed)[name].fit(X, y), X)
+    second = _output(_fast_estimators(seed)[name].fit(X, y), X)
+    assert np.array_equal(first, second)
+
+
+@PROPERTY_SETTINGS
+@given(data=drifting_tests(), name=st.sampled_from(FAST_STOCHASTIC), seed=st.integers(0, 2**31))
+def test_global_random_state_untouched_property(data, name, seed):
+    X, y = data
+    np.random.seed(seed % 2**32)
+    before = np.random.get_state()
+    _output(_fast_estimators(seed)[name].fit(X, y), X)
+    assert _same_state(before, np.random.get_state())
