@@ -357,6 +357,10 @@ class ANFISGrid(_ANFISBase):
     ----------
     Jang, J.-S. R. (1993). ANFIS: adaptive-network-based fuzzy inference
     system. IEEE Transactions on Systems, Man, and Cybernetics 23(3), 665-685.
+    Abdulshahed, A. M., Longstaff, A. P. and Fletcher, S. (2015). The
+    application of ANFIS prediction models for thermal error compensation on
+    CNC machine tools. Applied Soft Computing 27, 158-168. (Seed 001: ANFIS-Grid
+    and ANFIS-FCM, GM(1,N) sensor selection.)
     Abdulshahed, A. M., Longstaff, A. P., Fletcher, S. and Myers, A. (2015).
     Thermal error modelling of machine tools based on ANFIS with fuzzy c-means
     clustering using a thermal imaging camera. Applied Mathematical Modelling
@@ -528,6 +532,10 @@ feature_names_in_
 
     References
     ----------
+    Abdulshahed, A. M., Longstaff, A. P. and Fletcher, S. (2015). The
+    application of ANFIS prediction models for thermal error compensation on
+    CNC machine tools. Applied Soft Computing 27, 158-168. (Seed 001: ANFIS-Grid
+    and ANFIS-FCM, GM(1,N) sensor selection.)
     Abdulshahed, A. M., Longstaff, A. P., Fletcher, S. and Myers, A. (2015).
     Thermal error modelling of machine tools based on ANFIS with fuzzy c-means
     clustering using a thermal imaging camera. Applied Mathematical Modelling

@@ -45,7 +45,7 @@ class GNNMCI(_GreyConvolutionModel):
         [0, 100] and every other weight in [−100, 100]. b₁ < 0 is a response
         that grows like e^{−b₁k}: a heated machine that never settles. On two
         training tests such a trajectory can fit well and then predict values
-        of 10¹⁰ µm on the next test (simulated gantry, Z and C tests → helical),
+        beyond 10¹⁰ µm on the next test (simulated gantry, Z and C tests → helical),
         so the default keeps the network stable; ``(-100, 100)`` is seed
         000's unconstrained search.
     initial : {"model", "zero"}, default="model"

@@ -46,7 +46,10 @@ class MLPBaseline(RegressorMixin, BaseEstimator):
     hidden_layer_sizes : int or tuple of one int, default=10
         Hidden units (seed 000: 10, chosen from 1…15). A tuple is accepted for
         symmetry with :class:`sklearn.neural_network.MLPRegressor`, but only one
-        hidden layer is supported.
+        hidden layer is supported. ``fit`` needs at least as many rows as the
+        network has weights, h·(p + 2) + 1 for p inputs and h hidden units (61
+        for 4 sensors and 10 units); with fewer it raises rather than fit an
+        underdetermined network.
     activation : {"logistic", "tanh"}, default="logistic"
         Hidden-layer function: log-sigmoid 1/(1 + e⁻ᶻ) (MATLAB's ``logsig``, seed
         000) or tanh (``tansig``). The output is linear.
