@@ -820,7 +820,7 @@ def _require_values(frame, columns, path, role):
         gaps = np.flatnonzero(frame[c].isna().to_numpy())
         if gaps.size:
             raise ValueError(
-                f"{role} column {c!r} has no value at {_where(frame, gaps[0], path)}; "
+                f"{role} column {c!r} has no value (NaN) at {_where(frame, gaps[0], path)}; "
                 f"{gaps.size} row(s) are empty. Fill or drop them first."
             )
 
@@ -838,8 +838,8 @@ def _candidates(frame, target, sensors, path):
     ]
     if not names:
         raise ValueError(
-            f"{os.fspath(path)!r} has no sensor columns besides the target {target!r}; "
-            "name them with --sensors."
+            f"{os.fspath(path)!r} has no sensor columns (0 features) besides the target "
+            f"{target!r}; name them with --sensors."
         )
     return names
 
@@ -1120,9 +1120,12 @@ def run_predict(model, data, out, *, force=False):
     inputs, used = _model_inputs(estimator, model)
     missing = [c for c in used if c not in frame.columns]
     if missing:
+        have = [str(c) for c in frame.columns]
+        shown = ", ".join(have[:12]) + (", ..." if len(have) > 12 else "")
         raise ValueError(
             f"the model {os.fspath(model)!r} needs the sensor column(s) "
-            f"{', '.join(missing)}, which {os.fspath(data)!r} lacks."
+            f"{', '.join(missing)}, which {os.fspath(data)!r} lacks (its columns: "
+            f"{shown or 'none, 0 features'})."
         )
     _require_values(frame, used, data, "sensor")
     # a selector's dropped candidates are never read: the data need not have them

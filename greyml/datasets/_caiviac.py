@@ -10,6 +10,8 @@ import pandas as pd
 
 from greyml._sequences import make_test_index
 from greyml.datasets._simulated import _X_y, bunch_from_frame
+from greyml.io import check_test_frame
+from greyml.io._csv import _first_bad, _line
 
 __all__ = ["load_caiviac", "caiviac_candidates"]
 
@@ -70,6 +72,56 @@ def _resolve(path):
     )
 
 
+def _read_checked(file):
+    """cycles.csv as a DataFrame of numbers; a ValueError names the file, column and line."""
+    name = os.fspath(file)
+    try:
+        raw = pd.read_csv(file)
+    except pd.errors.EmptyDataError:
+        raise ValueError(f"{name!r} is empty; is it the CAIVIAC cycles.csv?") from None
+    except pd.errors.ParserError as exc:
+        raise ValueError(f"{name!r} is not a well-formed CSV file: {exc}") from None
+    expected = ["time_s", "cycle", "spindle_rpm", *_PROBES, *_TEMPS]
+    missing = [c for c in expected if c not in raw.columns]
+    if missing:
+        raise ValueError(f"{name!r} lacks the column(s) {missing}; is it the CAIVIAC cycles.csv?")
+    if raw.empty:
+        raise ValueError(f"{name!r} has a header but no rows.")
+    for col in expected:
+        values = raw[col]
+        if not pd.api.types.is_numeric_dtype(values.dtype):
+            row, text = _first_bad(values)
+            if row is not None:
+                raise ValueError(
+                    f"Column {col!r} of {name!r} holds {text!r} at line {_line(row)}, which is "
+                    "not a number."
+                )
+            values = pd.to_numeric(values.astype(object), errors="coerce").astype(float)
+            raw[col] = values
+        numbers = values.to_numpy(dtype=float)
+        bad = np.flatnonzero(~np.isfinite(numbers))
+        if bad.size:
+            row = int(bad[0])
+            cyc = raw["cycle"].iloc[row]
+            where = (
+                f"line {_line(row)} (cycle {cyc:g})"
+                if np.isfinite(float(cyc))
+                else f"line {_line(row)}"
+            )
+            if np.isnan(numbers[row]):
+                raise ValueError(f"Column {col!r} of {name!r} has no value at {where}.")
+            raise ValueError(f"Column {col!r} of {name!r} holds {numbers[row]!r} (inf) at {where}.")
+    cycle = raw["cycle"].to_numpy(dtype=float)
+    fraction = np.flatnonzero(cycle != np.round(cycle))
+    if fraction.size:
+        row = int(fraction[0])
+        raise ValueError(
+            f"Column 'cycle' of {name!r} holds {cycle[row]:g} at line {_line(row)}, which is not "
+            "a whole cycle number."
+        )
+    return raw
+
+
 def load_caiviac(path=None, *, reference="cycle", return_X_y=False, target="ch1_um"):
     """Read the real CAIVIAC heating/cooling recording into greyml's layout.
 
@@ -113,7 +165,9 @@ def load_caiviac(path=None, *, reference="cycle", return_X_y=False, target="ch1_
         If the recording is not where it is looked for; the message lists the
         places.
     ValueError
-        If the file lacks one of the expected columns.
+        If the file is empty, lacks one of the expected columns, holds a cell
+        that is not a finite number, or a cycle whose rows are not contiguous
+        and in increasing time (the message names the column and line).
 
     Examples
     --------
@@ -124,13 +178,7 @@ def load_caiviac(path=None, *, reference="cycle", return_X_y=False, target="ch1_
     if reference not in ("cycle", "recording"):
         raise ValueError(f"reference must be 'cycle' or 'recording'; got {reference!r}.")
     file = _resolve(path)
-    raw = pd.read_csv(file)
-    expected = ["time_s", "cycle", "spindle_rpm", *_PROBES, *_TEMPS]
-    missing = [c for c in expected if c not in raw.columns]
-    if missing:
-        raise ValueError(
-            f"{os.fspath(file)!r} lacks the column(s) {missing}; is it the CAIVIAC cycles.csv?"
-        )
+    raw = _read_checked(file)
     cycle = raw["cycle"].to_numpy()
     time = raw["time_s"].to_numpy(dtype=float)
     start = pd.Series(time).groupby(cycle).transform("min").to_numpy()
@@ -147,6 +195,12 @@ def load_caiviac(path=None, *, reference="cycle", return_X_y=False, target="ch1_
         frame[col] = values
     labels = np.array([f"cycle{int(c)}" for c in cycle], dtype=object)
     frame.index = make_test_index(labels, time - start)
+    try:
+        check_test_frame(frame)
+    except ValueError as exc:
+        raise ValueError(
+            f"{os.fspath(file)!r}: {exc} (data row r is line r + 2 of the file)"
+        ) from None
     licence = file.with_name("LICENSE.txt")
     description = (
         "Real heating/cooling recording of a machine tool, CAIVIAC/FL_THERMAL "

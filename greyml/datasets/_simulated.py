@@ -4,10 +4,11 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 
-import numpy as np
 import pandas as pd
 from sklearn.utils import Bunch
 
+from greyml._rng import make_generator
+from greyml.io import check_test_frame
 from greyml.simulation._ambient import AmbientProfile, as_profile
 from greyml.simulation._catalogue import gantry_tests, probe_test, vmc_tests
 from greyml.simulation._machine import OPERATING_INPUTS, ThermalMachine
@@ -61,6 +62,13 @@ def bunch_from_frame(frame, *, sensors, targets, sensor_groups, description, inp
         ``frame``, ``sensors``, ``targets``, ``inputs``, ``sensor_groups``,
         ``tests`` (labels in order) and ``description``.
 
+    Raises
+    ------
+    ValueError
+        If ``frame`` does not follow the layout
+        (:func:`greyml.io.check_test_frame`), a sensor, target or input is
+        not one of its columns, or a sensor has no group.
+
     Examples
     --------
     >>> import pandas as pd
@@ -75,6 +83,25 @@ def bunch_from_frame(frame, *, sensors, targets, sensor_groups, description, inp
     >>> data.tests, data.inputs, data.sensors, data.targets
     (['I', 'II'], ['spindle_rpm'], ['T1_C'], ['dz_um'])
     """
+    check_test_frame(frame)
+    columns = {str(c) for c in frame.columns}
+    roles = {"sensors": sensors, "targets": targets, "inputs": inputs}
+    for role, names in roles.items():
+        if names is None:
+            continue
+        if isinstance(names, str) or not all(isinstance(n, str) for n in names):
+            raise ValueError(f"{role} must be a list of column names; got {names!r}.")
+        missing = [n for n in names if n not in columns]
+        if missing:
+            raise ValueError(
+                f"{role} names {missing}, not a column of the frame (its columns: "
+                f"{list(frame.columns)})."
+            )
+    if not isinstance(sensor_groups, Mapping):
+        raise ValueError(f"sensor_groups must map sensor names to groups; got {sensor_groups!r}.")
+    ungrouped = [n for n in sensors if n not in sensor_groups]
+    if ungrouped:
+        raise ValueError(f"sensor_groups gives no group for the sensor(s) {ungrouped}.")
     if inputs is None:
         inputs = [c for c in (*OPERATING_INPUTS, "ambient_C") if c in frame.columns]
     tests = list(pd.unique(frame.index.get_level_values("test")))
@@ -120,6 +147,10 @@ def _as_tests(programmes, ambient, history) -> list:
                 f"{type(p).__name__}; expected a Programme or a HeatingTest."
             )
         label = str(label) if label is not None else (p.name or f"test {k + 1}")
+        if isinstance(ambient, Mapping) and label not in ambient:
+            raise ValueError(
+                f"ambient gives no temperature for test {label!r}; it has {list(ambient)}."
+            )
         amb = ambient[label] if isinstance(ambient, Mapping) else ambient
         hist = history.get(label) if isinstance(history, Mapping) else history
         tests.append(HeatingTest(label, p, amb, hist))
@@ -209,7 +240,7 @@ def make_tests(
         tests = _as_tests(programmes, ambient, history)
     if not isinstance(ambient, Mapping):
         as_profile(ambient)  # fail early on a bad ambient
-    rng = np.random.default_rng(random_state)
+    rng = make_generator(random_state)
     streams = rng.spawn(len(tests))
     frames = []
     for test, stream in zip(tests, streams):

@@ -103,8 +103,9 @@ def _on_measured_rows(frame, real, what):
         first = keys[np.flatnonzero(missing)[0]]
         raise ValueError(
             f"{what} does not cover {int(missing.sum())} of the {len(keys)} measured "
-            f"rows; the first is test {first[0]!r} at time_s={first[1]:g}. Simulate every "
-            "measured (test, time_s) row."
+            f"rows (its (test, time_s) rows differ from the measured ones); the first is "
+            f"test {first[0]!r} at time_s={first[1]:g}. Simulate every measured "
+            "(test, time_s) row."
         )
     return frame.reindex(keys).to_numpy()
 
@@ -149,16 +150,17 @@ def build_context(real, sim, *, target, ambient, drivers, sensors, fbgs):
                     f"are {list(real.columns)}."
                 )
     segments = test_segments(real)
+    small = [s for s in segments if s.n < 10]
+    if small:
+        n = small[0].n
+        raise ValueError(
+            f"{_upper_first(segment_label(small[0]))} has {n} rows; diagnose_gap "
+            f"needs at least 10 per test (too few samples: {n} sample{'' if n == 1 else 's'})."
+        )
     if len(segments) < 2:
         raise ValueError(
             "diagnose_gap scores every effect on held-out whole tests, so it needs at least "
             f"2 tests; the measured data has 1 ({segments[0].label!r})."
-        )
-    small = [s for s in segments if s.n < 10]
-    if small:
-        raise ValueError(
-            f"{_upper_first(segment_label(small[0]))} has {small[0].n} rows; diagnose_gap "
-            "needs at least 10 per test."
         )
     index = real.index
     time = index.get_level_values("time_s").to_numpy(dtype=float)
@@ -178,7 +180,7 @@ def build_context(real, sim, *, target, ambient, drivers, sensors, fbgs):
             _finite(values, f"Column {name!r} ({role}=)", index, segments)
             columns[name] = values
     sim_values = _sim_series(sim, real, target)
-    _finite(sim_values, f"The simulated {target!r}", index, segments)
+    _finite(sim_values, f"The simulated target {target!r}", index, segments)
     measured = columns[target]
     amb_name = roles["ambient"][0] if roles["ambient"] else None
     n = len(real)
@@ -213,6 +215,11 @@ def noise_floor(r, bounds):
     return float(mad / 0.6745 / np.sqrt(2.0))
 
 
+def _shrinkage(after, before):
+    """Held-out shrinkage 1 - after/before; 0 when there is no gap left to shrink."""
+    return 1.0 - after / before if before > 0 else 0.0
+
+
 def _placebo_make(ctx, cand, rng):
     """Random-walk signatures as free as ``cand``: a ``make`` like its own.
 
@@ -238,7 +245,7 @@ def _placebo_improvements(ctx, base, before, cand, rng, n_placebo, recal=None, b
     for _ in range(n_placebo):
         make = _placebo_make(ctx, cand, rng)
         ev = evaluate(ctx.r, base, make, cand.settings, ctx.bounds, recal=recal)
-        out.append(1.0 - ev.rmse / before.rmse)
+        out.append(_shrinkage(ev.rmse, before.rmse))
         if out[-1] >= beat:
             break
     return np.array(out)
@@ -252,7 +259,7 @@ def _row(effect, detail, step=None, ev=None, significant=False, number=0, placeb
         "detail": detail,
         "rmse_before": step["rmse_before"] if scored else np.nan,
         "rmse_after": ev.rmse if scored else np.nan,
-        "shrinkage": 1.0 - ev.rmse / step["rmse_before"] if scored else np.nan,
+        "shrinkage": _shrinkage(ev.rmse, step["rmse_before"]) if scored else np.nan,
         "significant": significant,
         "step": number,
         "placebo_shrinkage": placebo,
@@ -292,7 +299,7 @@ def _pair_step(ctx, base, before, scored, recal, rng, n_placebo, min_shrinkage, 
             if best is None or ev.rmse < best[3].rmse:
                 best = (first, ev_first, second, ev)
     first, ev_first, second, ev = best
-    shrink = 1.0 - ev.rmse / before.rmse
+    shrink = _shrinkage(ev.rmse, before.rmse)
     placebo = []
     for _ in range(n_placebo if shrink > min_shrinkage else 0):
         make_a = _placebo_make(ctx, first, rng)
@@ -301,7 +308,7 @@ def _pair_step(ctx, base, before, scored, recal, rng, n_placebo, min_shrinkage, 
         ev_b = evaluate(
             ctx.r, _with(base, make_a, ev_a), make_b, second.settings, ctx.bounds, recal=recal
         )
-        placebo.append(1.0 - ev_b.rmse / before.rmse)
+        placebo.append(_shrinkage(ev_b.rmse, before.rmse))
         if placebo[-1] >= shrink:  # not significant, whatever the others do
             break
     return (shrink, first, ev_first, second, ev), np.array(placebo or [np.nan])
@@ -366,7 +373,7 @@ def _forward(
         scored = []
         for cand in remaining:
             ev = evaluate(ctx.r, base, cand.make, cand.settings, ctx.bounds, recal=recal)
-            shrink = 1.0 - ev.rmse / before.rmse
+            shrink = _shrinkage(ev.rmse, before.rmse)
             scored.append((shrink, cand, ev))
         scored.sort(key=lambda s: -s[0])
         best_shrink, best, best_ev = scored[0]
@@ -533,6 +540,8 @@ def diagnose_gap(
     if effects is None:
         effects = EFFECTS
     effects = list(dict.fromkeys(_as_names(effects, "effects")))
+    if not effects:
+        raise ValueError("effects= names no effect; leave it out (None) to try them all.")
     unknown = [e for e in effects if e not in EFFECTS]
     if unknown:
         raise ValueError(f"Unknown effect(s) {unknown}; the effects are {list(EFFECTS)}.")
@@ -540,6 +549,17 @@ def diagnose_gap(
         raise ValueError(f"max_effects must be an integer >= 1; got {max_effects!r}.")
     if not (isinstance(tolerance, (int, float)) and 0 <= tolerance < np.inf):
         raise ValueError(f"tolerance must be a finite number >= 0; got {tolerance!r}.")
+    if not (
+        isinstance(n_placebo, (int, np.integer))
+        and not isinstance(n_placebo, bool)
+        and n_placebo >= 1
+    ):
+        raise ValueError(f"n_placebo must be an integer >= 1; got {n_placebo!r}.")
+    for name, value in (("min_shrinkage", min_shrinkage), ("tie_tolerance", tie_tolerance)):
+        if not (isinstance(value, (int, float)) and 0 <= value < 1):
+            raise ValueError(f"{name} must be a number in [0, 1); got {value!r}.")
+    if isinstance(max_effects, bool):
+        raise ValueError(f"max_effects must be an integer >= 1; got {max_effects!r}.")
     real = _read(real, "The measured data")
     ctx = build_context(
         real, sim, target=target, ambient=ambient, drivers=drivers, sensors=sensors, fbgs=fbgs

@@ -114,6 +114,8 @@ class GapReport:
     @property
     def shrinkage(self):
         """Held-out 1 − RMSE_after / RMSE_before with every named effect added."""
+        if not self.rmse_before > 0:  # a simulation that matches: nothing to shrink
+            return 0.0
         return 1.0 - self.rmse_after / self.rmse_before
 
     def to_dict(self):

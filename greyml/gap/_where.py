@@ -38,6 +38,7 @@ from scipy.stats import chi2
 
 from greyml._sequences import TEST_LEVEL, TIME_LEVEL, Segment, segment_label
 from greyml._sequences import test_segments as _test_segments  # not collected by pytest
+from greyml.io._csv import describe_input
 
 __all__ = ["gap_breakdown", "residual_diagnostics"]
 
@@ -87,7 +88,7 @@ def _real_values(series: pd.Series, what: str) -> np.ndarray:
     dtype = series.dtype
     numeric = pd.api.types.is_numeric_dtype(dtype) or pd.api.types.is_bool_dtype(dtype)
     if not numeric or pd.api.types.is_complex_dtype(dtype):
-        raise ValueError(f"{what} must hold real numbers; it has dtype {dtype}.")
+        raise ValueError(f"{what} must hold real numbers; it has non-numeric dtype {dtype}.")
     return series.to_numpy(dtype=np.float64, na_value=np.nan)
 
 
@@ -138,7 +139,7 @@ def _check_gap(r) -> tuple[np.ndarray, _Layout]:
             f"The gap r must be a pandas Series indexed by (test, time_s); got {type(r).__name__}."
         )
     if len(r) == 0:
-        raise ValueError("The gap r is empty: at least one row is needed.")
+        raise ValueError("The gap r is empty (0 samples): at least one row is needed.")
     names = list(r.index.names or [])
     if TIME_LEVEL not in names:
         raise ValueError(
@@ -182,8 +183,8 @@ def _check_frame(frame, what: str, r: pd.Series, layout: _Layout):
         frame = frame.to_frame()
     if not isinstance(frame, pd.DataFrame):
         raise ValueError(
-            f"{what} must be a pandas DataFrame with the index of the gap r; got "
-            f"{type(frame).__name__}."
+            f"{what} must be a 2-D pandas DataFrame with the index of the gap r; got "
+            f"{describe_input(frame)}."
         )
     _check_aligned(r.index, frame.index, what)
     names = [str(c) for c in frame.columns]
@@ -764,9 +765,9 @@ def residual_diagnostics(
         need = 5 if n_lags_whiteness is None else 2
         longest = max(layout.segments, key=lambda seg: seg.n)
         raise ValueError(
-            f"The gap is too short for a whiteness test: a Ljung-Box lag needs at "
-            f"least {need} samples in a test, and the longest, {segment_label(longest)}, "
-            f"has {longest.n}."
+            f"The gap is too short for a whiteness test: a Ljung-Box lag needs at least "
+            f"{need} samples in a test, and the longest, {segment_label(longest)}, has "
+            f"{longest.n} sample{'' if longest.n == 1 else 's'} (too few samples)."
         )
     p_value = float(chi2.sf(q, dof))
     whiteness = {

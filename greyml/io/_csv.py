@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import csv
 import os
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -28,6 +29,21 @@ KEYS = (TEST_LEVEL, TIME_LEVEL)
 def _line(row: int) -> int:
     """File line of data row ``row`` (0-based): the header is line 1."""
     return int(row) + 2
+
+
+def describe_input(obj) -> str:
+    """How an input that is not a table is named in messages: ``"a 1-D ndarray of shape (5,)"``."""
+    try:
+        from scipy import sparse
+
+        if sparse.issparse(obj):
+            return f"a sparse matrix ({type(obj).__name__}) of shape {obj.shape}"
+    except ImportError:  # pragma: no cover - scipy is a dependency
+        pass
+    shape = getattr(obj, "shape", None)
+    if shape is not None:
+        return f"a {len(shape)}-D {type(obj).__name__} of shape {tuple(shape)}"
+    return f"a {type(obj).__name__}"
 
 
 def check_test_frame(frame, *, what="The frame"):
@@ -48,9 +64,11 @@ def check_test_frame(frame, *, what="The frame"):
     Raises
     ------
     ValueError
-        If the index lacks the ``test`` or ``time_s`` level, a column is not
-        numeric or clashes with a key, column names repeat, a test's rows are
-        not contiguous or its time does not strictly increase.
+        If ``frame`` is not a DataFrame, has no rows or no data columns, the
+        index lacks the ``test`` or ``time_s`` level, a column is not
+        numeric (or complex) or clashes with a key, column names repeat, a
+        test label or time is missing, a test's rows are not contiguous or its
+        time does not strictly increase.
 
     Examples
     --------
@@ -62,7 +80,10 @@ def check_test_frame(frame, *, what="The frame"):
     True
     """
     if not isinstance(frame, pd.DataFrame):
-        raise ValueError(f"{what} must be a pandas DataFrame; got {type(frame).__name__}.")
+        raise ValueError(
+            f"{what} must be a 2-D pandas DataFrame indexed by (test, time_s); got "
+            f"{describe_input(frame)}."
+        )
     names = list(frame.index.names or [])
     for key in KEYS:
         if key not in names:
@@ -71,6 +92,10 @@ def check_test_frame(frame, *, what="The frame"):
                 "index the rows by (test, time_s), e.g. with "
                 "frame.set_index(['test', 'time_s'])."
             )
+    if frame.shape[0] == 0:
+        raise ValueError(f"{what} has no rows (0 samples); every test needs at least one row.")
+    if frame.shape[1] == 0:
+        raise ValueError(f"{what} has no data columns (0 features) besides test and time_s.")
     cols = [str(c) for c in frame.columns]
     seen = set()
     for c in cols:
@@ -79,12 +104,18 @@ def check_test_frame(frame, *, what="The frame"):
         if c in seen:
             raise ValueError(f"{what} has the column '{c}' more than once.")
         seen.add(c)
+    lower = what.lower() if what[:1].isupper() and what[1:2].islower() else what
     for c in frame.columns:
         dtype = frame[c].dtype
+        if pd.api.types.is_complex_dtype(dtype):
+            raise ValueError(
+                f"Column '{c}' of {lower} holds complex numbers (dtype {dtype}); every "
+                "data column must hold real numbers."
+            )
         if not (pd.api.types.is_numeric_dtype(dtype) and not pd.api.types.is_bool_dtype(dtype)):
             raise ValueError(
-                f"Column '{c}' of {what.lower() if what[0].isupper() else what} is not "
-                f"numeric (dtype {dtype}); every data column must hold numbers."
+                f"Column '{c}' of {lower} is not numeric (non-numeric dtype {dtype}); every "
+                "data column must hold numbers."
             )
     test_segments(frame)
     return frame
@@ -181,6 +212,23 @@ def _first_bad(values: pd.Series):
     return (int(bad[0]), text.iloc[bad[0]]) if bad.size else (None, None)
 
 
+def _what_text(text) -> str:
+    """What a non-number cell seems to be, for the message: '' or ' (a complex number)'."""
+    text = str(text).strip()
+    try:
+        complex(text.replace(" ", ""))
+        return " (a complex number; give the real part)"
+    except ValueError:
+        pass
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        try:
+            pd.Timestamp(text)
+            return " (a date/time; give seconds or degrees as a number)"
+        except (ValueError, TypeError, OverflowError):
+            return ""
+
+
 def read_tests_csv(path):
     """Read test data written by :func:`write_tests_csv` (or by hand).
 
@@ -218,7 +266,11 @@ def read_tests_csv(path):
     (FrozenList(['test', 'time_s']), (2, 2))
     """
     name = os.fspath(path)
-    _header(path)
+    header = _header(path)
+    if len(header) == len(KEYS):
+        raise ValueError(
+            f"{name!r} has no data columns (0 features): its header holds only {', '.join(header)}."
+        )
     try:
         raw = pd.read_csv(
             path,
@@ -230,12 +282,15 @@ def read_tests_csv(path):
     except pd.errors.ParserError as exc:
         raise ValueError(f"{name!r} is not a well-formed CSV file: {exc}") from None
     if raw.empty:
-        raise ValueError(f"{name!r} has a header but no rows.")
+        raise ValueError(f"{name!r} has a header but no rows (0 samples).")
     labels = raw[TEST_LEVEL]
     missing = labels.isna() | (labels.astype(str).str.strip() == "")
     if missing.any():
         row = int(np.flatnonzero(missing.to_numpy())[0])
-        raise ValueError(f"Line {_line(row)} of {name!r} has no test label in column 'test'.")
+        raise ValueError(
+            f"Line {_line(row)} of {name!r} (data row {row}) has no test label in column "
+            "'test' (a missing test label); every row must name its test."
+        )
     raw[TEST_LEVEL] = labels.astype(str).str.strip()
     for col in raw.columns:
         if col == TEST_LEVEL:
@@ -245,13 +300,17 @@ def read_tests_csv(path):
             if row is not None:
                 raise ValueError(
                     f"Column '{col}' of {name!r} holds {text!r} at line {_line(row)} "
-                    f"(test {raw[TEST_LEVEL].iloc[row]!r}), which is not a number."
+                    f"(test {raw[TEST_LEVEL].iloc[row]!r}), which is not a number: "
+                    f"non-numeric text{_what_text(text)}; every data column must hold numbers."
                 )
             raw[col] = pd.to_numeric(raw[col].astype(object), errors="coerce").astype(float)
     time = raw[TIME_LEVEL].astype(float)
     if time.isna().any():
         row = int(np.flatnonzero(time.isna().to_numpy())[0])
-        raise ValueError(f"Line {_line(row)} of {name!r} has no value in column 'time_s'.")
+        raise ValueError(
+            f"Line {_line(row)} of {name!r} (test {raw[TEST_LEVEL].iloc[row]!r}) has no value "
+            "in column 'time_s': the time is missing."
+        )
     dup = raw.duplicated([TEST_LEVEL, TIME_LEVEL], keep=False).to_numpy()
     if dup.any():
         rows = np.flatnonzero(dup)

@@ -64,7 +64,8 @@ def _as_real_1d(y, name):
             arr = arr.astype(np.float64)
         except (TypeError, ValueError) as exc:
             raise ValueError(
-                f"{name} must contain real numbers; some of its elements are not numbers ({exc})."
+                f"{name} ({_ROLE[name]}) must contain real numbers; some of its elements "
+                f"are not numbers, i.e. non-numeric ({exc})."
             ) from exc
     elif kind in "biuf":
         arr = arr.astype(np.float64, copy=False)
@@ -84,14 +85,30 @@ def _as_real_1d(y, name):
     return arr
 
 
-def _check_finite(arr, name):
+_ROLE = {"y_true": "the measured target", "y_pred": "the prediction"}
+
+
+def _where(original, i):
+    """`` (test 'B', time_s=50)`` for position ``i`` of a test-indexed pandas object."""
+    index = getattr(original, "index", None)
+    names = list(getattr(index, "names", None) or [])
+    if index is None or "test" not in names or len(index) <= i:
+        return ""
+    test = index.get_level_values("test")[i]
+    if "time_s" in names:
+        return f" (test {test!r}, time_s={index.get_level_values('time_s')[i]:g})"
+    return f" (test {test!r})"
+
+
+def _check_finite(arr, name, original=None):
     bad = np.flatnonzero(~np.isfinite(arr))
     if bad.size:
         i = int(bad[0])
         raise ValueError(
             f"{name} contains a non-finite value ({arr[i]}) at position {i}"
+            f"{_where(original, i)}"
             f"{'' if bad.size == 1 else f' and {bad.size - 1} more after it'}; "
-            f"the metrics are only defined for finite values."
+            f"the metrics are only defined for finite values of {_ROLE[name]}."
         )
 
 
@@ -101,6 +118,7 @@ def _check_pair(y_true, y_pred):
     The arrays may share memory with the inputs: nothing downstream writes
     to them.
     """
+    true_given, pred_given = y_true, y_pred
     y_true = _as_real_1d(y_true, "y_true")
     y_pred = _as_real_1d(y_pred, "y_pred")
     if y_true.shape[0] != y_pred.shape[0]:
@@ -109,9 +127,9 @@ def _check_pair(y_true, y_pred):
             f"{y_true.shape[0]} values, y_pred has {y_pred.shape[0]}."
         )
     if y_true.shape[0] == 0:
-        raise ValueError("y_true and y_pred are empty: at least one sample is needed.")
-    _check_finite(y_true, "y_true")
-    _check_finite(y_pred, "y_pred")
+        raise ValueError("y_true and y_pred are empty (0 samples): at least one sample is needed.")
+    _check_finite(y_true, "y_true", true_given)
+    _check_finite(y_pred, "y_pred", pred_given)
     return y_true, y_pred
 
 
@@ -121,7 +139,8 @@ def _check_not_constant(arr, name, metric, why):
     # mean of equal values would give a meaningless number.
     if arr.min() == arr.max():
         raise ValueError(
-            f"{name} is constant (all {arr.shape[0]} values equal {float(arr[0])!r}): "
+            f"{name} is constant (all {arr.shape[0]} values equal {float(arr[0])!r}; "
+            f"{arr.shape[0]} sample{'' if arr.shape[0] == 1 else 's'}): "
             f"{metric} is undefined because {why}."
         )
 

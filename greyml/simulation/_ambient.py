@@ -143,20 +143,34 @@ class _Sum(AmbientProfile):
         return f"{self.a!r} + {self.b!r}"
 
 
-def as_profile(ambient) -> AmbientProfile:
-    """A profile from a profile or a number (a constant temperature)."""
+def as_profile(ambient, what="ambient") -> AmbientProfile:
+    """A profile from a profile or a number (a constant temperature).
+
+    ``what`` names the argument in messages (``"ambient"``, ``"history_ambient"``).
+    """
     if isinstance(ambient, AmbientProfile):
         return ambient
     try:
         value = float(ambient)
     except (TypeError, ValueError):
         raise ValueError(
-            "ambient must be an AmbientProfile (constant, linear_drift, diurnal, "
+            f"{what} must be an AmbientProfile (constant, linear_drift, diurnal, "
             f"door_openings) or a temperature in °C; got {ambient!r}."
         ) from None
     if not np.isfinite(value):
-        raise ValueError(f"The ambient temperature must be finite; got {value!r}.")
+        raise ValueError(f"The {what} temperature must be finite; got {value!r}.")
     return _Constant(value)
+
+
+def _finite(value, name, function):
+    """A finite float, or a ValueError naming the parameter and the function."""
+    try:
+        value = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(f"{name!r} of {function} must be a number; got {value!r}.") from None
+    if not np.isfinite(value):
+        raise ValueError(f"{name!r} of {function} must be finite; got {value!r}.")
+    return value
 
 
 def constant(temperature_C=20.0) -> AmbientProfile:
@@ -186,7 +200,10 @@ def linear_drift(start_C=20.0, rate_C_per_h=0.3) -> AmbientProfile:
     >>> linear_drift(20.0, 0.5)([0, 7200]).tolist()
     [20.0, 21.0]
     """
-    return _Linear(float(start_C), float(rate_C_per_h))
+    return _Linear(
+        _finite(start_C, "start_C", "linear_drift"),
+        _finite(rate_C_per_h, "rate_C_per_h", "linear_drift"),
+    )
 
 
 def diurnal(mean_C=20.0, amplitude_C=2.0, *, peak_hour=15.0, start_hour=8.0, period_h=24.0):
@@ -207,9 +224,19 @@ def diurnal(mean_C=20.0, amplitude_C=2.0, *, peak_hour=15.0, start_hour=8.0, per
     >>> round(float(diurnal(20.0, 2.0, peak_hour=15.0, start_hour=15.0)(0)), 6)
     22.0
     """
-    return _Diurnal(
-        float(mean_C), float(amplitude_C), float(peak_hour), float(start_hour), float(period_h)
-    )
+    values = {
+        name: _finite(value, name, "diurnal")
+        for name, value in (
+            ("mean_C", mean_C),
+            ("amplitude_C", amplitude_C),
+            ("peak_hour", peak_hour),
+            ("start_hour", start_hour),
+            ("period_h", period_h),
+        )
+    }
+    if values["period_h"] <= 0:
+        raise ValueError(f"'period_h' of diurnal must be positive; got {period_h!r}.")
+    return _Diurnal(*values.values())
 
 
 def door_openings(base=20.0, at_s=(3600.0,), *, drop_C=1.0, duration_s=600.0):
@@ -231,7 +258,14 @@ def door_openings(base=20.0, at_s=(3600.0,), *, drop_C=1.0, duration_s=600.0):
     >>> door_openings(20.0, [60.0], drop_C=2.0, duration_s=60.0)([0, 60, 119, 120]).tolist()
     [20.0, 18.0, 18.0, 20.0]
     """
-    at = tuple(float(t) for t in np.atleast_1d(at_s))
-    if duration_s <= 0:
+    try:
+        at = tuple(float(t) for t in np.atleast_1d(at_s))
+    except (TypeError, ValueError):
+        raise ValueError(f"at_s of door_openings must be times in s; got {at_s!r}.") from None
+    if not all(np.isfinite(at)):
+        raise ValueError(f"at_s of door_openings must hold finite times; got {list(at)}.")
+    duration = _finite(duration_s, "duration_s", "door_openings")
+    if duration <= 0:
         raise ValueError(f"duration_s must be positive; got {duration_s!r}.")
-    return _Doors(as_profile(base), at, float(drop_C), float(duration_s))
+    drop = _finite(drop_C, "drop_C", "door_openings")
+    return _Doors(as_profile(base, "base"), at, drop, duration)

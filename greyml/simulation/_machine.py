@@ -13,6 +13,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from greyml.simulation import _check
 from greyml.simulation._network import network_matrices
 
 __all__ = [
@@ -86,6 +87,20 @@ class HeatSource:
     extra: bool = False
     note: str = ""
 
+    def __post_init__(self):
+        what = f"heat source {self.name!r}"
+        _check.label(self.name, "The name of a heat source")
+        if self.input not in OPERATING_INPUTS:
+            raise ValueError(
+                f"'input' of {what} is {self.input!r}; expected one of {list(OPERATING_INPUTS)}."
+            )
+        _check.real(self.power_W, f"'power_W' of {what}", low=0.0)
+        _check.real(self.reference, f"'reference' of {what}", low=0.0, strict=True)
+        _check.real(self.exponent, f"'exponent' of {what}", low=0.0, strict=True)
+        if hasattr(self.nodes, "items") and not self.nodes:
+            raise ValueError(f"'nodes' of {what} is empty; give the node(s) it heats.")
+        _check.weights(self.nodes, f"Heat source {self.name!r}", total=1.0)
+
     def power(self, u):
         """Heat flow in W for commanded values ``u`` (array-like)."""
         u = np.abs(np.asarray(u, dtype=float))
@@ -142,6 +157,14 @@ class TemperatureSensor:
     offset_C: float = 0.0
     noise_C: float = 0.05
 
+    def __post_init__(self):
+        _check.label(self.name, "The name of a temperature sensor")
+        what = f"sensor {self.name!r}"
+        _check.weights(self.nodes, f"Sensor {self.name!r}", total=1.0)
+        _check.real(self.lag_s, f"'lag_s' of {what}", low=0.0)
+        _check.real(self.offset_C, f"'offset_C' of {what}")
+        _check.real(self.noise_C, f"'noise_C' of {what}", low=0.0)
+
 
 @dataclass(frozen=True)
 class FBGSensor:
@@ -191,6 +214,16 @@ class FBGSensor:
     strain: Mapping[str, float]
     nodes: Mapping[str, float]
     noise_ue: float = 0.2
+
+    def __post_init__(self):
+        _check.label(self.name, "The name of an FBG sensor")
+        what = f"FBG sensor {self.name!r}"
+        if not hasattr(self.strain, "items"):
+            raise ValueError(f"{what}: strain must map nodes to µε/K; got {self.strain!r}.")
+        for node, value in self.strain.items():
+            _check.real(value, f"{what}: the strain of node {node!r}")
+        _check.weights(self.nodes, what, low=None)
+        _check.real(self.noise_ue, f"'noise_ue' of {what}", low=0.0)
 
 
 @dataclass(frozen=True)
@@ -279,6 +312,95 @@ class ThermalMachine:
     max_input: Mapping[str, float] = field(default_factory=dict)
     sample_s: float = 10.0
     description: str = ""
+
+    def __post_init__(self):
+        m = f"Machine {self.name!r}"
+        nodes = list(self.nodes)
+        for node in nodes:
+            _check.label(node, f"{m}: a node name")
+            if nodes.count(node) > 1:
+                raise ValueError(f"{m} has node {node!r} more than once.")
+        known = f"which is not one of its nodes {nodes}"
+        capacity = list(self.capacity)
+        if len(capacity) != len(nodes):
+            raise ValueError(
+                f"{m}: capacity has {len(capacity)} values for {len(nodes)} node(s); give "
+                "one heat capacity (J/K) per node."
+            )
+        for node, c in zip(nodes, capacity):
+            _check.real(c, f"{m}: the capacity of node {node!r}", low=0.0, strict=True)
+        for k, link in enumerate(self.links):
+            if not (isinstance(link, (tuple, list)) and len(link) == 3):
+                raise ValueError(f"{m}: link {k} must be (node, node, conductance); got {link!r}.")
+            a, b, g = link
+            for end in (a, b):
+                if end not in nodes:
+                    raise ValueError(f"{m}: link {k} names node {end!r}, {known}.")
+            if a == b:
+                raise ValueError(f"{m}: link {k} joins node {a!r} to itself.")
+            _check.real(g, f"{m}: the conductance between {a!r} and {b!r}", low=0.0)
+        for node, h in dict(self.convection).items():
+            if node not in nodes:
+                raise ValueError(f"{m}: convection names node {node!r}, {known}.")
+            _check.real(h, f"{m}: the convection of node {node!r}", low=0.0)
+        inputs = list(self.inputs)
+        for name in inputs:
+            if name not in OPERATING_INPUTS:
+                raise ValueError(
+                    f"{m}: inputs names {name!r}, not an operating input "
+                    f"({list(OPERATING_INPUTS)})."
+                )
+        for name, limit in dict(self.max_input).items():
+            if name not in OPERATING_INPUTS:
+                raise ValueError(f"{m}: max_input names {name!r}, not an operating input.")
+            _check.real(limit, f"{m}: max_input of {name!r}", low=0.0, strict=True)
+        allowed = {*nodes, AMBIENT}
+        for src in self.sources:
+            if not isinstance(src, HeatSource):
+                raise ValueError(f"{m}: sources must be HeatSource objects; got {src!r}.")
+            for node in src.nodes:
+                if node not in nodes:
+                    raise ValueError(f"{m}: heat source {src.name!r} heats node {node!r}, {known}.")
+            if src.input not in inputs:
+                raise ValueError(
+                    f"{m}: heat source {src.name!r} is driven by {src.input!r}, which is not "
+                    f"one of the machine's inputs {inputs}."
+                )
+        seen = set()
+        sensors = [*self.temperature_sensors, *self.fbg_sensors]
+        for sensor in sensors:
+            if not isinstance(sensor, (TemperatureSensor, FBGSensor)):
+                raise ValueError(
+                    f"{m}: a sensor must be a TemperatureSensor or FBGSensor; got {sensor!r}."
+                )
+            if sensor.name in seen:
+                raise ValueError(f"{m}: the sensor name {sensor.name!r} appears more than once.")
+            seen.add(sensor.name)
+            maps = [sensor.nodes] + ([sensor.strain] if isinstance(sensor, FBGSensor) else [])
+            for weights in maps:
+                for node in weights:
+                    if node not in allowed:
+                        raise ValueError(
+                            f"{m}: sensor {sensor.name!r} reads node {node!r}, {known} "
+                            f"(or {AMBIENT!r})."
+                        )
+        for target, per_node in dict(self.displacement).items():
+            _check.label(target, f"{m}: a displacement target name")
+            for node, value in dict(per_node).items():
+                if node not in allowed:
+                    raise ValueError(f"{m}: displacement {target!r} names node {node!r}, {known}.")
+                _check.real(value, f"{m}: the displacement {target!r} per kelvin of node {node!r}")
+        targets = list(self.displacement)
+        for field_name in ("probe_noise_um", "probe_drift_um_per_h"):
+            for target, value in dict(getattr(self, field_name)).items():
+                if target not in targets:
+                    raise ValueError(
+                        f"{m}: {field_name} names {target!r}, which is not one of its targets "
+                        f"{targets}."
+                    )
+                low = 0.0 if field_name == "probe_noise_um" else None
+                _check.real(value, f"{m}: {field_name} of {target!r}", low=low)
+        _check.real(self.sample_s, f"{m}: sample_s", low=0.0, strict=True)
 
     # ------------------------------------------------------------------ names
     @property

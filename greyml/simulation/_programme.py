@@ -6,6 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from greyml.simulation import _check
 from greyml.simulation._machine import OPERATING_INPUTS
 
 __all__ = ["Segment", "Programme"]
@@ -40,6 +41,11 @@ class Segment:
     feed_mm_min: float = 0.0
     c_rpm: float = 0.0
 
+    def __post_init__(self):
+        _check.real(self.duration_s, "Segment: 'duration_s'", low=0.0, strict=True)
+        for column in OPERATING_INPUTS:
+            _check.real(getattr(self, column), f"Segment: {column!r}", low=0.0)
+
     def value(self, column: str) -> float:
         return getattr(self, column)
 
@@ -55,7 +61,12 @@ def _duration(minutes, seconds, hours, what):
 
 
 def _level(name, value, what):
-    value = float(value)
+    try:
+        value = float(value)
+    except (TypeError, ValueError):
+        raise ValueError(
+            f"'{name}' of {what} must be a finite non-negative number; got {value!r}."
+        ) from None
     if not np.isfinite(value) or value < 0:
         raise ValueError(f"'{name}' of {what} must be a finite non-negative number; got {value!r}.")
     return value
@@ -96,6 +107,20 @@ class Programme:
 
     segments: tuple = ()
     name: str = ""
+
+    def __post_init__(self):
+        if isinstance(self.segments, (str, bytes)) or not hasattr(self.segments, "__iter__"):
+            raise ValueError(
+                f"Programme: segments must be a tuple of Segment; got {self.segments!r}."
+            )
+        segments = tuple(self.segments)
+        for k, seg in enumerate(segments):
+            if not isinstance(seg, Segment):
+                raise ValueError(
+                    f"Programme: segment {k} is a {type(seg).__name__} ({seg!r}); expected a "
+                    "Segment (or build the programme with run(), dwell() and cycle())."
+                )
+        object.__setattr__(self, "segments", segments)
 
     # ---------------------------------------------------------------- builder
     def then(self, segment: Segment) -> Programme:

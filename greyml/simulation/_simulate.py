@@ -8,7 +8,9 @@ from functools import lru_cache
 import numpy as np
 import pandas as pd
 
+from greyml._rng import make_generator
 from greyml._sequences import make_test_index
+from greyml.simulation import _check
 from greyml.simulation._ambient import AmbientProfile, as_profile
 from greyml.simulation._machine import (
     FBG_TEMPERATURE_SENSITIVITY_UE_PER_C,
@@ -158,6 +160,28 @@ class HeatingTest:
     sample_s: float | None = None
     note: str = ""
 
+    def __post_init__(self):
+        _check.label(self.label, "The label of a HeatingTest")
+        what = f"test {self.label!r}"
+        if not isinstance(self.programme, Programme):
+            raise ValueError(
+                f"The programme of {what} must be a Programme; got {type(self.programme).__name__}."
+            )
+        if not self.programme.segments:
+            raise ValueError(
+                f"The programme of {what} is empty; add segments with run(), dwell() or cycle()."
+            )
+        as_profile(self.ambient, f"ambient of {what}")
+        if self.history is not None and not isinstance(self.history, Programme):
+            raise ValueError(
+                f"The history of {what} must be a Programme or None; got "
+                f"{type(self.history).__name__}."
+            )
+        if self.history_ambient is not None:
+            as_profile(self.history_ambient, f"history_ambient of {what}")
+        if self.sample_s is not None:
+            _check.real(self.sample_s, f"sample_s of {what}", low=0.0, strict=True)
+
 
 # ----------------------------------------------------------------- checking
 def _check_programme(machine: ThermalMachine, programme: Programme, what: str):
@@ -181,6 +205,20 @@ def _check_programme(machine: ThermalMachine, programme: Programme, what: str):
                 f"{what} commands '{column}' = {levels[k]:g} in segment {k}, above "
                 f"the maximum {limit:g} of machine {machine.name!r}."
             )
+
+
+def _check_air(profile, t, label):
+    """The ambient profile gives a finite temperature wherever it is used."""
+    with np.errstate(all="ignore"):
+        air = np.asarray(profile(t), dtype=float)
+    bad = np.flatnonzero(~np.isfinite(air))
+    if bad.size:
+        k = int(bad[0])
+        kind = "NaN" if np.isnan(air[k]) else "inf"
+        raise ValueError(
+            f"The ambient profile {profile!r} gives {air[k]!r} ({kind}) at time_s={t[k]:g} "
+            f"of test {label!r}; it must give finite temperatures."
+        )
 
 
 # ------------------------------------------------------------- the pieces
@@ -319,10 +357,23 @@ def simulate_test(
         raise ValueError(f"effects must be an Effects instance; got {effects!r}.")
     _check_programme(machine, programme, "The programme")
     profile = as_profile(ambient)
-    dt = float(machine.sample_s if sample_s is None else sample_s)
+    if label is None or not str(label).strip():
+        raise ValueError(f"label must name the test (a non-empty string); got {label!r}.")
+    rng = make_generator(random_state)
+    try:
+        dt = float(machine.sample_s if sample_s is None else sample_s)
+    except (TypeError, ValueError):
+        raise ValueError(
+            f"sample_s must be a positive number of seconds; got {sample_s!r}."
+        ) from None
     if not np.isfinite(dt) or dt <= 0:
         raise ValueError(f"sample_s must be positive; got {sample_s!r}.")
     n_samples = int(np.floor(programme.duration_s / dt + 1e-9)) + 1
+    if n_samples < 2:
+        raise ValueError(
+            f"sample_s={dt:g} is longer than the programme ({programme.duration_s:g} s): the "
+            "test would have a single sample."
+        )
     times = np.arange(n_samples) * dt
     t_end = times[-1]
 
@@ -350,6 +401,7 @@ def simulate_test(
     if effects.initial_disequilibrium and history is not None:
         _check_programme(machine, history, "The history")
         h_amb = profile(0.0) if history_ambient is None else history_ambient
+        as_profile(h_amb, "history_ambient")
         if not effects.ambient_coupling:
             h_amb = float(profile(0.0))
         x0 = _history_state(A, B, machine, history, h_amb, extra)
@@ -358,6 +410,7 @@ def simulate_test(
 
     # --- integrate and sample
     grid = _step_grid(times, programme, profile, t_end)
+    _check_air(profile, np.union1d(times, (grid[:-1] + grid[1:]) / 2.0), label)
     X = _run(A, B, machine, programme, air, x0, grid, extra)
     idx = np.searchsorted(grid, times - 1e-6)
     X = X[idx]
@@ -365,7 +418,6 @@ def simulate_test(
     dT = T - T[0]
     ambient_now = profile(times)
 
-    rng = np.random.default_rng(random_state)
     rng_temp, rng_fbg, rng_probe = rng.spawn(3)
 
     columns = {}
