@@ -12,7 +12,8 @@ The drivers are temperature rises from the test start: GMC has no intercept of i
 own (u only shapes a transient), so absolute temperatures would turn the ambient
 drift into a spurious offset. b₁ is kept ≥ 0 for the swarm and cuckoo solvers, so
 that the response cannot grow without bound. The least-squares solver has no such
-constraint.
+constraint: here it settles on b₁ < 0, and GMC warns as it calibrates
+(:class:`greyml.GreyStabilityWarning`), which the script prints.
 
 The script prints the seeds' metrics (R, RMSE, E, ±residual, improvement) next to
 the numbers seed 004 reports. It also prints an ordinary least-squares regression
@@ -21,6 +22,7 @@ as a reference, and saves a plot of measured against predicted with the residual
 
 # %%
 import os
+import warnings
 
 import matplotlib
 
@@ -31,7 +33,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 from sklearn.linear_model import LinearRegression
 
-from greyml import GMC
+from greyml import GMC, GreyStabilityWarning
 from greyml.datasets import load_probe_test
 from greyml.metrics import correlation, improvement, nash_sutcliffe, residual_band, rmse
 
@@ -62,7 +64,11 @@ y_val = y.to_numpy()[k:]
 rows = []
 predictions = {}
 for name, model in models.items():
-    model.fit(X.iloc[:k], y.iloc[:k])
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always", GreyStabilityWarning)
+        model.fit(X.iloc[:k], y.iloc[:k])
+    for w in caught:
+        print(f"{name} warned: {w.message}")
     pred = model.predict(X)
     predictions[name] = pred
     p = pred[k:]

@@ -8,6 +8,7 @@ from greyml.grey import (
     GNNMCI,
     AccumulatedTargetRegressor,
     GreyConditioningWarning,
+    GreyStabilityWarning,
     fit_gm1n,
     simulate_gmc,
 )
@@ -24,6 +25,7 @@ __all__ = [
     "GMC",
     "GNNMCI",
     "GreyConditioningWarning",
+    "GreyStabilityWarning",
     "GreyInfluenceSelector",
     "MLPBaseline",
     "TEST_LEVEL",

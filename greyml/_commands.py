@@ -509,13 +509,7 @@ def _demo_table(run, seeds):
     lines.append(f"  Paper ({paper}): {seeds['citation']}")
     for note in seeds["notes"]:
         lines.append(f"  {note}")
-    for r in ok:
-        b1 = r.get("b1")
-        if b1 is not None and b1 < 0:
-            lines.append(
-                f"  note: {r['label']}'s development coefficient b1 = {b1:.3g} < 0: its response "
-                "grows exponentially with time, so it cannot carry over to a new test."
-            )
+    # an unstable GMC (b1 < 0) is reported by its own GreyStabilityWarning below
     for r in run["results"]:
         for message in r.get("warnings", ()):
             lines.append(f"  note: {r['label']} warned: {message}")

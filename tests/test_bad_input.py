@@ -102,7 +102,8 @@ ENTRIES = [
     ),
     Entry(
         "Pipeline(selector, GMC)",
-        lambda: make_pipeline(GreyInfluenceSelector(n_clusters=2, random_state=0), GMC()),
+        # three groups of three sensors: all kept, so GMC stays well specified (b1 > 0)
+        lambda: make_pipeline(GreyInfluenceSelector(n_clusters=3, random_state=0), GMC()),
         MODEL,
     ),
     # GM(1,N) has no constant term: a constant sensor accumulates to a usable ramp

@@ -174,6 +174,9 @@ def test_fit_does_not_mutate_dataframe_inputs(name):
     pd.testing.assert_series_equal(y, Y_ALL)
 
 
+# without the test index the rows are one long test, on which GMC is unstable;
+# stability is not what this test is about
+@pytest.mark.filterwarnings("ignore::greyml.GreyStabilityWarning")
 @pytest.mark.parametrize("name", sorted(_all_estimators()))
 def test_fit_does_not_mutate_ndarray_inputs(name):
     estimator = _all_estimators()[name]
@@ -259,6 +262,7 @@ def drifting_tests(draw):
     return pd.concat(Xs), pd.concat(ys)
 
 
+@pytest.mark.filterwarnings("ignore::greyml.GreyStabilityWarning")  # noisy drawn data
 @PROPERTY_SETTINGS
 @given(data=drifting_tests(), name=st.sampled_from(FAST_NAMES), as_array=st.booleans())
 def test_fit_never_mutates_inputs_property(data, name, as_array):
@@ -278,6 +282,7 @@ def test_fit_never_mutates_inputs_property(data, name, as_array):
         pd.testing.assert_series_equal(y, y_keep)
 
 
+@pytest.mark.filterwarnings("ignore::greyml.GreyStabilityWarning")  # noisy drawn data
 @PROPERTY_SETTINGS
 @given(data=drifting_tests(), name=st.sampled_from(FAST_STOCHASTIC), seed=st.integers(0, 2**31))
 def test_same_seed_bit_identical_property(data, name, seed):
@@ -287,6 +292,7 @@ def test_same_seed_bit_identical_property(data, name, seed):
     assert np.array_equal(first, second)
 
 
+@pytest.mark.filterwarnings("ignore::greyml.GreyStabilityWarning")  # noisy drawn data
 @PROPERTY_SETTINGS
 @given(data=drifting_tests(), name=st.sampled_from(FAST_STOCHASTIC), seed=st.integers(0, 2**31))
 def test_global_random_state_untouched_property(data, name, seed):

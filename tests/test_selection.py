@@ -75,6 +75,9 @@ def test_pandas_in_and_out_keeps_the_test_index():
     pd.testing.assert_index_equal(out.index, X.index)
 
 
+# the three-group data are not a heating test: GMC fits them with b1 < 0, which
+# is not what this test is about (the test index reaching the model is)
+@pytest.mark.filterwarnings("ignore::greyml.GreyStabilityWarning")
 def test_transform_hands_the_tests_on_in_a_pipeline():
     # without the test index the next step would accumulate across tests
     from greyml import GMC

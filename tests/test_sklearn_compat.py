@@ -1,5 +1,6 @@
 """scikit-learn's estimator checks for every greyml estimator."""
 
+import pytest
 from sklearn.linear_model import Ridge
 from sklearn.utils.estimator_checks import parametrize_with_checks
 
@@ -59,6 +60,9 @@ def _expected_failures(estimator):
     return dict(SEQUENCE_CHECKS)
 
 
+# scikit-learn's checks fit random numbers, not heating tests: a grey model
+# calibrated on them is often unstable (b1 < 0), which is not what they check
+@pytest.mark.filterwarnings("ignore::greyml.GreyStabilityWarning")
 @parametrize_with_checks(ESTIMATORS, expected_failed_checks=_expected_failures)
 def test_sklearn_compatible(estimator, check):
     check(estimator)

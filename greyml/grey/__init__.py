@@ -2,7 +2,7 @@
 
 from greyml.grey._ago import AGO, AccumulatedTargetRegressor
 from greyml.grey._functions import fit_gm1n, simulate_gmc
-from greyml.grey._gmc import GMC, GreyConditioningWarning
+from greyml.grey._gmc import GMC, GreyConditioningWarning, GreyStabilityWarning
 from greyml.grey._gnnmci import GNNMCI
 from greyml.grey._kernels import (
     ago,
@@ -27,6 +27,7 @@ __all__ = [
     "GMC",
     "GNNMCI",
     "GreyConditioningWarning",
+    "GreyStabilityWarning",
     "ago",
     "background",
     "fit_gm1n",

@@ -24,7 +24,7 @@ from greyml.grey._kernels import (
 from greyml.optimize import CuckooSearch, ParticleSwarm, PopulationOptimizer
 from greyml.optimize._base import check_bounds
 
-__all__ = ["GMC", "GreyConditioningWarning"]
+__all__ = ["GMC", "GreyConditioningWarning", "GreyStabilityWarning"]
 
 
 class GreyConditioningWarning(UserWarning):
@@ -47,6 +47,35 @@ class GreyConditioningWarning(UserWarning):
     >>> [w.category.__name__ for w in caught]
     ['GreyConditioningWarning']
     >>> bool(np.isclose(b[0], b[1]))
+    True
+    """
+
+
+class GreyStabilityWarning(UserWarning):
+    """A calibrated grey model is unstable: its development coefficient b₁ < 0.
+
+    Its response grows like e^{−b₁k} instead of settling, so it can fit the
+    training tests and still predict absurd values on a longer test. The
+    warning says by how much the response grows over the longest training
+    test. Give ``bounds=(0, 100)`` to a population solver (``solver="pso"`` or
+    ``"cs"``), or use :class:`GNNMCI`, whose default keeps b₁ ≥ 0.
+
+    Examples
+    --------
+    A displacement that grows faster and faster with a steady driver can only
+    be fitted with b₁ < 0:
+
+    >>> import warnings
+    >>> import numpy as np
+    >>> from greyml.grey import GMC, GreyStabilityWarning
+    >>> X = np.linspace(1.0, 2.0, 40)[:, None]
+    >>> y = np.exp(0.05 * np.arange(40))
+    >>> with warnings.catch_warnings(record=True) as caught:
+    ...     warnings.simplefilter("always")
+    ...     model = GMC().fit(X, y)
+    >>> [w.category.__name__ for w in caught]
+    ['GreyStabilityWarning']
+    >>> bool(model.development_coef_ < 0)
     True
     """
 
@@ -153,6 +182,19 @@ class _GreyConvolutionModel(RegressorMixin, BaseEstimator):
         self.development_coef_ = float(theta[0])
         self.driving_coef_ = np.asarray(theta[1:-1], dtype=float)
         self.control_ = float(theta[-1])
+        if self.development_coef_ < 0:
+            n_max = max(stop - start for start, stop in bounds)
+            growth = -self.development_coef_ * n_max
+            factor = f"{np.exp(growth):,.3g}" if growth < 700 else f"e^{growth:,.0f}"
+            warnings.warn(
+                f"{type(self).__name__} calibrated an unstable model: b1 = "
+                f"{self.development_coef_:.4g} < 0, so its response grows like "
+                f"exp({-self.development_coef_:.4g}·k), a factor {factor} over the longest "
+                f"training test ({n_max} samples), and more on longer tests. Keep b1 >= 0 "
+                "with bounds=(0, 100) and solver='pso' or 'cs', or use GNNMCI.",
+                GreyStabilityWarning,
+                stacklevel=3,
+            )
         self.loss_ = float(
             gmc_sse_population(X1, ya, theta[None, :], bounds, self.response, self.initial)[0]
         )
@@ -315,8 +357,10 @@ class GMC(_GreyConvolutionModel):
     without bound (b₁ ≪ 0) is a large finite loss for the optimisers; ``predict``
     raises rather than return one that overflows. A mildly negative b₁ (e.g.
     −0.03) grows without overflowing: on a test longer than the training tests
-    it can predict absurd values, so check ``development_coef_ >= 0`` or give
-    ``bounds`` with a lower limit of 0 for b₁ (as :class:`GNNMCI` does).
+    it can predict absurd values. ``fit`` therefore warns
+    (:class:`GreyStabilityWarning`) whenever it ends with b₁ < 0; give
+    ``bounds`` with a lower limit of 0 for b₁ (as :class:`GNNMCI` does) to
+    rule it out.
 
     References
     ----------
