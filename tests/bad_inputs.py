@@ -11,6 +11,7 @@ gap diagnosis and command line (``tests/test_bad_input_io.py``).
 
 from __future__ import annotations
 
+import re
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
@@ -382,3 +383,13 @@ def _sparse(X):
 
 
 CASE_IDS = [c.name for c in CASES]
+
+
+def assert_clear_message(entry, case, message):
+    """The message names what was wrong and where (every pattern of the case),
+    and is greyml's sentence, not a traceback or a NumPy ufunc error."""
+    for pattern in case.match:
+        assert re.search(pattern, message, re.IGNORECASE), (
+            f"{entry} on {case.name}: message lacks {pattern!r}:\n{message}"
+        )
+    assert not re.search(r"^\s*File |numpy\.core|ufunc", message), message

@@ -6,12 +6,11 @@ message that names what was wrong and where (the regular expressions of the
 case), or, for the extreme-magnitude cases only, succeeds with finite output.
 """
 
-import re
 import warnings
 
 import numpy as np
 import pytest
-from bad_inputs import CASES, valid_data
+from bad_inputs import CASES, assert_clear_message, valid_data
 from sklearn.linear_model import Ridge
 from sklearn.pipeline import make_pipeline
 
@@ -159,12 +158,7 @@ def test_bad_input(entry, case):
             warnings.filterwarnings("ignore", "X does not have valid feature names")
             out = run()
     except (ValueError, TypeError) as err:
-        message = str(err)
-        for pattern in case.match:
-            assert re.search(pattern, message, re.IGNORECASE), (
-                f"{entry.name} on {case.name}: message lacks {pattern!r}:\n{message}"
-            )
-        assert not re.search(r"^\s*File |numpy\.core|ufunc", message), message
+        assert_clear_message(entry.name, case, str(err))
     else:
         assert case.finite_ok, f"{entry.name} accepted {case.name} without an error"
         if case.stage == "predict" or not hasattr(out, "fit"):
