@@ -44,6 +44,13 @@ def _where(seg: Segment, row: int) -> str:
 
 def _check_numeric_frame(X, what="X"):
     if isinstance(X, pd.DataFrame):
+        repeated = X.columns[X.columns.duplicated()].unique().tolist()
+        if repeated:
+            names = ", ".join(repr(str(c)) for c in repeated)
+            raise ValueError(
+                f"{what} has more than one column named {names}; each sensor needs a "
+                "column name of its own."
+            )
         for col in X.columns:
             dtype = X[col].dtype
             if not (pd.api.types.is_numeric_dtype(dtype) or pd.api.types.is_bool_dtype(dtype)):

@@ -240,6 +240,47 @@ CASES = [
         (T2, r"non-numeric|string|object"),
         frozenset({"fitted", "names"}),
     ),
+    Case(
+        "duplicate_column_names",
+        "fit",
+        lambda X, y: (X.set_axis(["T1_C", "T2_C", "T2_C"], axis=1), y),
+        (T2, r"more than once|more than one column|duplicate"),
+        frozenset({"names"}),
+    ),
+    Case(
+        "mixed_column_name_types",
+        "fit",
+        lambda X, y: (X.set_axis(["T1_C", 2, "T3_C"], axis=1), y),
+        (r"string names|column name",),
+        frozenset({"names"}),
+    ),
+    Case(
+        "categorical_column",
+        "fit",
+        lambda X, y: (X.assign(T2_C=X["T2_C"].round().astype("category")), y),
+        (T2, r"non-numeric|category"),
+        frozenset({"names"}),
+    ),
+    Case(
+        "pandas_missing_value",
+        "fit",
+        lambda X, y: (_set(X.astype("Float64"), 9, "T2_C", pd.NA), y),
+        (NAN, T2, TEST_A),
+        frozenset({"names"}),
+    ),
+    Case(
+        "nan_in_first_row_of_a_test",
+        "fit",
+        lambda X, y: (_set(X, 30, "T1_C", np.nan), y),
+        (NAN, r"'T1_C'", TEST_B, r"sample 1\b|time_s\W+0\b"),
+    ),
+    Case(
+        "extra_column_at_predict",
+        "predict",
+        lambda X, y: (X.assign(T4_C=1.0), y),
+        (r"T4_C", r"unseen"),
+        frozenset({"fitted", "names"}),
+    ),
     # -- test boundaries and time -------------------------------------------
     Case(
         "test_in_two_runs",
@@ -281,6 +322,13 @@ CASES = [
         "predict",
         _split_test,
         (r"'A'", r"two separate runs"),
+        frozenset({"index", "fitted"}),
+    ),
+    Case(
+        "time_goes_back_at_predict",
+        "predict",
+        lambda X, y: _times(X, y, 45, 5.0),
+        (TEST_B, r"[Tt]ime", r"goes back"),
         frozenset({"index", "fitted"}),
     ),
     Case(

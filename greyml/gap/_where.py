@@ -188,6 +188,12 @@ def _check_frame(frame, what: str, r: pd.Series, layout: _Layout):
         )
     _check_aligned(r.index, frame.index, what)
     names = [str(c) for c in frame.columns]
+    repeated = sorted({n for n in names if names.count(n) > 1})
+    if repeated:
+        raise ValueError(
+            f"{what} has the column {repeated[0]!r} more than once; each column needs a "
+            "name of its own, so that results can be reported by name."
+        )
     values = np.empty((len(frame), len(names)))
     for j, name in enumerate(names):
         column = frame.iloc[:, j]
