@@ -11,6 +11,8 @@ import warnings
 import numpy as np
 import pytest
 from bad_inputs import CASES, assert_clear_message, valid_data
+from hypothesis import given, settings
+from hypothesis import strategies as st
 from sklearn.linear_model import Ridge
 from sklearn.pipeline import make_pipeline
 
@@ -243,3 +245,35 @@ def test_bad_parameter(estimator, params, match):
     X, y = valid_data()
     with pytest.raises((ValueError, TypeError), match=match):
         estimator(**params).fit(X, y)
+
+
+# -- any one bad cell, anywhere ------------------------------------------------
+
+BAD_VALUES = [np.nan, np.inf, -np.inf]
+
+
+@pytest.mark.filterwarnings("ignore::greyml.GreyStabilityWarning")  # fits of drawn subsets
+@settings(max_examples=200, deadline=None)
+@given(
+    entry=st.sampled_from([e for e in ENTRIES if {"model", "fitted"} <= e.has]),
+    row=st.integers(0, 55),
+    col=st.integers(0, 2),
+    value=st.sampled_from(BAD_VALUES),
+    stage=st.sampled_from(["fit", "predict"]),
+)
+def test_any_bad_cell_is_named(entry, row, col, value, stage):
+    """One non-finite cell anywhere, at fit or at predict: the message names its
+    column and its test, and says NaN or inf; never a NaN in a prediction."""
+    X, y = valid_data()
+    Xb = X.copy()
+    Xb.iloc[row, col] = value
+    test = "A" if row < 30 else "B"
+    column = X.columns[col]
+    with pytest.raises(ValueError) as err:
+        if stage == "fit":
+            entry.fit(Xb, y)
+        else:
+            entry.second(entry.fit(X, y), Xb)
+    message = str(err.value)
+    assert f"'{column}'" in message and f"test '{test}'" in message, message
+    assert ("NaN" if np.isnan(value) else "inf") in message, message
