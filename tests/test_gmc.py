@@ -1,5 +1,7 @@
 """GMC: coefficient recovery, tests as sequences, determinism, bad input."""
 
+import warnings
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -8,8 +10,9 @@ from sklearn.model_selection import GridSearchCV, LeaveOneGroupOut, cross_val_sc
 from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import StandardScaler
 
-from greyml import GMC, make_test_index, simulate_gmc
+from greyml import GMC, GreyStabilityWarning, make_test_index, simulate_gmc
 from greyml import test_ids as groups_of
+from greyml.grey import gmc_design
 from greyml.optimize import ParticleSwarm
 
 SENSORS = ["T1_C", "T2_C", "T3_C", "T4_C"]
@@ -259,3 +262,43 @@ def test_bad_parameters(params, match, gmc_tests):
     X, y = _frame(gmc_tests)
     with pytest.raises(ValueError, match=match):
         GMC(**params).fit(X, y)
+
+
+def _unstable_data():
+    """A drift that grows faster and faster under a steady driver: least
+    squares can only fit it with b1 < 0."""
+    X = np.linspace(1.0, 2.0, 40)[:, None]
+    return X, np.exp(0.05 * np.arange(40))
+
+
+def test_least_squares_warns_when_unstable():
+    X, y = _unstable_data()
+    with pytest.warns(GreyStabilityWarning, match=r"b1 = -0\.\d+ < 0.*factor .* over the longest"):
+        model = GMC(solver="ls").fit(X, y)
+    assert model.development_coef_ < 0
+
+
+def test_least_squares_keeps_b1_in_its_bounds():
+    X, y = _unstable_data()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # no GreyStabilityWarning: b1 is kept at 0
+        model = GMC(solver="ls", bounds=(0.0, 100.0)).fit(X, y)
+    assert model.development_coef_ == 0.0
+    # the other coefficients are the least-squares ones with b1 = 0
+    B, Y = gmc_design(y, X)
+    theta, *_ = np.linalg.lstsq(B[:, 1:], Y, rcond=None)
+    np.testing.assert_allclose([*model.driving_coef_, model.control_], theta, rtol=1e-9)
+    # ... and no other (b, u) with b1 = 0 does better
+    best = np.sum((B[:, 1:] @ theta - Y) ** 2)
+    rng = np.random.default_rng(0)
+    for _ in range(20):
+        other = theta + 1e-3 * rng.normal(size=theta.size)
+        assert np.sum((B[:, 1:] @ other - Y) ** 2) > best
+
+
+def test_least_squares_bounds_inside_change_nothing(gmc_tests):
+    X, y = gmc_tests.drop(columns="dz_um"), gmc_tests["dz_um"]
+    free = GMC(solver="ls").fit(X, y)
+    boxed = GMC(solver="ls", bounds=(0.0, 100.0)).fit(X, y)
+    assert 0 < free.development_coef_ < 100
+    np.testing.assert_array_equal(free.predict(X), boxed.predict(X))

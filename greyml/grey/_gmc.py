@@ -17,6 +17,7 @@ from greyml.grey._kernels import (
     LARGE_LOSS,
     ago,
     gmc_lstsq,
+    gmc_lstsq_fixed_b1,
     gmc_predict,
     gmc_separable,
     gmc_sse_population,
@@ -57,8 +58,8 @@ class GreyStabilityWarning(UserWarning):
     Its response grows like e^{−b₁k} instead of settling, so it can fit the
     training tests and still predict absurd values on a longer test. The
     warning says by how much the response grows over the longest training
-    test. Give ``bounds=(0, 100)`` to a population solver (``solver="pso"`` or
-    ``"cs"``), or use :class:`GNNMCI`, whose default keeps b₁ ≥ 0.
+    test. Give ``bounds=(0, 100)`` (to any solver, least squares too), or use
+    :class:`GNNMCI`, whose default keeps b₁ ≥ 0.
 
     Examples
     --------
@@ -141,7 +142,14 @@ class _GreyConvolutionModel(RegressorMixin, BaseEstimator):
         X1 = ago(Xa, bounds)
 
         if optimizer is None:
+            # b1 kept in its range (bounds' first entry): outside it, the least
+            # squares optimum has b1 at the nearer end
+            lower, upper = check_bounds(self._search_bounds(n_theta), n_theta)
             theta = theta_ls
+            if not lower[0] <= b1 <= upper[0]:
+                edge = float(np.clip(b1, lower[0], upper[0]))
+                b, u = gmc_lstsq_fixed_b1(ya, Xa, edge, bounds)
+                theta = np.concatenate([[edge], b, [u]])
             self.optimizer_result_ = None
             self.n_iter_ = 1
         elif self.search == "full":
@@ -191,7 +199,7 @@ class _GreyConvolutionModel(RegressorMixin, BaseEstimator):
                 f"{self.development_coef_:.4g} < 0, so its response grows like "
                 f"exp({-self.development_coef_:.4g}·k), a factor {factor} over the longest "
                 f"training test ({n_max} samples), and more on longer tests. Keep b1 >= 0 "
-                "with bounds=(0, 100) and solver='pso' or 'cs', or use GNNMCI.",
+                "with bounds=(0, 100) (any solver), or use GNNMCI.",
                 GreyStabilityWarning,
                 stacklevel=3,
             )
@@ -287,7 +295,11 @@ class GMC(_GreyConvolutionModel):
     bounds : (float, float) or (array, array), default=(-100, 100)
         Search box (seed 004). With ``search="full"``: for (b₁, b₂…b_N, u), the
         same for all coefficients when scalars. With ``search="separable"``: for
-        b₁ (the first entry when arrays are given).
+        b₁ (the first entry when arrays are given). With ``solver="ls"``: the
+        range of b₁ only; if the least-squares b₁ falls outside it, b₁ is set to
+        the nearer end and the other coefficients are solved again (the least
+        squares optimum within the range). ``bounds=(0, 100)`` keeps any solver
+        stable (b₁ ≥ 0).
     n_population : int, default=25
         Particles or nests (seed 004: 25).
     max_iter : int, default=100

@@ -24,6 +24,7 @@ __all__ = [
     "CONDITION_LIMIT",
     "gmc_design",
     "gmc_lstsq",
+    "gmc_lstsq_fixed_b1",
     "gmc_forcing",
     "gmc_initial",
     "gmc_response",
@@ -280,6 +281,34 @@ def gmc_lstsq(y, X, bounds=None):
     B, Y = gmc_design(y, X, bounds)
     theta, rank, sv = _scaled_lstsq(B, Y)
     return theta[0], theta[1:-1], theta[-1], rank, sv
+
+
+def gmc_lstsq_fixed_b1(y, X, b1, bounds=None):
+    """GMC(1,N) least squares with b₁ held at ``b1``: returns ``(b, u)``.
+
+    The sum of squares is a convex quadratic, so when the free optimum's b₁
+    lies outside a range, the optimum within it has b₁ at the nearer end and
+    the other coefficients solved with b₁ fixed there.
+
+    Examples
+    --------
+    Data made with b₁ = 0.4, b₂ = 0.5 and u = 0.1 (as in :func:`gmc_lstsq`):
+    with b₁ fixed at its true value the rest is recovered exactly.
+
+    >>> import numpy as np
+    >>> from greyml.grey import ago, background, gmc_lstsq_fixed_b1
+    >>> X = np.array([[1.0], [2.0], [1.0], [3.0], [2.0]])
+    >>> z2 = background(ago(X))[:, 0]
+    >>> y = [1.0]
+    >>> for k in range(1, 5):
+    ...     y.append((0.5 * z2[k - 1] + 0.1 - 0.4 * sum(y)) / (1 + 0.5 * 0.4))
+    >>> b, u = gmc_lstsq_fixed_b1(y, X, 0.4)
+    >>> np.round([*b, u], 6).tolist()
+    [0.5, 0.1]
+    """
+    B, Y = gmc_design(y, X, bounds)
+    theta, _, _ = _scaled_lstsq(B[:, 1:], Y - b1 * B[:, 0])
+    return theta[:-1], theta[-1]
 
 
 def gmc_forcing(X1, coef, control):
