@@ -20,6 +20,7 @@ __all__ = [
     "validate_sequences",
     "column_names",
     "check_int_param",
+    "check_unique_columns",
     "check_real_param",
     "require_y",
     "standard_scaling",
@@ -42,15 +43,21 @@ def _where(seg: Segment, row: int) -> str:
     return f"{segment_label(seg)} at row {row} (sample {row - seg.start + 1} of that test)"
 
 
+def check_unique_columns(columns, what):
+    """Raise naming the first column name that ``columns`` holds more than once."""
+    seen = set()
+    for name in map(str, columns):
+        if name in seen:
+            raise ValueError(
+                f"{what} has the column {name!r} more than once; each column needs a "
+                "name of its own."
+            )
+        seen.add(name)
+
+
 def _check_numeric_frame(X, what="X"):
     if isinstance(X, pd.DataFrame):
-        repeated = X.columns[X.columns.duplicated()].unique().tolist()
-        if repeated:
-            names = ", ".join(repr(str(c)) for c in repeated)
-            raise ValueError(
-                f"{what} has more than one column named {names}; each sensor needs a "
-                "column name of its own."
-            )
+        check_unique_columns(X.columns, what)
         for col in X.columns:
             dtype = X[col].dtype
             if not (pd.api.types.is_numeric_dtype(dtype) or pd.api.types.is_bool_dtype(dtype)):

@@ -38,6 +38,7 @@ from scipy.stats import chi2
 
 from greyml._sequences import TEST_LEVEL, TIME_LEVEL, Segment, segment_label
 from greyml._sequences import test_segments as _test_segments  # not collected by pytest
+from greyml._validation import check_unique_columns
 from greyml.io._csv import describe_input
 
 __all__ = ["gap_breakdown", "residual_diagnostics"]
@@ -187,13 +188,8 @@ def _check_frame(frame, what: str, r: pd.Series, layout: _Layout):
             f"{describe_input(frame)}."
         )
     _check_aligned(r.index, frame.index, what)
+    check_unique_columns(frame.columns, what)
     names = [str(c) for c in frame.columns]
-    repeated = sorted({n for n in names if names.count(n) > 1})
-    if repeated:
-        raise ValueError(
-            f"{what} has the column {repeated[0]!r} more than once; each column needs a "
-            "name of its own, so that results can be reported by name."
-        )
     values = np.empty((len(frame), len(names)))
     for j, name in enumerate(names):
         column = frame.iloc[:, j]

@@ -20,6 +20,7 @@ import numpy as np
 import pandas as pd
 
 from greyml._sequences import TEST_LEVEL, TIME_LEVEL, make_test_index, test_segments
+from greyml._validation import check_unique_columns
 
 __all__ = ["read_tests_csv", "write_tests_csv", "check_test_frame"]
 
@@ -96,14 +97,10 @@ def check_test_frame(frame, *, what="The frame"):
         raise ValueError(f"{what} has no rows (0 samples); every test needs at least one row.")
     if frame.shape[1] == 0:
         raise ValueError(f"{what} has no data columns (0 features) besides test and time_s.")
-    cols = [str(c) for c in frame.columns]
-    seen = set()
-    for c in cols:
+    for c in map(str, frame.columns):
         if c in KEYS:
             raise ValueError(f"{what} has a data column named '{c}', which is a key name.")
-        if c in seen:
-            raise ValueError(f"{what} has the column '{c}' more than once.")
-        seen.add(c)
+    check_unique_columns(frame.columns, what)
     lower = what.lower() if what[:1].isupper() and what[1:2].islower() else what
     for c in frame.columns:
         dtype = frame[c].dtype
