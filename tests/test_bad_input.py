@@ -277,3 +277,20 @@ def test_any_bad_cell_is_named(entry, row, col, value, stage):
     message = str(err.value)
     assert f"'{column}'" in message and f"test '{test}'" in message, message
     assert ("NaN" if np.isnan(value) else "inf") in message, message
+
+
+@pytest.mark.parametrize(
+    "development, driving, match",
+    [
+        ("0.3", [1.0, 1.0, 1.0], r"development must be a finite number; got '0.3'"),
+        (np.nan, [1.0, 1.0, 1.0], r"development must be a finite number; got nan"),
+        (0.3, ["a", 1.0, 1.0], r"driving must be numbers"),
+        (0.3, [1.0, np.inf, 1.0], r"driving must be finite"),
+        (0.3, [1.0, 1.0], r"driving has 2 coefficients but X has 3 columns"),
+        (-30.0, [1.0, 1.0, 1.0], r"response of test 'A' overflows.*b1=-30"),
+    ],
+)
+def test_simulate_gmc_bad_coefficients(development, driving, match):
+    X, _ = valid_data()
+    with pytest.raises(ValueError, match=match):
+        simulate_gmc(X, development, driving)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import numbers
 import warnings
 
 import numpy as np
@@ -134,14 +135,19 @@ def simulate_gmc(X, development, driving, control=0.0, *, form="trapezoid", init
     [0.0, 1.5, 2.5]
     """
     Xa, _, segments = validate_sequences(_Inputs(), X, reset=True)
-    driving = np.asarray(driving, dtype=float).reshape(-1)
+    try:
+        driving = np.asarray(driving, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        raise ValueError(
+            f"simulate_gmc: driving must be numbers, one per column of X; got {driving!r}."
+        ) from None
     if driving.size != Xa.shape[1]:
         raise ValueError(
             f"driving has {driving.size} coefficients but X has {Xa.shape[1]} columns."
         )
     for what, value in [("development", development), ("control", control)]:
-        if not np.isfinite(value):
-            raise ValueError(f"simulate_gmc: {what} must be finite; got {value!r}.")
+        if not (isinstance(value, numbers.Real) and np.isfinite(value)):
+            raise ValueError(f"simulate_gmc: {what} must be a finite number; got {value!r}.")
     if not np.isfinite(driving).all():
         raise ValueError(f"simulate_gmc: driving must be finite; got {driving.tolist()}.")
     out = np.empty(Xa.shape[0])
