@@ -11,7 +11,7 @@ import pandas as pd
 from greyml._sequences import make_test_index
 from greyml.datasets._simulated import _X_y, bunch_from_frame
 from greyml.io import check_test_frame
-from greyml.io._csv import _first_bad, _line
+from greyml.io._csv import _line, _numeric_column
 
 __all__ = ["load_caiviac", "caiviac_candidates"]
 
@@ -88,16 +88,7 @@ def _read_checked(file):
     if raw.empty:
         raise ValueError(f"{name!r} has a header but no rows.")
     for col in expected:
-        values = raw[col]
-        if not pd.api.types.is_numeric_dtype(values.dtype):
-            row, text = _first_bad(values)
-            if row is not None:
-                raise ValueError(
-                    f"Column {col!r} of {name!r} holds {text!r} at line {_line(row)}, which is "
-                    "not a number."
-                )
-            values = pd.to_numeric(values.astype(object), errors="coerce").astype(float)
-            raw[col] = values
+        values = raw[col] = _numeric_column(raw[col], col, name)
         numbers = values.to_numpy(dtype=float)
         bad = np.flatnonzero(~np.isfinite(numbers))
         if bad.size:

@@ -209,6 +209,21 @@ def _first_bad(values: pd.Series):
     return (int(bad[0]), text.iloc[bad[0]]) if bad.size else (None, None)
 
 
+def _numeric_column(values: pd.Series, col, name: str, context=lambda row: ""):
+    """A CSV column as floats (empty cells NaN); a cell that is text raises,
+    naming the column, the file, the line and ``context(row)``."""
+    if pd.api.types.is_numeric_dtype(values.dtype):
+        return values
+    row, text = _first_bad(values)
+    if row is not None:
+        raise ValueError(
+            f"Column '{col}' of {name!r} holds {text!r} at line {_line(row)}{context(row)}, "
+            f"which is not a number: non-numeric text{_what_text(text)}; every data column "
+            "must hold numbers."
+        )
+    return pd.to_numeric(values.astype(object), errors="coerce").astype(float)
+
+
 def _what_text(text) -> str:
     """What a non-number cell seems to be, for the message: '' or ' (a complex number)'."""
     text = str(text).strip()
@@ -292,15 +307,9 @@ def read_tests_csv(path):
     for col in raw.columns:
         if col == TEST_LEVEL:
             continue
-        if not pd.api.types.is_numeric_dtype(raw[col].dtype):
-            row, text = _first_bad(raw[col])
-            if row is not None:
-                raise ValueError(
-                    f"Column '{col}' of {name!r} holds {text!r} at line {_line(row)} "
-                    f"(test {raw[TEST_LEVEL].iloc[row]!r}), which is not a number: "
-                    f"non-numeric text{_what_text(text)}; every data column must hold numbers."
-                )
-            raw[col] = pd.to_numeric(raw[col].astype(object), errors="coerce").astype(float)
+        raw[col] = _numeric_column(
+            raw[col], col, name, lambda row: f" (test {raw[TEST_LEVEL].iloc[row]!r})"
+        )
     time = raw[TIME_LEVEL].astype(float)
     if time.isna().any():
         row = int(np.flatnonzero(time.isna().to_numpy())[0])
