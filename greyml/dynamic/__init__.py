@@ -1,0 +1,7 @@
+"""Dynamic thermal models: first-order thermal lags of temperatures and drivers.
+
+The kernels (:mod:`greyml.dynamic._kernels`) are shared by every piece that needs
+a thermal lag, :mod:`greyml.gap` included.
+"""
+
+__all__ = []

@@ -1,0 +1,157 @@
+"""First-order thermal lags: the one O(n) kernel of greyml's dynamic models.
+
+A first-order lag of an input x with time constant τ, exact for an input held
+between samples (the sample-and-hold convention of a controller), is
+
+    s_k = a_k · s_{k−1} + (1 − a_k) · x_k,    a_k = exp(−Δt_k / τ),
+
+with Δt_k the step from the previous sample. Everything that needs a thermal lag
+(``LagFeatures``, ``ThermalTransferFunction``, the sample-by-sample
+``Compensator`` and the lag signatures of :mod:`greyml.gap`) calls these
+functions, so batch and streaming results agree to the last bit: the streaming
+update :func:`lag_step` performs the same two products and one sum per sample as
+the batch recursion (``scipy.signal.lfilter`` where the sampling is even).
+
+Pure array functions: no validation, no pandas.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.signal import lfilter
+
+__all__ = ["lag_filter", "lag_step", "steady_state"]
+
+# Above this share of rows that start a new run of equal steps, the recursion
+# runs row by row (vectorised over columns and time constants) instead of one
+# lfilter call per run of equal steps.
+_RUN_SHARE = 0.02
+
+
+def steady_state(x0, n_taus):
+    """The lag state at rest at input ``x0``: every lag equals the input.
+
+    Parameters
+    ----------
+    x0 : ndarray of shape (p,)
+    n_taus : int
+
+    Returns
+    -------
+    state : ndarray of shape (p, n_taus)
+    """
+    x0 = np.asarray(x0, dtype=float)
+    return np.repeat(x0[:, None], n_taus, axis=1)
+
+
+def lag_step(state, x, a):
+    """One sample of the lag recursion: ``a·state + (1 − a)·x``.
+
+    Parameters
+    ----------
+    state : ndarray of shape (p, m)
+        The lags after the previous sample (one row per input, one column per
+        time constant).
+    x : ndarray of shape (p,)
+        The inputs at this sample.
+    a : ndarray of shape (m,)
+        ``exp(−Δt/τ)`` for each time constant.
+
+    Returns
+    -------
+    state : ndarray of shape (p, m)
+    """
+    # written as lfilter's direct form computes it: (1 − a)·x + a·s
+    return (1.0 - a) * x[:, None] + a * state
+
+
+def _filter_even(xt, a, zi):
+    """Lags along the last axis of ``xt`` (p, n) for one a; ``zi`` (p,) is the state before."""
+    # lfilter's state for b = [1 − a], den = [1, −a] is z = a·s_prev
+    y, _ = lfilter([1.0 - a], [1.0, -a], xt, axis=-1, zi=(a * zi)[:, None])
+    return y
+
+
+def lag_filter(x, dt, taus, test_bounds, *, carry=False, initial=None):
+    """First-order lags of every column of ``x`` at every time constant.
+
+    Parameters
+    ----------
+    x : ndarray of shape (n, p)
+        Inputs, tests stacked in the order of ``test_bounds``.
+    dt : ndarray of shape (n,)
+        Step in seconds from the previous sample to each row. ``dt`` at a test's
+        first row is used only when the state is carried into that test.
+    taus : ndarray of shape (m,)
+        Time constants in seconds (> 0).
+    test_bounds : sequence of (start, stop)
+        Row ranges of the tests, contiguous and in order.
+    carry : bool, default=False
+        False: every test starts at steady state at its first value (``s`` equals
+        ``x`` at the first row). True: the tests are consecutive pieces of one
+        recording; the first test starts from ``initial`` (or at steady state at
+        its first value) and each later test continues from the state the
+        previous one left, stepping by ``dt`` at its first row.
+    initial : ndarray of shape (p, m), optional
+        State before the first row when ``carry`` is True.
+
+    Returns
+    -------
+    lags : ndarray of shape (n, p, m)
+    final : ndarray of shape (p, m)
+        The state after the last row (to carry on, or to resume streaming).
+    """
+    x = np.asarray(x, dtype=float)
+    dt = np.asarray(dt, dtype=float)
+    taus = np.asarray(taus, dtype=float)
+    n, p = x.shape
+    m = taus.size
+    # computed as (p, m, n), each lag a contiguous row, and handed back as an
+    # (n, p, m) view: reshaped to (n, p·m) it is a Fortran-ordered array that a
+    # DataFrame takes without copying
+    store = np.empty((p, m, n))
+    out = np.moveaxis(store, 2, 0)
+    xt = np.ascontiguousarray(x.T)
+    state = None
+    if carry and initial is not None:
+        state = np.array(initial, dtype=float, copy=True)
+    for start, stop in test_bounds:
+        if stop <= start:
+            continue
+        if state is None or not carry:
+            # at rest at the first value: s_0 = x_0 whatever the step
+            before = steady_state(x[start], m)
+            first = start + 1
+            out[start] = before
+        else:
+            before = state
+            first = start
+        _filter_segment(xt[:, first:stop], dt[first:stop], taus, before, store[:, :, first:stop])
+        state = out[stop - 1].copy()
+    if state is None:
+        state = np.full((p, m), np.nan)
+    return out, state
+
+
+def _filter_segment(xt, steps, taus, before, store):
+    """Run the recursion over the columns of ``xt`` (p, n) from state ``before`` (p, m)."""
+    n = xt.shape[1]
+    if n == 0:
+        return
+    change = np.flatnonzero(np.diff(steps) != 0) + 1
+    if change.size > _RUN_SHARE * n + 1:
+        # uneven sampling: row by row, vectorised over inputs and time constants
+        a_all = np.exp(-steps[:, None] / taus[None, :])
+        state = before
+        for k in range(n):
+            state = lag_step(state, xt[:, k], a_all[k])
+            store[:, :, k] = state
+        return
+    run_starts = np.concatenate(([0], change))
+    run_stops = np.concatenate((change, [n]))
+    state = before
+    for r0, r1 in zip(run_starts, run_stops):
+        for j, tau in enumerate(taus):
+            a = float(np.exp(-steps[r0] / tau))
+            store[:, j, r0:r1] = _filter_even(xt[:, r0:r1], a, state[:, j])
+        state = store[:, :, r1 - 1]
