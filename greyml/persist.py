@@ -638,7 +638,9 @@ def _read_header(archive, max_bytes):
     declared = _JSON_COST * info.file_size + sum(i.file_size for i in infos if i is not info)
     if declared > max_bytes:
         raise _too_big(
-            f"its members declare (counting {_MODEL_MEMBER} {_JSON_COST} times)", declared, max_bytes
+            f"its members declare (counting {_MODEL_MEMBER} {_JSON_COST} times)",
+            declared,
+            max_bytes,
         )
     text = bytearray(info.file_size)
     with archive.open(info) as stream:
@@ -713,7 +715,11 @@ def _referenced_names(tree):
             if kind == "scalar" and node.get("dtype") in ("|O", "O"):
                 raise _Corrupt("object scalars are not allowed")
             name = node.get("file")
-            if kind in ("ndarray", "scalar") and type(name) is str and _ARRAY_MEMBER.fullmatch(name):
+            if (
+                kind in ("ndarray", "scalar")
+                and type(name) is str
+                and _ARRAY_MEMBER.fullmatch(name)
+            ):
                 files[name] = files.get(name, 0) + 1
             elif kind == "object_array":
                 with contextlib.suppress(_Corrupt):
