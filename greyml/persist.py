@@ -126,6 +126,8 @@ DEFAULT_MAX_BYTES = 256 * 2**20
 _JSON_COST = 32
 # what an entry of an object array (a pointer) takes
 _OBJECT_ENTRY_BYTES = 8
+# what zipfile's index takes per member (~560 bytes measured)
+_ENTRY_COST = 1024
 # members are read this much at a time, never in one piece
 _READ_CHUNK = 2**20
 _MAX_NPY_HEADER = 10_000  # numpy's own default; greyml's headers take ~120 bytes
@@ -1165,6 +1167,10 @@ def _open_archive(path, max_bytes):
             raise ValueError(
                 f"Cannot load {path}: {_too_big('the file holds', mode.st_size, max_bytes)}."
             )
+        index = _zip_index_cost(handle, mode.st_size)
+        if index > max_bytes:
+            too_big = _too_big("the index of its members would take", index, max_bytes)
+            raise ValueError(f"Cannot load {path}: {too_big}.")
         try:
             archive = zipfile.ZipFile(handle)
         except (zipfile.BadZipFile, EOFError, ValueError):
@@ -1174,6 +1180,27 @@ def _open_archive(path, max_bytes):
             ) from None
         with archive:
             yield archive
+
+
+def _zip_index_cost(handle, size):
+    """What zipfile's index of the archive's members will take (0 if the file
+    has no zip end record: zipfile then says it is not a zip). zipfile builds
+    one entry (~560 bytes) for every record in the central directory, whose
+    size the end record gives; a record takes at least 46 bytes."""
+    tail_size = min(size, 22 + 65535 + 20 + 56)  # end record, comment, ZIP64 records
+    handle.seek(size - tail_size)
+    tail = handle.read(tail_size)
+    handle.seek(0)
+    at = tail.rfind(b"PK\x05\x06")
+    if at < 0 or len(tail) - at < 22:
+        return 0
+    directory = int.from_bytes(tail[at + 12 : at + 16], "little")
+    locator = at - 20  # a ZIP64 file gives the size in its own end record
+    if locator >= 56 and tail[locator : locator + 4] == b"PK\x06\x07":
+        record = tail[locator - 56 : locator]
+        if record[:4] == b"PK\x06\x06":
+            directory = int.from_bytes(record[40:48], "little")
+    return directory // 46 * _ENTRY_COST
 
 
 def _check_max_bytes(max_bytes):

@@ -167,6 +167,19 @@ def _raw_zip(path, members):
     return path
 
 
+def _many_records(path, count):
+    """A zip whose central directory lists one empty member ``count`` times."""
+    name = b"arrays/0.npy"
+    fields = (20, 0, 0, 0, 0x21, 0, 0, 0, len(name))
+    local = struct.pack("<4s5H3L2H", b"PK\x03\x04", *fields, 0) + name
+    record = struct.pack("<4s6H3L5H2L", b"PK\x01\x02", 20, *fields, 0, 0, 0, 0, 0, 0) + name
+    end = struct.pack(
+        "<4s4H2LH", b"PK\x05\x06", 0, 0, 0xFFFF, 0xFFFF, len(record) * count, len(local), 0
+    )
+    path.write_bytes(local + record * count + end)
+    return path
+
+
 def _state(header):
     return header["tree"]["state"]
 
@@ -232,6 +245,10 @@ def _build(folder):
         folder / "declares.greyml",
         [*stored, (coef, zipfile.ZIP_DEFLATED, bomb, 0, DEFAULT_MAX_BYTES + 1)],
     )
+
+    # a central directory of a million records (58 MB), which zipfile's index
+    # would hold in ~560 MB
+    files["2-zip-index"] = _many_records(folder / "index.greyml", 10**6)
 
     # 3. shapes that cost nothing to load
     names = {"kind": "object_array", "shape": [10**18, 0], "items": []}
@@ -406,6 +423,9 @@ def test_2_a_member_is_read_only_to_its_declared_size(report):
     _small(row)
     _refused(report["2-declares-too-much"], "its members declare", "over the limit max_bytes=")
     _small(report["2-declares-too-much"])
+    # 58,000,000 bytes of records of at least 46 bytes, 1 KiB each counted
+    _refused(report["2-zip-index"], f"its members would take {58_000_000 // 46 * 1024:,} bytes")
+    _small(report["2-zip-index"])
 
 
 def test_2_max_bytes_is_a_limit_the_caller_sets(tmp_path):
