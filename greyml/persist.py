@@ -36,7 +36,7 @@ What :func:`load_model` guarantees for a file from anyone, and nothing more:
   default). The sizes the archive declares are added up before anything is
   inflated, and the file is refused if they pass the limit: every array
   member, each read once however often the tree refers to it, and the JSON
-  description counted at 32 bytes per byte (what its Python objects can
+  description counted at 128 bytes per byte (what its Python objects can
   take). Members are read through a reader that stops at their declared size.
   Array shapes are then checked, before their data are read, so that an array
   whose entries take no bytes (an empty axis, zero-width text) counts as if
@@ -118,12 +118,15 @@ _ARRAY_MEMBER = re.compile(r"arrays/(?:0|[1-9][0-9]{0,8})\.npy")
 _DTYPE_TEXT = re.compile(r"[<>|=]?[?a-zA-Z][0-9]{0,4}(?:\[[0-9]{0,3}[a-zA-Z]{1,2}\])?")
 _MAX_DEPTH = 200
 
+_ABSENT = object()  # "no such attribute" where None is a value
+
 #: The most a model file may make :func:`load_model` build, in bytes (256 MiB),
 #: unless the caller passes another ``max_bytes``.
 DEFAULT_MAX_BYTES = 256 * 2**20
-# what parsing one byte of model.json can cost in Python objects, at most: 16 MiB
-# of "{}," or "[]," (the worst case) take 475 MB (~30 bytes per byte)
-_JSON_COST = 32
+# what one byte of model.json can cost in Python objects, parsed and then built:
+# measured up to 77 bytes (4 MiB of "[[[]]]," items took 321 MB; "[]," 50x,
+# numbers and strings 12-14x)
+_JSON_COST = 128
 # what an entry of an object array (a pointer) takes
 _OBJECT_ENTRY_BYTES = 8
 # what zipfile's index takes per member (~560 bytes measured)
@@ -698,13 +701,16 @@ def _referenced_names(tree):
     found = {"class": set(), "type": set(), "ufunc": set(), "bit_generator": set()}
     files: dict[str, int] = {}
     object_bytes = 0
-    stack = [(tree, 0)]
+    stack = [iter([tree])]  # iterators, not nodes: memory grows with depth only
     while stack:
-        node, depth = stack.pop()
-        if depth > _MAX_DEPTH:
+        node = next(stack[-1], _ABSENT)
+        if node is _ABSENT:
+            stack.pop()
+            continue
+        if len(stack) > _MAX_DEPTH + 1:
             raise _Corrupt(f"the model tree is nested more than {_MAX_DEPTH} levels deep")
         if isinstance(node, list):
-            stack.extend((child, depth + 1) for child in node)
+            stack.append(iter(node))
         elif isinstance(node, dict):
             kind = node.get("kind")
             if kind == "object":
@@ -726,7 +732,7 @@ def _referenced_names(tree):
             elif kind == "object_array":
                 with contextlib.suppress(_Corrupt):
                     object_bytes += _nominal_size(_object_shape(node), _OBJECT_ENTRY_BYTES)
-            stack.extend((child, depth + 1) for child in node.values())
+            stack.append(iter(node.values()))
     found["file"] = files
     found["object_bytes"] = object_bytes
     return found
@@ -852,9 +858,6 @@ def _trusted_classes(trusted, wanted):
             if alias in wanted:
                 out[alias] = obj
     return out
-
-
-_ABSENT = object()
 
 
 def _shadows_behaviour(cls, key):
@@ -1249,7 +1252,7 @@ def load_model(path, *, trusted=None, max_bytes=DEFAULT_MAX_BYTES):
         lifts none of the other rules, ``n_jobs`` included.)
     max_bytes : int, default=DEFAULT_MAX_BYTES (256 MiB)
         The most the file may make the load build, in bytes: the file
-        itself, the sizes its members declare (``model.json`` counted 32
+        itself, the sizes its members declare (``model.json`` counted 128
         times, for the Python objects its JSON becomes), and every array,
         each reference to one counted as a copy of its own and each empty
         axis as one entry. All are added up before any array is read, and a

@@ -368,9 +368,9 @@ def _small(row):
 def test_1_a_member_referenced_many_times_is_counted_per_reference(report):
     row = report["1-shared-member"]
     # 200 references x (2 Mi float64 + 128 header bytes) = 3,355,468,800 bytes, plus
-    # model.json 32 times, GMC's 4 coefficients (160 bytes) and 4 feature names (32)
+    # model.json 128 times, GMC's 4 coefficients (160 bytes) and 4 feature names (32)
     json_size = len(_members(Path(row["model"]))["model.json"])
-    total = 200 * (2 * 2**20 * 8 + 128) + 32 * json_size + 160 + 32
+    total = 200 * (2 * 2**20 * 8 + 128) + 128 * json_size + 160 + 32
     _refused(
         row, "loading it would build", f" {total:,} bytes, over the limit max_bytes=268,435,456 "
     )
@@ -402,10 +402,10 @@ def test_1_each_member_is_inflated_once_and_each_reference_is_its_own(tmp_path, 
     assert a.tolist() == b.tolist() == c.tolist() == [0.0, 1.0, 2.0, 3.0, 4.0]
     a[0] = 9.0  # each reference its own array, as greyml writes them
     assert b[0] == c[0] == 0.0
-    # what the members declare (model.json 32 times) passes; the load counts two
+    # what the members declare (model.json 128 times) passes; the load counts two
     # more copies of arrays/99.npy (2 x 168 bytes) and the 4 feature names (8 each)
     members = _members(path)
-    declared = 32 * len(members["model.json"]) + sum(
+    declared = 128 * len(members["model.json"]) + sum(
         len(content) for name, content in members.items() if name != "model.json"
     )
     with pytest.raises(ValueError, match=f"build .* {declared + 2 * 168 + 4 * 8:,} bytes, over"):
