@@ -616,7 +616,7 @@ def _too_big(what, size, max_bytes):
     )
 
 
-def _read_header(archive, max_bytes):
+def _read_header(archive, max_bytes, index_cost=0):
     try:
         info = archive.getinfo(_MODEL_MEMBER)
     except KeyError:
@@ -640,10 +640,12 @@ def _read_header(archive, max_bytes):
         if member.flag_bits & 0x1:
             raise _Corrupt(f"{member.filename} is encrypted; greyml never encrypts")
     # what the archive says it holds, added up before anything is inflated
-    declared = _JSON_COST * info.file_size + sum(i.file_size for i in infos if i is not info)
+    json_cost = index_cost + _JSON_COST * info.file_size  # with zipfile's index
+    declared = json_cost + sum(i.file_size for i in infos if i is not info)
     if declared > max_bytes:
         raise _too_big(
-            f"its members declare (counting {_MODEL_MEMBER} {_JSON_COST} times)",
+            f"its members declare (counting {_MODEL_MEMBER} {_JSON_COST} times, and the "
+            "zip's index)",
             declared,
             max_bytes,
         )
@@ -673,7 +675,7 @@ def _read_header(archive, max_bytes):
         )
     if "tree" not in header:
         raise _Corrupt("the model tree is missing")
-    return header, _JSON_COST * info.file_size
+    return header, json_cost
 
 
 def _nominal_size(shape, itemsize):
@@ -786,8 +788,8 @@ def _plan_arrays(archive, files, budget, max_bytes):
         plan[name] = (info, header)
     if total > max_bytes:
         raise _too_big(
-            f"loading it would build (counting {_MODEL_MEMBER} {_JSON_COST} times, every "
-            "reference to an array as a copy of its own)",
+            f"loading it would build (counting {_MODEL_MEMBER} {_JSON_COST} times, the zip's "
+            "index, and every reference to an array as a copy of its own)",
             total,
             max_bytes,
         )
@@ -1148,8 +1150,9 @@ def _check_greyml_params(estimator, name):
 
 @contextlib.contextmanager
 def _open_archive(path, max_bytes):
-    """The zip archive at ``path``, which must be a regular file of at most
-    ``max_bytes`` (a FIFO or a device such as /dev/zero is refused, never read)."""
+    """The zip archive at ``path``, and what zipfile's index of it takes. ``path``
+    must be a regular file of at most ``max_bytes`` (a FIFO or a device such as
+    /dev/zero is refused, never read), whose index fits in ``max_bytes`` too."""
     flags = os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_BINARY", 0)
     try:
         fd = os.open(path, flags)  # non-blocking: opening a FIFO does not wait
@@ -1182,7 +1185,7 @@ def _open_archive(path, max_bytes):
                 "may be truncated or in another format)."
             ) from None
         with archive:
-            yield archive
+            yield archive, index
 
 
 def _zip_index_cost(handle, size):
@@ -1315,9 +1318,9 @@ def load_model(path, *, trusted=None, max_bytes=DEFAULT_MAX_BYTES):
     path = Path(path)
     trusted = _check_trusted(trusted)
     max_bytes = _check_max_bytes(max_bytes)
-    with _open_archive(path, max_bytes) as archive:
+    with _open_archive(path, max_bytes) as (archive, index_cost):
         try:
-            header, json_cost = _read_header(archive, max_bytes)
+            header, json_cost = _read_header(archive, max_bytes, index_cost)
             found = _referenced_names(header["tree"])
         except Exception as exc:  # any damage: one line naming the file
             raise _failure(path, exc) from None
@@ -1410,9 +1413,9 @@ def describe_model(path, *, max_bytes=DEFAULT_MAX_BYTES):
     """
     path = Path(path)
     max_bytes = _check_max_bytes(max_bytes)
-    with _open_archive(path, max_bytes) as archive:
+    with _open_archive(path, max_bytes) as (archive, index_cost):
         try:
-            header, _ = _read_header(archive, max_bytes)
+            header, _ = _read_header(archive, max_bytes, index_cost)
             found = _referenced_names(header["tree"])
         except Exception as exc:
             raise _failure(path, exc) from None
