@@ -27,31 +27,33 @@ containers.
 
 What :func:`load_model` guarantees for a file from anyone, and nothing more:
 
-* **No code from the file is executed.** No unpickling, importing or
-  evaluating; only the classes above are created, and a file may set only
-  data attributes: none named like a method, property or other attribute of
-  the class, and functions (NumPy ufuncs, types) only as the value of a
-  constructor parameter (``func=numpy.log``).
+* **No code from the file is executed.** Nothing is unpickled, imported or
+  evaluated; only the classes above are created, and a file sets only data:
+  no attribute named like a method, property or other attribute of its class,
+  and a function (a NumPy ufunc, a type) only as the value of a constructor
+  parameter (``func=numpy.log``).
 * **Memory is bounded by** ``max_bytes`` (``DEFAULT_MAX_BYTES``, 256 MiB, by
-  default). The sizes the archive declares are added up before anything is
-  inflated, and the file is refused if they pass the limit: every array
-  member, each read once however often the tree refers to it, and the JSON
-  description counted at 128 bytes per byte (what its Python objects can
-  take). Members are read through a reader that stops at their declared size.
-  Array shapes are then checked, before their data are read, so that an array
-  whose entries take no bytes (an empty axis, zero-width text) counts as if
-  each axis had at least one entry of at least one byte, and the arrays of
-  greyml's and scikit-learn's estimators must have the shapes their
-  ``n_features_in_`` implies.
+  default). Only a regular file of at most ``max_bytes`` is opened. Before
+  any array is read, what the load will build is added up and the file
+  refused if the total passes the limit: zipfile's index of the members
+  (1 KiB per 46 bytes of the zip's directory), the JSON description (128
+  bytes per byte, what its Python objects can take) and every array as its
+  shape and dtype say, each reference to a member counted as a copy of its
+  own, each empty axis as one entry and each entry as at least one byte.
+  Each member is inflated once, through a reader that stops at its declared
+  size.
 * **Processes are not taken from the file.** Every loaded object's ``n_jobs``
-  is set to ``None`` (joblib's default: one process unless the caller's
+  is set to ``None`` (joblib's default: one process, unless the caller's
   ``joblib.parallel_backend`` says otherwise); set it after loading if you
   want more.
 
-A file that breaks any of these rules is refused with one line naming it. What
-a loaded model then computes is up to the file: it is only as right as the
-data it was fitted to, and a damaged or hostile file may still predict
-nonsense.
+A file that breaks these rules is refused with one line naming it, and so is
+one whose arrays disagree with their estimator (for greyml's and
+scikit-learn's estimators on the allowlist: ``feature_names_in_`` has
+``n_features_in_`` names, coefficients and scalings one entry per input), or
+whose JSON holds a number that overflows. These checks catch files that were
+altered carelessly; they are not a guarantee that a file which passes them
+holds a right model.
 """
 
 from __future__ import annotations

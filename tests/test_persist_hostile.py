@@ -404,8 +404,8 @@ def test_1_each_member_is_inflated_once_and_each_reference_is_its_own(tmp_path, 
     a[0] = 9.0  # each reference its own array, as greyml writes them
     assert b[0] == c[0] == 0.0
     # what the members declare (model.json 128 times, the index of 3 members 1 KiB
-    # each) passes; the load counts two
-    # more copies of arrays/99.npy (2 x 168 bytes) and the 4 feature names (8 each)
+    # each) passes; the load counts two more copies of arrays/99.npy (2 x 168
+    # bytes) and the 4 feature names (8 each)
     members = _members(path)
     declared = (
         3 * 1024
@@ -527,3 +527,22 @@ def test_7_whole_numbers_are_bounded(tmp_path):
     )
     with pytest.raises(ValueError, match="overflows a NumPy int64 scalar"):
         load_model(wide)
+
+
+def test_arrays_read_through_the_bounded_reader_are_exact(tmp_path):
+    X, y = _frame()
+    model = AGO().fit(X)
+    model.extra_ = [
+        np.asfortranarray(np.arange(6.0).reshape(2, 3)),
+        np.arange(3, dtype=">i4"),
+        np.array([True, False]),
+        np.array(["T1_C", "ü"]),
+        np.zeros((0, 3)),
+        np.float32(1.5),
+    ]
+    loaded = load_model(save_model(model, tmp_path / "ago.greyml"))
+    for saved, read in zip(model.extra_, loaded.extra_):
+        assert type(read) is type(saved) and read.dtype == saved.dtype
+        assert np.array_equal(read, saved) and np.shape(read) == np.shape(saved)
+    assert loaded.extra_[0].flags.f_contiguous and loaded.extra_[0][1, 2] == 5.0
+    assert loaded.extra_[1].tolist() == [0, 1, 2]
