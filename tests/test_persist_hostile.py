@@ -23,6 +23,7 @@ import pandas as pd
 import pytest
 from conftest import TRUE_B, TRUE_B1, TRUE_U, exciting_drivers
 from sklearn.linear_model import LinearRegression, Ridge
+from sklearn.multioutput import MultiOutputRegressor
 from sklearn.pipeline import FeatureUnion, Pipeline
 from sklearn.preprocessing import MinMaxScaler, StandardScaler
 
@@ -484,6 +485,16 @@ def test_4_n_jobs_is_reset_in_process(tmp_path):
     model = load_model(_tamper(path, tmp_path / "jobs.greyml", many_jobs))
     assert model.named_steps["union"].n_jobs is None
     assert np.array_equal(model.predict(X), union.predict(X))
+
+    # a trusted class is trusted to exist, not to choose the processes
+    multi = MultiOutputRegressor(Ridge()).fit(X, np.column_stack([y, 2 * y]))
+    path = save_model(multi, tmp_path / "multi.greyml")
+    model = load_model(
+        _tamper(path, tmp_path / "multi-jobs.greyml", _set(n_jobs=64)),
+        trusted=["sklearn.multioutput.MultiOutputRegressor"],
+    )
+    assert model.n_jobs is None
+    assert np.array_equal(model.predict(X), multi.predict(X))
 
 
 def test_5_only_data_comes_from_a_file(report):
