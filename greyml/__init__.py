@@ -1,6 +1,7 @@
 """greyml: thermal-error models of CNC machine tools, scikit-learn compatible."""
 
 from greyml._sequences import TEST_LEVEL, TIME_LEVEL, make_test_index, test_ids
+from greyml.dynamic import LagFeatures
 from greyml.fuzzy import ANFISFCM, ANFISGrid
 from greyml.grey import (
     AGO,
@@ -27,6 +28,7 @@ __all__ = [
     "GreyConditioningWarning",
     "GreyStabilityWarning",
     "GreyInfluenceSelector",
+    "LagFeatures",
     "MLPBaseline",
     "TEST_LEVEL",
     "TIME_LEVEL",

@@ -72,7 +72,7 @@ def _filter_even(xt, a, zi):
     return y
 
 
-def lag_filter(x, dt, taus, test_bounds, *, carry=False, initial=None):
+def lag_filter(x, dt, taus, test_bounds, *, carry=False, initial=None, out=None):
     """First-order lags of every column of ``x`` at every time constant.
 
     Parameters
@@ -94,10 +94,15 @@ def lag_filter(x, dt, taus, test_bounds, *, carry=False, initial=None):
         previous one left, stepping by ``dt`` at its first row.
     initial : ndarray of shape (p, m), optional
         State before the first row when ``carry`` is True.
+    out : ndarray of shape (p, m, n), optional
+        C-contiguous float64 array to write the lags into (e.g. a block of a
+        larger output array, so that the caller needs no copy); by default a
+        new one is allocated.
 
     Returns
     -------
     lags : ndarray of shape (n, p, m)
+        A view of ``out`` (or of the new array) with its axes moved.
     final : ndarray of shape (p, m)
         The state after the last row (to carry on, or to resume streaming).
     """
@@ -109,7 +114,7 @@ def lag_filter(x, dt, taus, test_bounds, *, carry=False, initial=None):
     # computed as (p, m, n), each lag a contiguous row, and handed back as an
     # (n, p, m) view: reshaped to (n, p·m) it is a Fortran-ordered array that a
     # DataFrame takes without copying
-    store = np.empty((p, m, n))
+    store = np.empty((p, m, n)) if out is None else out
     out = np.moveaxis(store, 2, 0)
     xt = np.ascontiguousarray(x.T)
     state = None
