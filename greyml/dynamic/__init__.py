@@ -7,6 +7,7 @@ The kernels (:mod:`greyml.dynamic._kernels`) are shared by every piece that
 needs a thermal lag, :mod:`greyml.gap` included.
 """
 
+from greyml.dynamic._compensator import Compensator
 from greyml.dynamic._lags import LagFeatures
 
-__all__ = ["LagFeatures"]
+__all__ = ["Compensator", "LagFeatures"]

@@ -543,8 +543,10 @@ def _power_into(column, power, out):
     """``column ** power`` written into ``out``."""
     if power == 1:
         out[...] = column
-    elif power == 2:
-        np.multiply(column, column, out=out)
-    else:
-        with np.errstate(over="ignore", invalid="ignore"):
+        return
+    # an overflow is reported with the column and test by the caller
+    with np.errstate(over="ignore", invalid="ignore"):
+        if power == 2:
+            np.multiply(column, column, out=out)
+        else:
             np.power(column, power, out=out)
