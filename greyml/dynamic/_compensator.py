@@ -230,6 +230,24 @@ class Compensator(BaseEstimator):
         self._build()
         return self
 
+    def fit(self, X=None, y=None):
+        """Check the parameters; nothing is learnt (a compensator is its terms).
+
+        Present so that scikit-learn's tools and :mod:`greyml.persist` treat a
+        compensator as a ready estimator. The state is reset.
+
+        Parameters
+        ----------
+        X, y : ignored
+
+        Returns
+        -------
+        self : Compensator
+        """
+        self.__dict__.pop("_plan", None)
+        self._build()
+        return self
+
     def __sklearn_is_fitted__(self):
         # defined by its parameters: nothing to fit
         return True
@@ -430,7 +448,8 @@ class Compensator(BaseEstimator):
         if bad.size:
             j = int(bad[0])
             raise ValueError(
-                f"{_PREFIX} input {plan['names'][j]!r} is {row[j + 1]!r} at time_s = {time:g} s."
+                f"{_PREFIX} input {plan['names'][j]!r} is {float(row[j + 1])!r} at time_s = "
+                f"{time:g} s."
             )
         raise ValueError(
             f"{_PREFIX} the correction overflows at time_s = {time:g} s (a power of an "
