@@ -84,7 +84,10 @@ def test_relative_to_start_and_shared_lags():
 @pytest.mark.parametrize("jitter", [False, True])
 def test_streaming_equals_batch_on_held_out_tests(scaler, jitter):
     X, y = _machine(jitter=jitter)
-    train, held_out = X.index.get_level_values("test") != "test3", X.index.get_level_values("test") == "test3"
+    train, held_out = (
+        X.index.get_level_values("test") != "test3",
+        X.index.get_level_values("test") == "test3",
+    )
     steps = [LagFeatures([300.0, 900.0, 2700.0], powers={"rpm": (1, 2)})]
     steps += [scaler] if scaler is not None else []
     model = make_pipeline(*steps, RidgeCV(alphas=[0.1, 1.0, 10.0])).fit(X[train], y[train])
@@ -187,9 +190,7 @@ def test_bad_rows():
     _one_line(lambda: comp.update([-5.0, 20.0, 1.0]), "time_s goes back from 0 to -5 s")
     _one_line(lambda: comp.update([5.0, 20.0]), r"must hold time_s and the 2 inputs \(3 values\)")
     _one_line(lambda: comp.update({"time_s": 5.0, "T1_C": "hot", "rpm": 1}), "not a number")
-    _one_line(
-        lambda: comp.update(pd.Series({"time_s": 5.0, "T1_C": 20.0})), "the row has no 'rpm'"
-    )
+    _one_line(lambda: comp.update(pd.Series({"time_s": 5.0, "T1_C": 20.0})), "the row has no 'rpm'")
     assert comp.get_state() == before  # a refused row changes nothing
 
 

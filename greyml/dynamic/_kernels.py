@@ -26,6 +26,8 @@ __all__ = ["lag_filter", "lag_step", "steady_state"]
 # runs row by row (vectorised over columns and time constants) instead of one
 # lfilter call per run of equal steps.
 _RUN_SHARE = 0.02
+# Values per lfilter call (inputs × samples) on evenly sampled runs: 4 MB.
+_CHUNK_VALUES = 2**19
 
 
 def steady_state(x0, n_taus):
@@ -154,9 +156,18 @@ def _filter_segment(xt, steps, taus, before, store):
         return
     run_starts = np.concatenate(([0], change))
     run_stops = np.concatenate((change, [n]))
+    # lfilter returns a new array: in chunks of a few MB along time it is
+    # recycled by the allocator instead of being fresh (page-faulting) memory;
+    # a chunk continues from the last output of the one before, exactly as a
+    # new run of equal steps does
+    chunk = max(4096, _CHUNK_VALUES // max(1, xt.shape[0]))
     state = before
     for r0, r1 in zip(run_starts, run_stops):
         for j, tau in enumerate(taus):
             a = float(np.exp(-steps[r0] / tau))
-            store[:, j, r0:r1] = _filter_even(xt[:, r0:r1], a, state[:, j])
+            s = state[:, j]
+            for c0 in range(r0, r1, chunk):
+                c1 = min(c0 + chunk, r1)
+                store[:, j, c0:c1] = _filter_even(xt[:, c0:c1], a, s)
+                s = store[:, j, c1 - 1]
         state = store[:, :, r1 - 1]

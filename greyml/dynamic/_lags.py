@@ -471,9 +471,12 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         block = np.empty((len(raw) + len(sources) * m, n))
         for i, (j, p) in enumerate(raw):
             _power_into(Xa[:, j], p, block[i])
-        inputs = np.empty((len(sources), n))
-        for i, (j, p) in enumerate(sources):
-            _power_into(Xa[:, j], p, inputs[i])
+        if [j for j, _ in sources] == list(range(Xa.shape[1])) and all(p == 1 for _, p in sources):
+            inputs = Xa.T  # every column as it is: no copy
+        else:
+            inputs = np.empty((len(sources), n))
+            for i, (j, p) in enumerate(sources):
+                _power_into(Xa[:, j], p, inputs[i])
         self._check_overflow(block[: len(raw)], raw, inputs, sources, names, segments)
         lags = block[len(raw) :].reshape(len(sources), m, n)
         lag_filter(
