@@ -174,15 +174,19 @@ class LagFeatures(TransformerMixin, BaseEstimator):
 
     Examples
     --------
+    The spindle starts at 3000 rpm; its lag with τ = 5 min covers 1 − e^−1 of
+    the way in each 5 min step:
+
     >>> import pandas as pd
     >>> from greyml import LagFeatures, make_test_index
-    >>> X = pd.DataFrame({"T1_C": [20.0, 21.0, 21.0, 21.0]},
-    ...                  index=make_test_index(["I"] * 4, [0, 60, 120, 180]))
-    >>> lags = LagFeatures(time_constants=[60 / 0.6931471805599453]).fit(X)
+    >>> X = pd.DataFrame(
+    ...     {"T1_C": [20.0, 21.0, 21.0, 21.0], "spindle_rpm": [0, 3000, 3000, 3000.0]},
+    ...     index=make_test_index(["I"] * 4, [0, 300, 600, 900]))
+    >>> lags = LagFeatures([300, 3600], columns=["spindle_rpm"]).fit(X)
     >>> list(lags.get_feature_names_out())
-    ['T1_C', 'T1_C|lag 86.5617024533 s']
-    >>> lags.transform(X)["T1_C|lag 86.5617024533 s"].round(6).tolist()
-    [20.0, 20.5, 20.75, 20.875]
+    ['T1_C', 'spindle_rpm', 'spindle_rpm|lag 5 min', 'spindle_rpm|lag 1 h']
+    >>> lags.transform(X)["spindle_rpm|lag 5 min"].round(1).tolist()
+    [0.0, 1896.4, 2594.0, 2850.6]
     """
 
     def __init__(
@@ -469,14 +473,16 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         # one (features, rows) C-ordered block: its transpose is the (rows,
         # features) output in Fortran order, which pandas takes without a copy
         block = np.empty((len(raw) + len(sources) * m, n))
+        # one column a contiguous row (a DataFrame's values usually are already)
+        columns = Xa.T if Xa.flags.f_contiguous else np.ascontiguousarray(Xa.T)
         for i, (j, p) in enumerate(raw):
-            _power_into(Xa[:, j], p, block[i])
+            _power_into(columns[j], p, block[i])
         if [j for j, _ in sources] == list(range(Xa.shape[1])) and all(p == 1 for _, p in sources):
-            inputs = Xa.T  # every column as it is: no copy
+            inputs = columns  # every column as it is: no copy
         else:
             inputs = np.empty((len(sources), n))
             for i, (j, p) in enumerate(sources):
-                _power_into(Xa[:, j], p, inputs[i])
+                _power_into(columns[j], p, inputs[i])
         self._check_overflow(block[: len(raw)], raw, inputs, sources, names, segments)
         lags = block[len(raw) :].reshape(len(sources), m, n)
         lag_filter(
