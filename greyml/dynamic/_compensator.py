@@ -194,17 +194,22 @@ class Compensator(BaseEstimator):
                 lagged[key] = lagged.get(key, 0.0) + float(weight)
         used = {k[0] for k in raw} | {k[0] for k in lagged}
         # one vector for every term: the lags first, then the inputs without lag,
-        # taken as lags with a = 0 (s = 1·x + 0·s is x, exactly)
-        keys = list(lagged) + list(raw)
-        powers = np.array([k[1] for k in keys], dtype=float)
+        # taken as lags with a = 0 (s = 1·x + 0·s is x, exactly); the terms with
+        # a power other than 1 in the middle, so one slice holds them all
+        lag_keys = sorted(lagged, key=lambda k: k[1] != 1.0)
+        raw_keys = sorted(raw, key=lambda k: k[1] == 1.0)
+        keys = lag_keys + raw_keys
+        powered = [i for i, k in enumerate(keys) if k[1] != 1.0]
+        start, stop = (powered[0], powered[-1] + 1) if powered else (0, 0)
         return {
             # positions in a row ("time_s", *inputs)
             "index": np.array([k[0] + 1 for k in keys], dtype=np.intp),
-            "power": None if np.all(powers == 1.0) else powers,
-            "tau": np.array([k[2] for k in lagged], dtype=float),
-            "weight": np.array([lagged[k] for k in lagged] + [raw[k] for k in raw], dtype=float),
+            "span": (start, stop),
+            "power": np.array([k[1] for k in keys[start:stop]], dtype=float),
+            "tau": np.array([k[2] for k in lag_keys], dtype=float),
+            "weight": np.array([lagged[k] for k in lag_keys] + [raw[k] for k in raw_keys]),
             "labels": [
-                f"{_power_name(inputs[k[0]], k[1])}|lag {format_seconds(k[2])}" for k in lagged
+                f"{_power_name(inputs[k[0]], k[1])}|lag {format_seconds(k[2])}" for k in lag_keys
             ],
             "names": inputs,
             "shape": (len(inputs) + 1,),
@@ -406,13 +411,15 @@ class Compensator(BaseEstimator):
             plan = self._plan
         except AttributeError:
             plan = self._build()
-        row = self._read(row, plan)
+        if not (type(row) is np.ndarray and row.dtype == np.float64 and row.shape == plan["shape"]):
+            row = self._read(row, plan)
         time = float(row[0])
         if plan["check_all"] and not np.isfinite(row).all():
             self._bad_value(time, row, plan)
         v = row[plan["index"]]
-        if plan["power"] is not None:
-            v = v ** plan["power"]
+        if plan["power"].size:
+            start, stop = plan["span"]
+            v[start:stop] **= plan["power"]
         previous = self._time
         if previous is None:
             lags = v
