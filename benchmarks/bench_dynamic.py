@@ -23,6 +23,7 @@ from __future__ import annotations
 import argparse
 import math
 import time
+import tracemalloc
 
 import numpy as np
 import pandas as pd
@@ -31,6 +32,7 @@ from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import StandardScaler
 
 from greyml import Compensator, LagFeatures, make_test_index
+from greyml.dynamic._kernels import lag_step, steady_state
 
 TAUS = np.array([300.0, 900.0, 2700.0, 8100.0])
 STEP = 15.0
@@ -104,7 +106,16 @@ def bench_lags(args, results):
     t_transform = best_of(lambda: lags.transform(X), args.repeats)
     Z = lags.transform(X)
     out = Z.to_numpy()
+    fortran = bool(out.flags.f_contiguous)
+    n_out = Z.shape[1]
     one_block = getattr(getattr(Z, "_mgr", None), "nblocks", None)
+    # memory: a copy of the output on the way to pandas would double the peak
+    del Z, out
+    tracemalloc.start()
+    Z = lags.transform(X)
+    peak = tracemalloc.get_traced_memory()[1] / Z.to_numpy().nbytes
+    tracemalloc.stop()
+    del Z
     # the same without pandas: an array in (sample_step_s), an array out
     plain = recording(args.rows, args.columns).to_numpy()
     array_lags = LagFeatures(TAUS, sample_step_s=STEP).fit(plain[:10])
@@ -126,7 +137,7 @@ def bench_lags(args, results):
     total = t_fit + t_transform
     print(
         f"(a) LagFeatures, {args.rows:,} rows x {args.columns} columns x {TAUS.size} time "
-        f"constants -> {Z.shape[1]} columns (best of {args.repeats})"
+        f"constants -> {n_out} columns (best of {args.repeats})"
     )
     print(f"  fit (checks)                                {t_fit:8.3f} s")
     print(f"  transform, DataFrame in and out             {t_transform:8.3f} s")
@@ -136,8 +147,8 @@ def bench_lags(args, results):
     )
     print(f"  transform, array in and out                 {t_array:8.3f} s")
     print(
-        f"  output: Fortran-ordered {out.flags.f_contiguous}, pandas blocks {one_block} "
-        "(1 = taken without a copy)"
+        f"  output: Fortran-ordered {fortran}, pandas blocks {one_block}, peak memory of "
+        f"transform {peak:.2f}x the output (2 or more would mean a copy)"
     )
     print(
         f"  plain NumPy row loop ({n_loop:,} rows, scaled)  {t_loop:8.2f} s   ratio "
@@ -156,6 +167,7 @@ def bench_lags(args, results):
         "fit_transform_s": total,
         "transform_array_s": t_array,
         "pandas_blocks": one_block,
+        "peak_memory_over_output": peak,
         "numpy_loop_scaled_s": t_loop,
         "pandas_ewm_s": t_ewm,
         "ratio_numpy_loop": t_loop / t_transform,
@@ -193,6 +205,36 @@ class PlainLoop:
         return total
 
 
+class NumpyLoop:
+    """The compensator as one would first write it with NumPy: the kernel's lag_step
+    on an (inputs × time constants) state, exp recomputed every sample, then sums."""
+
+    def __init__(self, comp, model):
+        lags, scaler, ridge = (step for _, step in model.steps)
+        names = list(comp.inputs)
+        raw, sources = lags._layout(names)
+        self.sources = sources
+        self.raw = raw
+        self.taus = lags.time_constants_
+        weights = ridge.coef_ / scaler.scale_
+        self.w_raw = weights[: len(raw)]
+        self.w_lag = weights[len(raw) :].reshape(len(sources), self.taus.size)
+        self.intercept = ridge.intercept_ - weights @ scaler.mean_
+        self.state = None
+        self.time = None
+
+    def update(self, row):
+        x = row[1:]
+        inputs = np.array([x[j] ** p for j, p in self.sources])
+        if self.state is None:
+            self.state = steady_state(inputs, self.taus.size)
+        else:
+            self.state = lag_step(self.state, inputs, np.exp(-(row[0] - self.time) / self.taus))
+        self.time = row[0]
+        raw = np.array([x[j] ** p for j, p in self.raw])
+        return float(self.intercept + np.sum(self.w_lag * self.state) + self.w_raw @ raw)
+
+
 def bench_compensator(args, results):
     rng = np.random.default_rng(1)
     n = args.updates
@@ -213,6 +255,8 @@ def bench_compensator(args, results):
     t_comp = best_of(lambda: stream(comp), args.repeats) / n
     plain = PlainLoop(comp)
     t_plain = best_of(lambda: stream(PlainLoop(comp)), args.repeats) / n
+    t_numpy = best_of(lambda: stream(NumpyLoop(comp, model)), args.repeats) / n
+    numpy_diff = float(np.abs(np.array(stream(NumpyLoop(comp, model))) - model.predict(X)).max())
     t_batch = best_of(lambda: model.predict(X), args.repeats) / n
     diff = float(np.abs(np.array(stream(comp)) - model.predict(X)).max())
     plain_diff = float(np.abs(np.array(stream(plain)) - model.predict(X)).max())
@@ -236,6 +280,10 @@ def bench_compensator(args, results):
         f"{t_plain / t_comp:6.1f}x   max |diff| {plain_diff:.1e}"
     )
     print(
+        f"  plain NumPy loop (lag_step, exp each sample) {t_numpy * 1e6:7.2f} us   ratio "
+        f"{t_numpy / t_comp:6.1f}x   max |diff| {numpy_diff:.1e}"
+    )
+    print(
         f"  batch Pipeline.predict, per row             {t_batch * 1e6:8.2f} us   ratio "
         f"{t_batch / t_comp:6.2f}x   streaming vs batch max |diff| {diff:.1e}"
     )
@@ -246,6 +294,9 @@ def bench_compensator(args, results):
         "update_us": t_comp * 1e6,
         "update_dict_us": t_dict * 1e6,
         "plain_loop_us": t_plain * 1e6,
+        "numpy_loop_us": t_numpy * 1e6,
+        "ratio_numpy_loop": t_numpy / t_comp,
+        "max_diff_numpy_loop": numpy_diff,
         "batch_predict_per_row_us": t_batch * 1e6,
         "ratio_plain_loop": t_plain / t_comp,
         "ratio_batch": t_batch / t_comp,
