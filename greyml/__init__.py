@@ -1,6 +1,7 @@
 """greyml: thermal-error models of CNC machine tools, scikit-learn compatible."""
 
 from greyml._sequences import TEST_LEVEL, TIME_LEVEL, make_test_index, test_ids
+from greyml.dynamic import Compensator, LagFeatures
 from greyml.fuzzy import ANFISFCM, ANFISGrid
 from greyml.grey import (
     AGO,
@@ -22,11 +23,13 @@ __all__ = [
     "ANFISFCM",
     "ANFISGrid",
     "AccumulatedTargetRegressor",
+    "Compensator",
     "GMC",
     "GNNMCI",
     "GreyConditioningWarning",
     "GreyStabilityWarning",
     "GreyInfluenceSelector",
+    "LagFeatures",
     "MLPBaseline",
     "TEST_LEVEL",
     "TIME_LEVEL",

@@ -102,6 +102,7 @@ from sklearn.preprocessing import (
 )
 from sklearn.utils.validation import check_is_fitted
 
+from greyml.dynamic import Compensator, LagFeatures
 from greyml.fuzzy import ANFISFCM, ANFISGrid
 from greyml.grey import AGO, GMC, GNNMCI, AccumulatedTargetRegressor
 from greyml.neural import MLPBaseline
@@ -147,9 +148,11 @@ ALLOWED_CLASSES = MappingProxyType(
         "greyml.AccumulatedTargetRegressor": AccumulatedTargetRegressor,
         "greyml.ANFISFCM": ANFISFCM,
         "greyml.ANFISGrid": ANFISGrid,
+        "greyml.Compensator": Compensator,
         "greyml.GMC": GMC,
         "greyml.GNNMCI": GNNMCI,
         "greyml.GreyInfluenceSelector": GreyInfluenceSelector,
+        "greyml.LagFeatures": LagFeatures,
         "greyml.MLPBaseline": MLPBaseline,
         "greyml.optimize.CuckooSearch": CuckooSearch,
         "greyml.optimize.ParticleSwarm": ParticleSwarm,

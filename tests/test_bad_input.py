@@ -24,6 +24,7 @@ from greyml import (
     AccumulatedTargetRegressor,
     ANFISGrid,
     GreyInfluenceSelector,
+    LagFeatures,
     MLPBaseline,
     TrainOnOneTest,
     fit_gm1n,
@@ -74,6 +75,12 @@ MODEL = ("y", "index", "names", "fitted", "model", "params", "constant")
 ENTRIES = [
     Entry("AGO", AGO, ("index", "names", "fitted"), step="transform"),
     Entry("AGO.inverse_transform", AGO, ("index", "names", "fitted"), step="inverse_transform"),
+    Entry(
+        "LagFeatures",
+        lambda: LagFeatures([60.0, 600.0], powers={"T1_C": (1, 2)}),
+        ("index", "names", "fitted"),
+        step="transform",
+    ),
     Entry("GMC-ls", lambda: GMC(solver="ls"), MODEL),
     Entry("GMC-pso", lambda: GMC(solver="pso", n_population=6, max_iter=3, random_state=0), MODEL),
     Entry(

@@ -12,6 +12,7 @@ from greyml import (
     AccumulatedTargetRegressor,
     ANFISGrid,
     GreyInfluenceSelector,
+    LagFeatures,
     MLPBaseline,
 )
 
@@ -46,6 +47,10 @@ ESTIMATORS = [
     GreyInfluenceSelector(n_clusters=2, random_state=0),
     AccumulatedTargetRegressor(),
     AccumulatedTargetRegressor(Ridge(alpha=1.0)),
+    # scikit-learn's checks give plain arrays, without greyml's time_s index:
+    # evenly spaced rows one second apart
+    LagFeatures([2.0, 10.0], sample_step_s=1.0),
+    LagFeatures([5.0], state="carry", powers=(1, 2), include_input=False, sample_step_s=1.0),
 ]
 
 # ANFIS and the MLP map each row to its output on its own (a static model), and
