@@ -10,7 +10,7 @@ from sklearn.model_selection import GridSearchCV, LeaveOneGroupOut, cross_val_sc
 from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import StandardScaler
 
-from greyml import GMC, GreyStabilityWarning, make_test_index, simulate_gmc
+from greyml import GMC, GreyConditioningWarning, GreyStabilityWarning, make_test_index, simulate_gmc
 from greyml import test_ids as groups_of
 from greyml.grey import gmc_design
 from greyml.optimize import ParticleSwarm
@@ -256,6 +256,7 @@ def test_mismatched_columns(gmc_tests):
         ),
         ({"response": "euler"}, "'response' parameter"),
         ({"search": "grid"}, "'search' parameter"),
+        ({"bounds": "wide"}, "'bounds' parameter of GMC must be a str among"),
     ],
 )
 def test_bad_parameters(params, match, gmc_tests):
@@ -274,8 +275,73 @@ def _unstable_data():
 def test_least_squares_warns_when_unstable():
     X, y = _unstable_data()
     with pytest.warns(GreyStabilityWarning, match=r"b1 = -0\.\d+ < 0.*factor .* over the longest"):
-        model = GMC(solver="ls").fit(X, y)
+        model = GMC(solver="ls", bounds="papers").fit(X, y)
     assert model.development_coef_ < 0
+
+
+def test_default_bounds_keep_b1_non_negative_and_papers_box_is_named():
+    X, y = _unstable_data()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # the default box: no GreyStabilityWarning
+        default = GMC().fit(X, y)
+    assert default.development_coef_ == 0.0
+    boxed = GMC(bounds=(0.0, 100.0)).fit(X, y)
+    np.testing.assert_array_equal(default.predict(X), boxed.predict(X))
+    with pytest.warns(GreyStabilityWarning):
+        papers = GMC(bounds="papers").fit(X, y)
+    with pytest.warns(GreyStabilityWarning):
+        free = GMC(bounds=(-100.0, 100.0)).fit(X, y)
+    assert papers.development_coef_ == free.development_coef_ < 0
+    # the swarm's box too: b1 in [0, 100] by default, [-100, 100] by name
+    for bounds, lower in [("stable", 0.0), ("papers", -100.0)]:
+        lo, hi = GMC(bounds=bounds)._search_bounds(4)
+        np.testing.assert_array_equal(lo, [lower, -100, -100, -100])
+        np.testing.assert_array_equal(hi, [100.0] * 4)
+
+
+def test_least_squares_says_why_its_response_overflows():
+    # an alternating drift whose least-squares b1 is -202: in the papers' box it
+    # is set to -100, whose response overflows; the default box sets it to 0
+    Y = (-1.02) ** np.arange(40)
+    X, y = np.linspace(1.0, 2.0, 40)[:, None], np.r_[Y[0], np.diff(Y)]
+    match = (
+        r"GMC\(solver='ls'\) calibration failed: least squares on the grey equation gives "
+        r"b1 = -202, outside bounds, so b1 was set to their nearer end, -100; .*overflows"
+    )
+    with pytest.warns(GreyStabilityWarning), pytest.raises(ValueError, match=match):
+        GMC(bounds="papers").fit(X, y)
+    assert GMC().fit(X, y).development_coef_ == 0.0
+
+
+def static_case(seed=0):
+    """Issue 15's two tests of 60 rows: a static mix of saturating inputs."""
+    t = np.arange(120.0)
+    noise = np.random.default_rng(seed).normal(scale=0.01, size=120)
+    X = np.column_stack(
+        [1 - np.exp(-t / 20), 1 - np.exp(-t / 35), 0.5 * (1 - np.exp(-t / 50)), 0.2 + noise]
+    )
+    index = make_test_index(np.repeat(["A", "B"], 60), 60.0 * np.r_[np.arange(60), np.arange(60)])
+    X = pd.DataFrame(X, index=index, columns=["a", "b", "c", "d"])
+    return X, pd.Series(X.to_numpy() @ [3.0, -1.0, 2.0, 0.5], index=index, name="y")
+
+
+def test_default_gmc_fits_a_static_mix_of_saturating_inputs():
+    X, y = static_case()
+    # the static target makes the grey equation rank deficient (a line of
+    # equally good least-squares solutions); its minimum-norm b1 is -0.41
+    with pytest.warns(GreyConditioningWarning):
+        model = GMC().fit(X, y)
+    assert model.development_coef_ == 0.0
+    rmse = float(np.sqrt(np.mean((model.predict(X) - y) ** 2)))
+    assert 0.40 < rmse < 0.43, rmse  # measured 0.419, target std 0.715
+    with pytest.warns(GreyConditioningWarning):
+        swarm = GMC(solver="pso", random_state=0).fit(X, y)
+    rmse_swarm = float(np.sqrt(np.mean((swarm.predict(X) - y) ** 2)))
+    assert rmse_swarm < 0.1, rmse_swarm  # measured 0.098, b1 = 1.23
+    # the papers' box keeps least squares' b1 < 0, whose response explodes
+    with pytest.warns(GreyConditioningWarning), pytest.warns(GreyStabilityWarning):
+        papers = GMC(bounds="papers").fit(X, y)
+    assert np.abs(papers.predict(X) - y).max() > 1e6
 
 
 def test_least_squares_keeps_b1_in_its_bounds():

@@ -58,8 +58,8 @@ class GreyStabilityWarning(UserWarning):
     Its response grows like e^{−b₁k} instead of settling, so it can fit the
     training tests and still predict absurd values on a longer test. The
     warning says by how much the response grows over the longest training
-    test. Give ``bounds=(0, 100)`` (to any solver, least squares too), or use
-    :class:`GNNMCI`, whose default keeps b₁ ≥ 0.
+    test. The default ``bounds="stable"`` (any solver, least squares too)
+    keeps b₁ ≥ 0; it happens with ``bounds="papers"`` or a box of your own.
 
     Examples
     --------
@@ -73,7 +73,7 @@ class GreyStabilityWarning(UserWarning):
     >>> y = np.exp(0.05 * np.arange(40))
     >>> with warnings.catch_warnings(record=True) as caught:
     ...     warnings.simplefilter("always")
-    ...     model = GMC().fit(X, y)
+    ...     model = GMC(bounds="papers").fit(X, y)
     >>> [w.category.__name__ for w in caught]
     ['GreyStabilityWarning']
     >>> bool(model.development_coef_ < 0)
@@ -82,6 +82,12 @@ class GreyStabilityWarning(UserWarning):
 
 
 _SOLVERS = ("ls", "pso", "cs")
+
+#: The papers' search box for every grey coefficient, b₁ included (Tien (2012);
+#: Abdulshahed et al. (2016, 2017)): ``bounds="papers"``. It admits b₁ < 0, an
+#: unstable response; ``bounds="stable"`` (the default) narrows b₁ to [0, 100].
+PAPERS_BOUNDS = (-100.0, 100.0)
+BOUNDS_NAMES = ("stable", "papers")
 
 
 def _bounds_list(segments):
@@ -146,6 +152,7 @@ class _GreyConvolutionModel(RegressorMixin, BaseEstimator):
             # squares optimum has b1 at the nearer end
             lower, upper = check_bounds(self._search_bounds(n_theta), n_theta)
             theta = theta_ls
+            ls_b1 = float(b1)
             if not lower[0] <= b1 <= upper[0]:
                 edge = float(np.clip(b1, lower[0], upper[0]))
                 b, u = gmc_lstsq_fixed_b1(ya, Xa, edge, bounds)
@@ -199,13 +206,25 @@ class _GreyConvolutionModel(RegressorMixin, BaseEstimator):
                 f"{self.development_coef_:.4g} < 0, so its response grows like "
                 f"exp({-self.development_coef_:.4g}·k), a factor {factor} over the longest "
                 f"training test ({n_max} samples), and more on longer tests. Keep b1 >= 0 "
-                "with bounds=(0, 100) (any solver), or use GNNMCI.",
+                "with bounds='stable' (the default, any solver).",
                 GreyStabilityWarning,
                 stacklevel=3,
             )
         self.loss_ = float(
             gmc_sse_population(X1, ya, theta[None, :], bounds, self.response, self.initial)[0]
         )
+        if self.loss_ >= LARGE_LOSS and optimizer is None:
+            where = (
+                "inside bounds"
+                if theta[0] == ls_b1
+                else f"outside bounds, so b1 was set to their nearer end, {theta[0]:g}"
+            )
+            raise ValueError(
+                f"{type(self).__name__}(solver='ls') calibration failed: least squares on the "
+                f"grey equation gives b1 = {ls_b1:.4g}, {where}; with it the time response "
+                f"grows like exp({-theta[0]:g}·k) and overflows on the training tests. Use "
+                "bounds='stable' (b1 >= 0) or solver='pso'."
+            )
         if self.loss_ >= LARGE_LOSS:
             raise ValueError(
                 f"{type(self).__name__} calibration failed: every candidate trajectory diverged on "
@@ -252,7 +271,18 @@ class _GreyConvolutionModel(RegressorMixin, BaseEstimator):
         return pred
 
     def _search_bounds(self, n_theta):
-        """The optimiser's box for (b₁, b₂…b_N, u); subclasses may derive it."""
+        """The optimiser's box for (b₁, b₂…b_N, u), with the named boxes resolved."""
+        if isinstance(self.bounds, str):
+            if self.bounds not in BOUNDS_NAMES:
+                raise ValueError(
+                    f"The 'bounds' parameter of {type(self).__name__} must be a str among "
+                    f"{{'stable', 'papers'}} or a (lower, upper) pair. Got {self.bounds!r} "
+                    "instead."
+                )
+            lower = np.full(n_theta, PAPERS_BOUNDS[0])
+            if self.bounds == "stable":
+                lower[0] = 0.0
+            return lower, np.full(n_theta, PAPERS_BOUNDS[1])
         return self.bounds
 
     def __sklearn_tags__(self):
@@ -292,14 +322,20 @@ class GMC(_GreyConvolutionModel):
         is fixed (variable projection). ``"full"``: every coefficient, as in
         seeds 002/004. The separable search reaches the trajectory optimum in a
         budget where the full search does not (see Notes).
-    bounds : (float, float) or (array, array), default=(-100, 100)
-        Search box (seed 004). With ``search="full"``: for (b₁, b₂…b_N, u), the
-        same for all coefficients when scalars. With ``search="separable"``: for
-        b₁ (the first entry when arrays are given). With ``solver="ls"``: the
-        range of b₁ only; if the least-squares b₁ falls outside it, b₁ is set to
-        the nearer end and the other coefficients are solved again (the least
-        squares optimum within the range). ``bounds=(0, 100)`` keeps any solver
-        stable (b₁ ≥ 0).
+    bounds : {"stable", "papers"} or (float, float) or (array, array), \
+            default="stable"
+        Search box. ``"stable"``: b₁ in [0, 100] and every other coefficient
+        in [−100, 100], so that every solver calibrates a response that
+        settles (b₁ ≥ 0), as :class:`GNNMCI` does. ``"papers"``: [−100, 100] for
+        every coefficient, b₁ included, the setting of Tien (2012) and
+        Abdulshahed et al. (2017); it admits b₁ < 0, which :class:`GreyStabilityWarning` reports. A pair
+        gives the box itself. With ``search="full"``: for (b₁, b₂…b_N, u),
+        the same for all coefficients when scalars. With
+        ``search="separable"``: for b₁ (the first entry when arrays are given).
+        With ``solver="ls"``: the range of b₁ only; if the least-squares b₁
+        falls outside it, b₁ is set to the nearer end and the other
+        coefficients are solved again (the least-squares optimum within the
+        range).
     n_population : int, default=25
         Particles or nests (seed 004: 25).
     max_iter : int, default=100
@@ -369,10 +405,9 @@ class GMC(_GreyConvolutionModel):
     without bound (b₁ ≪ 0) is a large finite loss for the optimisers; ``predict``
     raises rather than return one that overflows. A mildly negative b₁ (e.g.
     −0.03) grows without overflowing: on a test longer than the training tests
-    it can predict absurd values. ``fit`` therefore warns
-    (:class:`GreyStabilityWarning`) whenever it ends with b₁ < 0; give
-    ``bounds`` with a lower limit of 0 for b₁ (as :class:`GNNMCI` does) to
-    rule it out.
+    it can predict absurd values. The default ``bounds="stable"`` therefore
+    keeps b₁ ≥ 0; with ``bounds="papers"`` (or any box that admits b₁ < 0)
+    ``fit`` warns (:class:`GreyStabilityWarning`) whenever it ends with b₁ < 0.
 
     References
     ----------
@@ -400,7 +435,7 @@ class GMC(_GreyConvolutionModel):
         solver="ls",
         *,
         search="separable",
-        bounds=(-100.0, 100.0),
+        bounds="stable",
         n_population=25,
         max_iter=100,
         response="trapezoid",
