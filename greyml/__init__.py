@@ -12,7 +12,7 @@ from greyml.grey import (
     fit_gm1n,
     simulate_gmc,
 )
-from greyml.neural import MLPBaseline
+from greyml.neural import MLPBaseline, UnderdeterminedWarning
 from greyml.selection import GreyInfluenceSelector, TrainOnOneTest
 
 __version__ = "0.1.0.dev0"
@@ -31,6 +31,7 @@ __all__ = [
     "TEST_LEVEL",
     "TIME_LEVEL",
     "TrainOnOneTest",
+    "UnderdeterminedWarning",
     "fit_gm1n",
     "make_test_index",
     "simulate_gmc",
