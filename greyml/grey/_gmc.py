@@ -328,8 +328,9 @@ class GMC(_GreyConvolutionModel):
         in [−100, 100], so that every solver calibrates a response that
         settles (b₁ ≥ 0), as :class:`GNNMCI` does. ``"papers"``: [−100, 100] for
         every coefficient, b₁ included, the setting of Tien (2012) and
-        Abdulshahed et al. (2017); it admits b₁ < 0, which :class:`GreyStabilityWarning` reports. A pair
-        gives the box itself. With ``search="full"``: for (b₁, b₂…b_N, u),
+        Abdulshahed et al. (2017); it admits b₁ < 0, which
+        :class:`GreyStabilityWarning` reports. A pair gives the box itself.
+        With ``search="full"``: for (b₁, b₂…b_N, u),
         the same for all coefficients when scalars. With
         ``search="separable"``: for b₁ (the first entry when arrays are given).
         With ``solver="ls"``: the range of b₁ only; if the least-squares b₁

@@ -168,8 +168,9 @@ class MLPBaseline(RegressorMixin, BaseEstimator):
     MATLAB: the damping μ keeps every step defined, and the goal or the
     validation stop ends training. ``fit`` then warns
     (:class:`UnderdeterminedWarning`), since such a network can interpolate
-    its training rows; it needs at least two rows. Size the network by cross-validation (seed 000 tried 1 to 15
-    hidden units), e.g. ``GridSearchCV`` over ``hidden_layer_sizes`` with
+    its training rows; it needs at least two rows. Size the network by
+    cross-validation (seed 000 tried 1 to 15 hidden units), e.g.
+    ``GridSearchCV`` over ``hidden_layer_sizes`` with
     ``LeaveOneGroupOut`` on the tests; refusing large networks on small folds
     would make such a search fail part-way.
 
