@@ -9,6 +9,7 @@ from greyml.grey import (
     AccumulatedTargetRegressor,
     GreyConditioningWarning,
     GreyStabilityWarning,
+    GreyWarmStartWarning,
     fit_gm1n,
     simulate_gmc,
 )
@@ -26,6 +27,7 @@ __all__ = [
     "GNNMCI",
     "GreyConditioningWarning",
     "GreyStabilityWarning",
+    "GreyWarmStartWarning",
     "GreyInfluenceSelector",
     "MLPBaseline",
     "TEST_LEVEL",

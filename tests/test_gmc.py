@@ -10,7 +10,14 @@ from sklearn.model_selection import GridSearchCV, LeaveOneGroupOut, cross_val_sc
 from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import StandardScaler
 
-from greyml import GMC, GreyConditioningWarning, GreyStabilityWarning, make_test_index, simulate_gmc
+from greyml import (
+    GMC,
+    GreyConditioningWarning,
+    GreyStabilityWarning,
+    GreyWarmStartWarning,
+    make_test_index,
+    simulate_gmc,
+)
 from greyml import test_ids as groups_of
 from greyml.grey import gmc_design
 from greyml.optimize import ParticleSwarm
@@ -368,3 +375,74 @@ def test_least_squares_bounds_inside_change_nothing(gmc_tests):
     boxed = GMC(solver="ls", bounds=(0.0, 100.0)).fit(X, y)
     assert 0 < free.development_coef_ < 100
     np.testing.assert_array_equal(free.predict(X), boxed.predict(X))
+
+
+# -- a test that starts mid-run (issue 15, item 5) ------------------------------
+def _warm_case():
+    """Two cold tests rising from about 20 C (temperatures given as T - 20), a GMC
+    target with b1 = 0.05, and the last 30 % of a third, slower test as a new test."""
+    rng = np.random.default_rng(3)
+    t = np.arange(100.0)
+
+    def run(label, ambient, tau):
+        T = ambient + 6 * (1 - np.exp(-t / tau)) + 0.02 * rng.normal(size=t.size)
+        X = pd.DataFrame({"T1_C": T - 20.0}, index=make_test_index([label] * t.size, t))
+        return X, simulate_gmc(X.to_numpy(), 0.05, [0.6], 0.0)
+
+    (Xa, ya), (Xb, yb), (Xc, yc) = run("A", 20.0, 25), run("B", 20.4, 25), run("C", 20.2, 40)
+    X = pd.concat([Xa, Xb])
+    y = pd.Series(np.r_[ya, yb], index=X.index, name="dz_um")
+    tail = Xc.iloc[70:].copy()
+    tail.index = make_test_index(["C-tail"] * 30, t[:30])
+    return X, y, tail, yc[70:]
+
+
+def test_initial_displacement_starts_a_mid_run_test_from_its_measured_value():
+    X, y, tail, y_tail = _warm_case()
+    model = GMC().fit(X, y)
+    assert model.development_coef_ == pytest.approx(0.05, abs=0.002)
+    np.testing.assert_allclose(model.start_range_, [[0.0], [0.4]], atol=0.05)
+    with pytest.warns(GreyWarmStartWarning, match=r"test 'C-tail'.*column 'T1_C' starts at 5\.[0-9]"):
+        cold = model.predict(tail)
+    start = float(y_tail[0])  # 51.5 um
+    for given in (start, {"C-tail": start}, pd.Series({"C-tail": start})):
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")  # a test with its start given: no warning
+            warm = model.predict(tail, initial_displacement=given)
+        assert warm[0] == pytest.approx(start, rel=1e-12)
+    cold_rmse = np.sqrt(np.mean((cold - y_tail) ** 2))
+    warm_rmse = np.sqrt(np.mean((warm - y_tail) ** 2))
+    assert cold_rmse > 25 and warm_rmse < 0.2, (cold_rmse, warm_rmse)  # measured 28.8, 0.12
+    # GNNMCI shares the implementation
+    from greyml import GNNMCI
+
+    net = GNNMCI(n_particles=10, max_iter=10, random_state=0).fit(X, y)
+    with pytest.warns(GreyWarmStartWarning, match=r"GNNMCI predicts test 'C-tail'"):
+        net.predict(tail)
+    assert net.predict(tail, initial_displacement=start)[0] == pytest.approx(start, rel=1e-12)
+    # the same through a Pipeline, which hands the keyword to its last step
+    pipe = make_pipeline(StandardScaler(with_mean=False).set_output(transform="pandas"), GMC())
+    pipe.fit(X, y)
+    np.testing.assert_allclose(
+        pipe.predict(tail, initial_displacement=start), warm, rtol=1e-6, atol=1e-6
+    )
+
+
+def test_initial_displacement_bad_values():
+    X, y, tail, _ = _warm_case()
+    model = GMC().fit(X, y)
+    with pytest.raises(ValueError, match=r"names test 'D', which X does not hold.*'C-tail'"):
+        model.predict(tail, initial_displacement={"D": 1.0})
+    with pytest.raises(ValueError, match=r"initial_displacement of test 'C-tail'.*finite.*nan"):
+        model.predict(tail, initial_displacement={"C-tail": np.nan})
+    with pytest.raises(ValueError, match=r"finite number; got inf"):
+        model.predict(tail, initial_displacement=np.inf)
+    with pytest.raises(TypeError, match=r"number, a dict or a Series.*got list"):
+        model.predict(tail, initial_displacement=[1.0])
+    plain = GMC().fit(X.to_numpy(), y.to_numpy())
+    with pytest.raises(ValueError, match=r"needs X with a 'test' index level"):
+        plain.predict(tail.to_numpy()[:, :1] * 0 + 20.0, initial_displacement={"C-tail": 1.0})
+    # a test that starts as the training tests did gets no warning
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        model.predict(X)
