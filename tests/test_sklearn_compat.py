@@ -31,11 +31,12 @@ SEQUENCE_CHECKS = {
 ESTIMATORS = [
     AGO(),
     GMC(solver="ls"),
-    GMC(solver="pso"),
-    GMC(solver="cs"),
-    # the swarm is cut for time (seed 000's 90 × 100 costs ~40 s over these
-    # checks), as scikit-learn does for its own iterative estimators; the
-    # default swarm is exercised in tests/test_gnnmci.py
+    # the swarms and nests are cut for time (the cuckoo search's 25 × 100 cost
+    # the most of any estimator over these checks, seed 000's 90 × 100 swarm
+    # ~40 s), as scikit-learn does for its own iterative estimators; the
+    # default budgets are exercised in tests/test_gmc.py and tests/test_gnnmci.py
+    GMC(solver="pso", n_population=10, max_iter=20),
+    GMC(solver="cs", n_population=10, max_iter=20),
     GNNMCI(n_particles=20, max_iter=20),
     ANFISGrid(),
     ANFISFCM(),
