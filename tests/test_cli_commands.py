@@ -376,7 +376,8 @@ def test_predict_a_test_that_starts_mid_run(capsys, tiny, tmp_path):
     assert main([str(a) for a in argv]) == 0
     out, err = capsys.readouterr()
     assert err.count("\n") == 1, err  # one line, naming the test and the column
-    assert err.startswith("greyml predict: warning: GreyWarmStartWarning: GMC predicts test 'B-tail'")
+    head = "greyml predict: warning: GreyWarmStartWarning: GMC predicts test 'B-tail'"
+    assert err.startswith(head), err
     assert "column 'T1_C' starts at 25" in err and "--initial-displacement" in err
     cold = read_tests_csv(tmp_path / "cold.csv")["predicted_dz_um"].to_numpy()
 

@@ -402,7 +402,8 @@ def test_initial_displacement_starts_a_mid_run_test_from_its_measured_value():
     model = GMC().fit(X, y)
     assert model.development_coef_ == pytest.approx(0.05, abs=0.002)
     np.testing.assert_allclose(model.start_range_, [[0.0], [0.4]], atol=0.05)
-    with pytest.warns(GreyWarmStartWarning, match=r"test 'C-tail'.*column 'T1_C' starts at 5\.[0-9]"):
+    match = r"test 'C-tail'.*column 'T1_C' starts at 5\.[0-9]"
+    with pytest.warns(GreyWarmStartWarning, match=match):
         cold = model.predict(tail)
     start = float(y_tail[0])  # 51.5 um
     for given in (start, {"C-tail": start}, pd.Series({"C-tail": start})):
