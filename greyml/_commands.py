@@ -138,7 +138,7 @@ def make_model(name, *, random_state=0, quick=False):
 
     check = f"{100 * CHECKING_FRACTION:.0f} % checking data"
     if name == "gmc":
-        return GMC(solver="ls"), "GMC(1,N) calibrated by least squares (seed 000's GMC-LS)"
+        return GMC(solver="ls"), "GMC(1,N) calibrated by least squares, b1 >= 0 (GMC-LS)"
     if name == "gnnmci":
         particles, iterations = (20, 20) if quick else (90, 100)
         model = GNNMCI(n_particles=particles, max_iter=iterations, random_state=random_state)

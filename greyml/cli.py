@@ -417,7 +417,7 @@ def _run_select(args):
 _FIT_EPILOG = (
     """\
 Models (the seeds' settings):
-  gmc         GMC(1,N) by least squares (seed 000's GMC-LS)
+  gmc         GMC(1,N) by least squares, b1 >= 0 (GMC-LS)
   gnnmci      GNNMCI(1,N), particle swarm of 90 x 100 iterations (seed 000)
   anfis-grid  ANFIS with 3 Gaussian MFs per input, 100 epochs (seed 001;
               3^5 = 243 rules on 5 inputs, so give few inputs)
