@@ -11,9 +11,11 @@ The data is greyml's simulation of that test (``greyml.datasets.load_probe_test`
 The drivers are temperature rises from the test start: GMC has no intercept of its
 own (u only shapes a transient), so absolute temperatures would turn the ambient
 drift into a spurious offset. b₁ is kept ≥ 0 for the swarm and cuckoo solvers, so
-that the response cannot grow without bound. The least-squares solver has no such
-constraint: here it settles on b₁ < 0, and GMC warns as it calibrates
-(:class:`greyml.GreyStabilityWarning`), which the script prints.
+that the response cannot grow without bound. The least-squares solver is given the
+papers' box (``bounds="papers"``, b₁ in [−100, 100]) to show what it does without
+that constraint: here it settles on b₁ < 0, and GMC warns as it calibrates
+(:class:`greyml.GreyStabilityWarning`), which the script prints. GMC's default box
+(``bounds="stable"``) keeps b₁ ≥ 0 for every solver.
 
 The script prints the seeds' metrics (R, RMSE, E, ±residual, improvement) next to
 the numbers seed 004 reports. It also prints an ordinary least-squares regression
@@ -53,7 +55,7 @@ print(
 # %%
 # Calibrate the three solvers (and a linear reference) on the first part
 models = {
-    "GMC-LS": GMC(solver="ls"),
+    "GMC-LS": GMC(solver="ls", bounds="papers"),
     "PSO-GMC": GMC(solver="pso", bounds=(0.0, 100.0), random_state=0),
     "CS-GMC": GMC(solver="cs", bounds=(0.0, 100.0), random_state=0),
     "linear regression": LinearRegression(),

@@ -10,10 +10,11 @@ from greyml.grey import (
     AccumulatedTargetRegressor,
     GreyConditioningWarning,
     GreyStabilityWarning,
+    GreyWarmStartWarning,
     fit_gm1n,
     simulate_gmc,
 )
-from greyml.neural import MLPBaseline
+from greyml.neural import MLPBaseline, UnderdeterminedWarning
 from greyml.selection import GreyInfluenceSelector, TrainOnOneTest
 
 __version__ = "0.1.0.dev0"
@@ -28,12 +29,14 @@ __all__ = [
     "GNNMCI",
     "GreyConditioningWarning",
     "GreyStabilityWarning",
+    "GreyWarmStartWarning",
     "GreyInfluenceSelector",
     "LagFeatures",
     "MLPBaseline",
     "TEST_LEVEL",
     "TIME_LEVEL",
     "TrainOnOneTest",
+    "UnderdeterminedWarning",
     "fit_gm1n",
     "make_test_index",
     "simulate_gmc",
