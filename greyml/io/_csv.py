@@ -292,7 +292,7 @@ def _split_line(text, sep, name, line):
         raise ValueError(f"Line {line} of {name!r} is not well-formed CSV: {exc}.") from None
 
 
-def _header(path, sep=None, max_line_bytes=MAX_LINE_BYTES):
+def _header(path, sep, max_line_bytes):
     """The header's names, the separator and the first data lines (up to 50)."""
     name = os.fspath(path)
     try:
@@ -459,7 +459,7 @@ def _data_columns(raw, labels, name):
     return time, pd.DataFrame(columns, copy=False)
 
 
-def read_tests_csv(path, *, time_unit="s", sep=None, decimal=None, max_line_bytes=MAX_LINE_BYTES):
+def read_tests_csv(path, *, time_unit="s", sep=None, decimal=None, max_line_bytes=None):
     """Read test data written by :func:`write_tests_csv` (or by hand, or a spreadsheet).
 
     Parameters
@@ -478,9 +478,10 @@ def read_tests_csv(path, *, time_unit="s", sep=None, decimal=None, max_line_byte
     decimal : {".", ","}, optional
         The decimal mark. By default ``.``, or ``,`` when the separator is
         not a comma and the first 50 data lines hold numbers like ``20,5``.
-    max_line_bytes : int, default=16 MiB
-        The longest line read (:data:`MAX_LINE_BYTES`); a longer one is an
-        error, so a file of one huge line cannot exhaust memory.
+    max_line_bytes : int, optional
+        The longest line read, :data:`MAX_LINE_BYTES` (16 MiB) by default; a
+        longer one is an error, so a file of one huge line cannot exhaust
+        memory.
 
     Returns
     -------
@@ -534,6 +535,8 @@ def read_tests_csv(path, *, time_unit="s", sep=None, decimal=None, max_line_byte
         raise ValueError(f"decimal must be '.' or ','; got {decimal!r}.")
     if decimal is not None and decimal == sep:
         raise ValueError(f"decimal {decimal!r} cannot also be the separator sep={sep!r}.")
+    if max_line_bytes is None:
+        max_line_bytes = MAX_LINE_BYTES
     if (
         not isinstance(max_line_bytes, int)
         or isinstance(max_line_bytes, bool)
