@@ -406,7 +406,8 @@ def _add_simulate_parser(subparsers):
         type=int,
         default=0,
         metavar="N",
-        help="seed of the measurement noise (default: 0, the data of greyml.datasets)",
+        help="seed of the measurement noise (default: 0, the data of greyml.datasets); "
+        "--seed N is its deprecated spelling",
     )
     parser.add_argument(
         "--seed",
@@ -415,7 +416,7 @@ def _add_simulate_parser(subparsers):
         action=_Deprecated,
         new="--random-state",
         metavar="N",
-        help="deprecated spelling of --random-state",
+        help=argparse.SUPPRESS,
     )
     parser.add_argument("--force", action="store_true", help="replace FILE.csv if it exists")
     _add_quiet(parser)
@@ -487,7 +488,11 @@ def _add_select_parser(subparsers):
         "--target", required=True, type=_name, metavar="COL", help="target column, e.g. dy_um"
     )
     parser.add_argument(
-        "--n-sensors", type=_count, default=5, metavar="N", help="sensors to keep (default: 5)"
+        "--n-sensors",
+        type=_count,
+        default=5,
+        metavar="N",
+        help="sensors to keep (default: 5); --n N is its deprecated spelling",
     )
     parser.add_argument(
         "--n",
@@ -496,7 +501,7 @@ def _add_select_parser(subparsers):
         action=_Deprecated,
         new="--n-sensors",
         metavar="N",
-        help="deprecated spelling of --n-sensors",
+        help=argparse.SUPPRESS,
     )
     parser.add_argument("--cluster-on", choices=("series", "influence"), help=_CLUSTER_HELP)
     parser.add_argument(
@@ -504,7 +509,8 @@ def _add_select_parser(subparsers):
         type=_names,
         action="extend",
         metavar="A,B",
-        help="select on these tests only (default: all tests)",
+        help="select on these tests only (default: all tests); --train-test LABEL is its "
+        "deprecated spelling",
     )
     parser.add_argument(
         "--train-test",
@@ -514,7 +520,7 @@ def _add_select_parser(subparsers):
         new="--train-tests",
         as_list=True,
         metavar="LABEL",
-        help="deprecated spelling of --train-tests",
+        help=argparse.SUPPRESS,
     )
     parser.add_argument(
         "--sensors", type=_names, action="extend", metavar="A,B", help=_SENSORS_HELP
@@ -599,7 +605,8 @@ def _add_fit_parser(subparsers):
         "--n-sensors",
         type=_count,
         metavar="N",
-        help="keep N sensors with GreyInfluenceSelector before the model",
+        help="keep N sensors with GreyInfluenceSelector before the model; --select N is "
+        "its deprecated spelling",
     )
     parser.add_argument(
         "--select",
@@ -608,7 +615,7 @@ def _add_fit_parser(subparsers):
         action=_Deprecated,
         new="--n-sensors",
         metavar="N",
-        help="deprecated spelling of --n-sensors",
+        help=argparse.SUPPRESS,
     )
     parser.add_argument(
         "--cluster-on",
