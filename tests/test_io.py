@@ -1,5 +1,7 @@
 """CSV reading and writing of greyml's test-data layout (issue 3)."""
 
+import os
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -240,3 +242,14 @@ def test_very_wide_files_read_the_same_numbers(tmp_path, gap):
     assert frame["c7"].tolist() == [7.0, 7.25, 7.5]
     assert frame["c1"].isna().tolist() == [False, gap, False]
     assert frame.index.get_level_values("time_s").tolist() == [0.0, 60.0, 120.0]
+
+
+def test_a_folder_or_pipe_is_not_read(tmp_path):
+    with pytest.raises(ValueError, match=r"is a folder; give a CSV file"):
+        read_tests_csv(tmp_path)
+    fifo = tmp_path / "pipe.csv"
+    if not hasattr(os, "mkfifo"):
+        pytest.skip("no named pipes on this system")
+    os.mkfifo(fifo)
+    with pytest.raises(ValueError, match=r"not a regular file \(a pipe or device\)"):
+        read_tests_csv(fifo)  # without the check, opening it would wait for a writer

@@ -497,8 +497,9 @@ def read_tests_csv(path, *, time_unit="s", sep=None, decimal=None, max_line_byte
         or ``time_s`` column, a missing test label or time, a value that is
         not a number, two rows with the same test and time, time that does not
         increase within a test, a test whose rows are not contiguous, a line
-        longer than ``max_line_bytes``, a file that is not UTF-8, or an
-        unknown ``time_unit``.
+        longer than ``max_line_bytes``, a file that is not UTF-8, a path that
+        is not a regular file (a folder, pipe or device), or an unknown
+        ``time_unit``.
 
     Examples
     --------
@@ -543,6 +544,9 @@ def read_tests_csv(path, *, time_unit="s", sep=None, decimal=None, max_line_byte
         or max_line_bytes < 1
     ):
         raise ValueError(f"max_line_bytes must be a whole number >= 1; got {max_line_bytes!r}.")
+    if os.path.exists(path) and not os.path.isfile(path):
+        what = "a folder" if os.path.isdir(path) else "not a regular file (a pipe or device)"
+        raise ValueError(f"{name!r} is {what}; give a CSV file (it is read more than once).")
     _check_line_lengths(path, name, max_line_bytes)
     header, sep, first_lines = _header(path, sep, max_line_bytes)
     if len(header) == len(KEYS):
