@@ -402,29 +402,38 @@ def _what_text(text) -> str:
             return ""
 
 
+def _number_or_nan(text):
+    """A cell of a wide file: a number, or NaN when empty."""
+    text = text.strip()
+    return float(text) if text else np.nan
+
+
 def _read_wide(path, header, positions, sep, decimal):
     """The columns at ``positions`` of a wide file of plain numbers, or None.
 
-    With :data:`WIDE_COLUMNS` columns or more, a decimal point and no empty or
-    text cell, NumPy's parser reads the file in one 2-D float64 array; any
-    other file (or any cell NumPy cannot read) is left to pandas.
+    With :data:`WIDE_COLUMNS` columns or more, a decimal point and no text
+    cell, NumPy's parser reads the file in one 2-D float64 array (empty cells
+    NaN); any other file (or any cell NumPy cannot read) is left to pandas.
     """
     if len(header) < WIDE_COLUMNS or decimal != ".":
         return None
+    options = dict(
+        delimiter=sep,
+        skiprows=1,
+        usecols=positions,
+        dtype=np.float64,
+        ndmin=2,
+        encoding="utf-8-sig",
+        comments=None,
+        quotechar='"',
+    )
     try:
-        values = np.loadtxt(
-            path,
-            delimiter=sep,
-            skiprows=1,
-            usecols=positions,
-            dtype=np.float64,
-            ndmin=2,
-            encoding="utf-8-sig",
-            comments=None,
-            quotechar='"',
-        )
+        values = np.loadtxt(path, **options)
     except (ValueError, UnicodeDecodeError):
-        return None
+        try:  # empty cells are missing values: slower, still linear
+            values = np.loadtxt(path, converters=_number_or_nan, **options)
+        except (ValueError, UnicodeDecodeError):
+            return None
     return pd.DataFrame(values, columns=positions, copy=False)
 
 
