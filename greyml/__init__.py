@@ -1,23 +1,34 @@
 """greyml: thermal-error models of CNC machine tools, scikit-learn compatible."""
 
-from greyml._sequences import TEST_LEVEL, TIME_LEVEL, make_test_index, test_ids
-from greyml.dynamic import Compensator, LagFeatures
-from greyml.fuzzy import ANFISFCM, ANFISGrid
-from greyml.grey import (
-    AGO,
-    GMC,
-    GNNMCI,
-    AccumulatedTargetRegressor,
-    GreyConditioningWarning,
-    GreyStabilityWarning,
-    GreyWarmStartWarning,
-    fit_gm1n,
-    simulate_gmc,
-)
-from greyml.neural import MLPBaseline, UnderdeterminedWarning
-from greyml.selection import GreyInfluenceSelector, TrainOnOneTest
-
+# The public names are imported on first use (PEP 562), so that the command
+# line answers ``greyml --version`` and ``--help`` without importing NumPy,
+# pandas or scikit-learn.
 __version__ = "0.1.0.dev0"
+
+#: Where each public name lives.
+_LAZY = {
+    "TEST_LEVEL": "greyml._sequences",
+    "TIME_LEVEL": "greyml._sequences",
+    "make_test_index": "greyml._sequences",
+    "test_ids": "greyml._sequences",
+    "Compensator": "greyml.dynamic",
+    "LagFeatures": "greyml.dynamic",
+    "ANFISFCM": "greyml.fuzzy",
+    "ANFISGrid": "greyml.fuzzy",
+    "AGO": "greyml.grey",
+    "GMC": "greyml.grey",
+    "GNNMCI": "greyml.grey",
+    "AccumulatedTargetRegressor": "greyml.grey",
+    "GreyConditioningWarning": "greyml.grey",
+    "GreyStabilityWarning": "greyml.grey",
+    "GreyWarmStartWarning": "greyml.grey",
+    "fit_gm1n": "greyml.grey",
+    "simulate_gmc": "greyml.grey",
+    "MLPBaseline": "greyml.neural",
+    "UnderdeterminedWarning": "greyml.neural",
+    "GreyInfluenceSelector": "greyml.selection",
+    "TrainOnOneTest": "greyml.selection",
+}
 
 __all__ = [
     "AGO",
@@ -43,3 +54,18 @@ __all__ = [
     "test_ids",
     "__version__",
 ]
+
+
+def __getattr__(name):
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module 'greyml' has no attribute {name!r}")
+    import importlib
+
+    value = getattr(importlib.import_module(module), name)
+    globals()[name] = value  # the next access is a plain attribute
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(__all__))

@@ -12,9 +12,12 @@ the command line prints it as one line.
 from __future__ import annotations
 
 import os
+import re
 import sys
 import textwrap
+import threading
 import time
+import unicodedata
 import warnings
 from dataclasses import dataclass
 from pathlib import Path
@@ -22,12 +25,15 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from greyml._command_names import MACHINES, MODEL_NAMES
+
 __all__ = [
     "MODEL_NAMES",
     "Progress",
     "SEED_RESULTS",
     "make_model",
     "parse_programme",
+    "printable",
     "rises",
     "run_demo",
     "run_fit",
@@ -41,14 +47,6 @@ __all__ = [
 #: sensors unless named with ``--sensors``.
 OPERATING_COLUMNS = ("spindle_rpm", "feed_mm_min", "c_rpm", "ambient_C")
 
-#: Model names of ``greyml fit --model``, with the class each one builds.
-MODEL_NAMES = {
-    "gmc": "GMC",
-    "gnnmci": "GNNMCI",
-    "anfis-grid": "ANFISGrid",
-    "anfis-fcm": "ANFISFCM",
-    "mlp": "MLPBaseline",
-}
 
 #: Share of the training data held out as checking data by ANFIS (seed 001
 #: splits its training test into training and checking parts).
@@ -57,8 +55,6 @@ CHECKING_FRACTION = 0.15
 #: Sensors kept by the selector in ``greyml demo`` (seed 001 keeps five).
 DEMO_SENSORS = 5
 
-#: Machines of ``greyml simulate --machine``.
-MACHINES = ("vmc", "vmc-probe", "gantry")
 
 
 # ------------------------------------------------------------------------------
@@ -169,11 +165,18 @@ def make_model(name, *, random_state=0, quick=False):
 
 
 def _selector(n, cluster_on, random_state, *, quick=False):
+    """GreyInfluenceSelector keeping ``n`` sensors; ``cluster_on=None`` is its default."""
     from greyml import GreyInfluenceSelector
 
-    return GreyInfluenceSelector(
-        n, cluster_on=cluster_on, n_init=3 if quick else 10, random_state=random_state
-    )
+    selector = GreyInfluenceSelector(n, n_init=3 if quick else 10, random_state=random_state)
+    if cluster_on is not None:
+        selector.set_params(cluster_on=cluster_on)
+    return selector
+
+
+def _progress(total, quiet):
+    """Progress on standard error: off with ``quiet``, else on a terminal only."""
+    return Progress(total, enabled=False if quiet else None)
 
 
 def _fit_quietly(estimator, X, y):
@@ -199,7 +202,7 @@ def _predict_quietly(estimator, X, **params):
 
 def _warn(command, messages):
     for message in messages:
-        print(f"greyml {command}: warning: {message}", file=sys.stderr)
+        print(f"greyml {command}: warning: {printable(message)}", file=sys.stderr)
 
 
 # ------------------------------------------------------------------------------
@@ -240,40 +243,110 @@ def rises(X):
 
 
 class Progress:
-    """Numbered steps on one line of a terminal; silent when not on a terminal.
+    """Numbered steps and the time elapsed on one line of standard error (tqdm).
+
+    The line shows ``[3/14] fitting ANFISFCM on the VMC… 00:12``: the step,
+    what it does and the time since the command started. It is redrawn every
+    second while a step runs, and cleared at the end.
 
     Parameters
     ----------
     total : int
         Number of steps.
     stream : file-like, optional
-        Standard error by default. Nothing is written unless it is a TTY.
+        Standard error by default.
+    enabled : bool, optional
+        Whether to show anything; by default only when ``stream`` is a
+        terminal (so logs and pipes get no progress lines).
     """
 
-    def __init__(self, total, stream=None):
+    #: Seconds between redraws while a step runs (the elapsed time moves on).
+    REFRESH_S = 1.0
+
+    def __init__(self, total, stream=None, *, enabled=None):
         self.stream = sys.stderr if stream is None else stream
-        isatty = getattr(self.stream, "isatty", None)
-        self.enabled = bool(isatty and isatty())
+        if enabled is None:
+            isatty = getattr(self.stream, "isatty", None)
+            enabled = bool(isatty and isatty())
+        self.enabled = bool(enabled)
         self.total = total
         self.done = 0
-        self._width = 0
+        self._bar = None
+        self._stop = threading.Event()
+        self._thread = None
+        if self.enabled:
+            from tqdm import tqdm
+
+            # tqdm draws nothing on a terminal that reports no size (0 x 0):
+            # give it 80 x 24 then
+            try:
+                size = os.get_terminal_size(self.stream.fileno())
+            except (AttributeError, OSError, ValueError):
+                size = None
+            sized = size is not None and size.columns > 0 and size.lines > 0
+            self._bar = tqdm(
+                total=total,
+                file=self.stream,
+                leave=False,
+                bar_format="{desc} {elapsed}",
+                mininterval=0,
+                dynamic_ncols=sized,
+                **({} if sized else {"ncols": 80, "nrows": 24}),
+            )
+            self._thread = threading.Thread(target=self._tick, daemon=True)
+            self._thread.start()
+
+    def _tick(self):
+        while not self._stop.wait(self.REFRESH_S):
+            bar = self._bar
+            if bar is not None:
+                bar.refresh()
 
     def step(self, message):
-        """Show step ``done + 1``: ``[3/14] fitting ANFISFCM on the VMC…``."""
+        """Show step ``done + 1``: ``[3/14] fitting ANFISFCM on the VMC… 00:12``."""
         self.done += 1
-        if not self.enabled:
-            return
-        text = f"[{self.done}/{self.total}] {message}\u2026"
-        self.stream.write("\r" + text.ljust(self._width))
-        self.stream.flush()
-        self._width = len(text)
+        if self._bar is not None:
+            self._bar.set_description_str(
+                f"[{self.done}/{self.total}] {printable(message)}\u2026", refresh=False
+            )
+            self._bar.update(1)
+            self._bar.refresh()
 
     def close(self):
         """Clear the progress line."""
-        if self.enabled and self._width:
-            self.stream.write("\r" + " " * self._width + "\r")
-            self.stream.flush()
-            self._width = 0
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join()
+            self._thread = None
+        if self._bar is not None:
+            self._bar.close()
+            self._bar = None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+
+#: ANSI escape sequences: CSI (ESC [ ... final), OSC (ESC ] ... BEL or ESC \\),
+#: and two-character escapes.
+_ANSI = re.compile(r"\x1b(?:\[[0-?]*[ -/]*[@-~]|\][^\x07\x1b]*(?:\x07|\x1b\\)?|[@-Z\\-_])")
+
+
+def printable(text):
+    """``text`` without terminal control: ANSI escapes and control characters removed.
+
+    What a model file or a CSV file says (``greyml_version``, ``target_name_``,
+    test labels) is printed through this, so a crafted file cannot clear the
+    screen or rewrite the terminal's title. Line breaks and tabs become spaces.
+    """
+    text = _ANSI.sub("", str(text))
+    return "".join(
+        " " if ch in "\n\r\t" else ch
+        for ch in text
+        if ch in "\n\r\t" or unicodedata.category(ch) not in ("Cc", "Cf")
+    )
 
 
 def _prepare_output_folder(out, force):
@@ -527,6 +600,7 @@ def _wrap(line, width=100):
 
 
 def _tests_words(tests):
+    tests = [printable(t) for t in tests]
     names = [f"Test {t}" if len(t) <= 4 else f"the {t} test" for t in tests]
     if len(names) == 1:
         return names[0]
@@ -588,7 +662,7 @@ def _plot(path, run, result):
     fig.savefig(path, dpi=90)
 
 
-def run_demo(out="greyml-demo", *, force=False, quick=False):
+def run_demo(out="greyml-demo", *, force=False, quick=False, quiet=False):
     """``greyml demo``: the five models on the seeds' simulated tests, beside the papers.
 
     Simulates seed 001's VMC tests and seed 000's gantry tests
@@ -608,6 +682,8 @@ def run_demo(out="greyml-demo", *, force=False, quick=False):
         Write into a non-empty folder, replacing files of the same names.
     quick : bool, default=False
         Smaller swarms, fewer epochs (for tests and a first look).
+    quiet : bool, default=False
+        No progress on standard error.
 
     Returns
     -------
@@ -616,7 +692,7 @@ def run_demo(out="greyml-demo", *, force=False, quick=False):
     """
     start = time.perf_counter()
     folder = _prepare_output_folder(out, force)
-    progress = Progress(len(_DEMO_MACHINES) * (2 + len(MODEL_NAMES)))
+    progress = _progress(len(_DEMO_MACHINES) * (2 + len(MODEL_NAMES)), quiet)
     runs = []
     written = []
     try:
@@ -716,7 +792,9 @@ def parse_programme(spec, inputs):
     return programme
 
 
-def run_simulate(machine, out, *, programmes=None, tests=None, ambient=20.0, seed=0, force=False):
+def run_simulate(
+    machine, out, *, programmes=None, tests=None, ambient=20.0, seed=0, force=False, quiet=False
+):
     """``greyml simulate``: write simulated tests of a machine to a CSV file.
 
     Parameters
@@ -732,10 +810,13 @@ def run_simulate(machine, out, *, programmes=None, tests=None, ambient=20.0, see
     ambient : float, default=20.0
         Constant air temperature (°C) of the ``programmes`` tests.
     seed : int, default=0
-        Seed of the measurement noise. The seeds' tests with seed 0 are the
-        data of :func:`greyml.datasets.load_vmc_tests` and its siblings.
+        Seed of the measurement noise (``--random-state``). The seeds' tests
+        with seed 0 are the data of :func:`greyml.datasets.load_vmc_tests` and
+        its siblings.
     force : bool, default=False
         Replace ``out`` if it exists.
+    quiet : bool, default=False
+        No progress on standard error.
 
     Returns
     -------
@@ -751,26 +832,33 @@ def run_simulate(machine, out, *, programmes=None, tests=None, ambient=20.0, see
     path = _check_output_file(out, force)
     if programmes and tests:
         raise ValueError("give --programme or --tests, not both.")
-    if programmes:
-        preset = (
-            gantry() if machine == "gantry" else vmc("probe" if machine == "vmc-probe" else "ncdt")
-        )
-        specs = {f"P{k + 1}": parse_programme(p, preset.inputs) for k, p in enumerate(programmes)}
-        data = make_tests(machine, specs, ambient=ambient, random_state=seed)
-        frame = data.frame
-    else:
-        data = make_tests(machine, None, random_state=seed)
-        frame = data.frame
-        if tests:
-            missing = [t for t in tests if t not in data.tests]
-            if missing:
-                raise ValueError(
-                    f"--tests {', '.join(missing)}: the seeds' tests of the {machine} are "
-                    f"{', '.join(data.tests)}."
-                )
-            keep = frame.index.get_level_values("test").isin(tests)
-            frame = frame[keep]
-    write_tests_csv(frame, path, overwrite=force)
+    with _progress(2, quiet) as progress:
+        progress.step(f"simulating the {machine}'s tests")
+        if programmes:
+            preset = (
+                gantry()
+                if machine == "gantry"
+                else vmc("probe" if machine == "vmc-probe" else "ncdt")
+            )
+            specs = {
+                f"P{k + 1}": parse_programme(p, preset.inputs) for k, p in enumerate(programmes)
+            }
+            data = make_tests(machine, specs, ambient=ambient, random_state=seed)
+            frame = data.frame
+        else:
+            data = make_tests(machine, None, random_state=seed)
+            frame = data.frame
+            if tests:
+                missing = [t for t in tests if t not in data.tests]
+                if missing:
+                    raise ValueError(
+                        f"--tests {', '.join(missing)}: the seeds' tests of the {machine} are "
+                        f"{', '.join(data.tests)}."
+                    )
+                keep = frame.index.get_level_values("test").isin(tests)
+                frame = frame[keep]
+        progress.step(f"writing {os.fspath(path)!r}")
+        write_tests_csv(frame, path, overwrite=force)
     labels = list(dict.fromkeys(frame.index.get_level_values("test")))
     print(
         f"wrote {len(frame)} rows of {len(labels)} simulated test(s) of the {machine} "
@@ -786,10 +874,11 @@ def run_simulate(machine, out, *, programmes=None, tests=None, ambient=20.0, see
 # ------------------------------------------------------------------------------
 
 
-def _read(path):
+def _read(path, csv_options=None):
+    """Read a CSV of tests; ``csv_options`` are ``time_unit``, ``sep``, ``decimal``."""
     from greyml.io import read_tests_csv
 
-    return read_tests_csv(path)
+    return read_tests_csv(path, **(csv_options or {}))
 
 
 def _where(frame, row, path):
@@ -852,9 +941,9 @@ def _rows_of_tests(frame, tests, path, flag):
     return np.isin(labels, list(tests))
 
 
-def _load_training(data, target, sensors, tests, flag):
+def _load_training(data, target, sensors, tests, flag, csv_options=None):
     """The rows and columns to train on, checked."""
-    frame = _read(data)
+    frame = _read(data, csv_options)
     _require_columns(frame, [target], data, "--target")
     columns = _candidates(frame, target, sensors, data)
     if tests:
@@ -870,7 +959,16 @@ def _load_training(data, target, sensors, tests, flag):
 
 
 def run_select(
-    data, target, *, n=5, cluster_on="series", train_test=None, sensors=None, random_state=0
+    data,
+    target,
+    *,
+    n=5,
+    cluster_on=None,
+    train_tests=None,
+    sensors=None,
+    random_state=0,
+    csv_options=None,
+    quiet=False,
 ):
     """``greyml select``: the sensors GreyInfluenceSelector keeps, with group and influence.
 
@@ -881,36 +979,46 @@ def run_select(
     target : str
         Target column (a displacement).
     n : int, default=5
-        Sensors to keep (c-means groups).
-    cluster_on : {"series", "influence"}, default="series"
-    train_test : str, optional
-        Select on this test only; all tests by default.
+        Sensors to keep (c-means groups; ``--n-sensors``).
+    cluster_on : {"series", "influence"}, optional
+        GreyInfluenceSelector's default (``"influence"``) when None.
+    train_tests : list of str, optional
+        Select on these tests only; all tests by default.
     sensors : list of str, optional
         Candidate sensors; by default every column except the target, the
         displacements (``*_um``) and the operating inputs.
     random_state : int, default=0
+    csv_options : dict, optional
+        ``time_unit``, ``sep`` and ``decimal`` of :func:`greyml.io.read_tests_csv`.
+    quiet : bool, default=False
+        No progress on standard error.
 
     Returns
     -------
     int
         0.
     """
-    frame, columns = _load_training(
-        data, target, sensors, [train_test] if train_test else None, "--train-test"
-    )
-    if n > len(columns):
-        raise ValueError(
-            f"--n {n} asks for more sensors than the {len(columns)} candidate(s) of "
-            f"{os.fspath(data)!r}."
+    with _progress(2, quiet) as progress:
+        progress.step(f"reading {os.fspath(data)!r}")
+        frame, columns = _load_training(
+            data, target, sensors, train_tests, "--train-tests", csv_options
         )
-    selector = _selector(n, cluster_on, random_state)
-    _, messages = _fit_quietly(selector, frame[columns], frame[target])
+        if n > len(columns):
+            raise ValueError(
+                f"--n-sensors {n} asks for more sensors than the {len(columns)} candidate(s) "
+                f"of {os.fspath(data)!r}."
+            )
+        selector = _selector(n, cluster_on, random_state)
+        cluster_on = selector.cluster_on
+        progress.step(f"grouping {len(columns)} sensors with GreyInfluenceSelector")
+        _, messages = _fit_quietly(selector, frame[columns], frame[target])
     _warn("select", messages)
     names = list(selector.feature_names_in_)
     tests = list(dict.fromkeys(frame.index.get_level_values("test")))
     print(
         f"GreyInfluenceSelector(n_clusters={n}, cluster_on={cluster_on!r}) on "
-        f"{_tests_words(tests)} ({len(frame)} rows) of {os.fspath(data)!r}, target {target!r}: "
+        f"{_tests_words(tests)} ({len(frame)} rows) of {os.fspath(data)!r}, target "
+        f"{printable(target)!r}: "
         f"kept {len(selector.selected_)} of {len(columns)} candidate sensors."
     )
     print(f"  {'rank':>4s}  {'sensor':14s} {'group':>5s} {'influence':>10s}  sensors in the group")
@@ -947,11 +1055,13 @@ def run_fit(
     out,
     *,
     select=None,
-    cluster_on="series",
+    cluster_on=None,
     sensors=None,
     train_tests=None,
     random_state=0,
     force=False,
+    csv_options=None,
+    quiet=False,
 ):
     """``greyml fit``: train a named model and save it with :func:`greyml.persist.save_model`.
 
@@ -967,8 +1077,8 @@ def run_fit(
     select : int, optional
         Put a GreyInfluenceSelector keeping this many sensors before the
         model, in one Pipeline.
-    cluster_on : {"series", "influence"}, default="series"
-        The selector's grouping.
+    cluster_on : {"series", "influence"}, optional
+        The selector's grouping; GreyInfluenceSelector's default when None.
     sensors : list of str, optional
         The model's inputs, or the selector's candidates with ``select``.
     train_tests : list of str, optional
@@ -976,6 +1086,10 @@ def run_fit(
     random_state : int, default=0
     force : bool, default=False
         Replace ``out`` if it exists.
+    csv_options : dict, optional
+        ``time_unit``, ``sep`` and ``decimal`` of :func:`greyml.io.read_tests_csv`.
+    quiet : bool, default=False
+        No progress on standard error.
 
     Returns
     -------
@@ -989,38 +1103,46 @@ def run_fit(
     if model not in MODEL_NAMES:
         raise ValueError(f"unknown model {model!r}; choose one of {', '.join(MODEL_NAMES)}.")
     path = _check_output_file(out, force)
-    frame, columns = _load_training(data, target, sensors, train_tests, "--train-tests")
-    estimator, settings = make_model(model, random_state=random_state)
-    n_inputs = select if select is not None else len(columns)
-    if select is not None and select > len(columns):
-        raise ValueError(
-            f"--select {select} asks for more sensors than the {len(columns)} candidate(s)."
+    with _progress(4, quiet) as progress:
+        progress.step(f"reading {os.fspath(data)!r}")
+        frame, columns = _load_training(
+            data, target, sensors, train_tests, "--train-tests", csv_options
         )
-    if model == "anfis-grid" and n_inputs > 6:
-        raise ValueError(
-            f"anfis-grid on {n_inputs} inputs would need {estimator.n_mfs}^{n_inputs} rules; "
-            "keep a few sensors with --select 5 or --sensors, or use anfis-fcm."
-        )
-    if select is not None:
-        estimator = Pipeline(
-            [("select", _selector(select, cluster_on, random_state)), ("model", estimator)]
-        )
-    X, y = frame[columns], frame[target]
-    seconds, messages = _fit_quietly(estimator, X, y)
+        estimator, settings = make_model(model, random_state=random_state)
+        n_inputs = select if select is not None else len(columns)
+        if select is not None and select > len(columns):
+            raise ValueError(
+                f"--n-sensors {select} asks for more sensors than the {len(columns)} "
+                "candidate(s)."
+            )
+        if model == "anfis-grid" and n_inputs > 6:
+            raise ValueError(
+                f"anfis-grid on {n_inputs} inputs would need {estimator.n_mfs}^{n_inputs} "
+                "rules; keep a few sensors with --n-sensors 5 or --sensors, or use anfis-fcm."
+            )
+        if select is not None:
+            estimator = Pipeline(
+                [("select", _selector(select, cluster_on, random_state)), ("model", estimator)]
+            )
+        X, y = frame[columns], frame[target]
+        progress.step(f"fitting {MODEL_NAMES[model]} on {len(frame)} rows")
+        seconds, fit_messages = _fit_quietly(estimator, X, y)
+        progress.step("predicting the training rows")
+        pred, messages = _predict_quietly(estimator, X)
+        fit_scores = scores(y.to_numpy(), pred)
+        final = _final_step(estimator)
+        # predict names its columns after the target: remember it in the model
+        final.target_name_ = str(target)
+        progress.step(f"saving {os.fspath(path)!r}")
+        saved = save_model(estimator, path, overwrite=force)
+    _warn("fit", fit_messages)
     _warn("fit", messages)
-    pred, messages = _predict_quietly(estimator, X)
-    _warn("fit", messages)
-    fit_scores = scores(y.to_numpy(), pred)
-    final = _final_step(estimator)
-    # predict names its columns after the target: remember it in the model
-    final.target_name_ = str(target)
-    saved = save_model(estimator, path, overwrite=force)
     inputs = list(estimator[0].selected_) if select is not None else columns
     tests = list(dict.fromkeys(frame.index.get_level_values("test")))
     print(f"trained {MODEL_NAMES[model]} ({settings}) in {seconds:.1f} s")
     print(
         f"  data: {_tests_words(tests)} of {os.fspath(data)!r} ({len(frame)} rows), "
-        f"target {target!r}"
+        f"target {printable(target)!r}"
     )
     if select is not None:
         print(
@@ -1123,7 +1245,22 @@ def _initial_displacement(text, tests, model):
     return {"initial_displacement": values}
 
 
-def run_predict(model, data, out, *, force=False, initial_displacement=None):
+def _require_finite_predictions(pred, frame, model, data):
+    """Refuse NaN or infinite predictions: an empty compensation cell moves no axis."""
+    bad = ~np.isfinite(pred)
+    if bad.any():
+        row = int(np.flatnonzero(bad)[0])
+        what = "every row" if bad.all() else f"{int(bad.sum())} of {bad.size} rows"
+        raise ValueError(
+            f"the model {os.fspath(model)!r} predicts {pred[row]} for {what} of "
+            f"{os.fspath(data)!r}, first at {_where(frame, row, data)}; its coefficients may "
+            "be NaN or the inputs far outside its training range. No compensation written."
+        )
+
+
+def run_predict(
+    model, data, out, *, force=False, csv_options=None, quiet=False, initial_displacement=None
+):
     """``greyml predict``: apply a saved model to tests and write the compensation.
 
     Parameters
@@ -1138,6 +1275,10 @@ def run_predict(model, data, out, *, force=False, initial_displacement=None):
         add to the axis position).
     force : bool, default=False
         Replace ``out`` if it exists.
+    csv_options : dict, optional
+        ``time_unit``, ``sep`` and ``decimal`` of :func:`greyml.io.read_tests_csv`.
+    quiet : bool, default=False
+        No progress on standard error.
     initial_displacement : str or None, default=None
         Grey models only: ``"VALUE"`` (every test) or ``"TEST=VALUE,..."``, the
         measured target at the first row of tests that start mid-run (passed to
@@ -1147,43 +1288,56 @@ def run_predict(model, data, out, *, force=False, initial_displacement=None):
     -------
     int
         0.
+
+    Raises
+    ------
+    ValueError
+        Besides bad files and columns: when the model predicts NaN or an
+        infinite value for any row (no compensation file is written then).
     """
     from greyml.io import write_tests_csv
 
     path = _check_output_file(out, force)
-    estimator, messages = _load(model)
-    _warn("predict", messages)
-    frame = _read(data)
-    inputs, used = _model_inputs(estimator, model)
-    missing = [c for c in used if c not in frame.columns]
-    if missing:
-        have = [str(c) for c in frame.columns]
-        shown = ", ".join(have[:12]) + (", ..." if len(have) > 12 else "")
-        raise ValueError(
-            f"the model {os.fspath(model)!r} needs the sensor column(s) "
-            f"{', '.join(missing)}, which {os.fspath(data)!r} lacks (its columns: "
-            f"{shown or 'none, 0 features'})."
+    with _progress(4, quiet) as progress:
+        progress.step(f"reading the model {os.fspath(model)!r}")
+        estimator, load_messages = _load(model)
+        progress.step(f"reading {os.fspath(data)!r}")
+        frame = _read(data, csv_options)
+        inputs, used = _model_inputs(estimator, model)
+        missing = [c for c in used if c not in frame.columns]
+        if missing:
+            have = [str(c) for c in frame.columns]
+            shown = ", ".join(have[:12]) + (", ..." if len(have) > 12 else "")
+            raise ValueError(
+                f"the model {os.fspath(model)!r} needs the sensor column(s) "
+                f"{', '.join(missing)}, which {os.fspath(data)!r} lacks (its columns: "
+                f"{shown or 'none, 0 features'})."
+            )
+        _require_values(frame, used, data, "sensor")
+        # a selector's dropped candidates are never read: the data need not have them
+        X = pd.DataFrame(
+            {c: frame[c] if c in frame.columns else 0.0 for c in inputs}, index=frame.index
         )
-    _require_values(frame, used, data, "sensor")
-    # a selector's dropped candidates are never read: the data need not have them
-    X = pd.DataFrame(
-        {c: frame[c] if c in frame.columns else 0.0 for c in inputs}, index=frame.index
-    )
-    tests = list(dict.fromkeys(frame.index.get_level_values("test")))
-    params = _initial_displacement(initial_displacement, tests, estimator)
-    pred, messages = _predict_quietly(estimator, X, **params)
+        progress.step(f"predicting {len(frame)} rows")
+        tests = list(dict.fromkeys(frame.index.get_level_values("test")))
+        params = _initial_displacement(initial_displacement, tests, estimator)
+        pred, messages = _predict_quietly(estimator, X, **params)
+        _require_finite_predictions(pred, frame, model, data)
+        measured = getattr(_final_step(estimator), "target_name_", None) or "target"
+        target = printable(measured)
+        result = pd.DataFrame(
+            {f"predicted_{target}": pred, f"compensation_{target}": -pred}, index=frame.index
+        )
+        progress.step(f"writing {os.fspath(path)!r}")
+        write_tests_csv(result, path, overwrite=force)
+    _warn("predict", load_messages)
     _warn("predict", messages)
-    target = getattr(_final_step(estimator), "target_name_", None) or "target"
-    result = pd.DataFrame(
-        {f"predicted_{target}": pred, f"compensation_{target}": -pred}, index=frame.index
-    )
-    write_tests_csv(result, path, overwrite=force)
     print(
         f"wrote {len(result)} rows of {len(tests)} test(s) to {os.fspath(path)!r}: "
         f"predicted_{target} and compensation_{target} = -predicted_{target}."
     )
-    if target in frame.columns and not frame[target].isna().any():
-        s = scores(frame[target].to_numpy(), pred)
+    if measured in frame.columns and not frame[measured].isna().any():
+        s = scores(frame[measured].to_numpy(), pred)
         print(
             f"  against the measured {target} in {os.fspath(data)!r}: RMSE {s['RMSE']:.3g}, "
             f"±res {s['band']:.3g}, R {s['R']:.3f}, E {s['E']:.3f}"

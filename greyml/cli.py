@@ -6,18 +6,26 @@ Usage
 
     greyml gap REAL.csv SIM.csv --target COL [--ambient COL] [--drivers A,B]
                [--sensors A,B] [--fbgs A,B] [--effects a,b] [--random-state N]
-               [--sensitivities SENS.csv] [--tolerance X] [--json FILE|-]
+               [--sensitivities SENS.csv] [--tolerance X] [--json FILE|-] [--force]
     greyml demo [--out DIR] [--force] [--quick]
     greyml simulate --machine {vmc,vmc-probe,gantry} --out FILE.csv
                     [--programme SPEC] [--tests seeds|A,B] [--ambient C]
-                    [--seed N] [--force]
-    greyml select DATA.csv --target COL [--n N] [--cluster-on series|influence]
-                  [--train-test LABEL] [--sensors A,B] [--random-state N]
+                    [--random-state N] [--force]
+    greyml select DATA.csv --target COL [--n-sensors N] [--cluster-on series|influence]
+                  [--train-tests A,B] [--sensors A,B] [--random-state N]
     greyml fit DATA.csv --target COL --model {gmc,gnnmci,anfis-grid,anfis-fcm,mlp}
-               --out MODEL.file [--select N] [--cluster-on ...] [--sensors A,B]
+               --out MODEL.file [--n-sensors N] [--cluster-on ...] [--sensors A,B]
                [--train-tests A,B] [--random-state N] [--force]
     greyml predict MODEL.file DATA.csv --out PRED.csv [--force] [--initial-displacement V]
     greyml --version
+
+Every command takes ``--quiet`` (no progress on standard error; progress is
+shown only when standard error is a terminal). Every command that reads a CSV
+file (``select``, ``fit``, ``predict``, ``gap``) takes ``--time-unit s|min|h``
+(the unit of the file's ``time_s`` column), ``--sep`` and ``--decimal`` (see
+:func:`greyml.io.read_tests_csv`). The spellings ``--seed`` (simulate), ``--n``
+(select), ``--select`` (fit) and ``--train-test`` (select) still work in this
+release, with a one-line deprecation message on standard error.
 
 ``greyml gap`` compares measured tests (``REAL.csv``) with a simulation of
 the same tests (``SIM.csv``), both in greyml's CSV layout: the columns
@@ -38,9 +46,11 @@ per effect: ``effect``, ``detail``, ``rmse_before``, ``rmse_after``,
 time and frequency band) and a summary; see
 :meth:`greyml.gap.GapReport.to_dict`.
 
+``--json FILE`` refuses to replace an existing ``FILE`` unless ``--force``.
+
 Exit codes: 0 when the diagnosis ran, whether or not it names a cause; 2 for
 a usage error, a file that cannot be read or written, or data that cannot be
-diagnosed (the message starts with ``greyml gap: error:``).
+diagnosed (one line starting with ``greyml gap: error:``).
 
 ``greyml demo`` fits the five models on the seeds' simulated tests and prints
 them beside the papers' numbers; ``simulate``, ``select``, ``fit`` and
@@ -70,8 +80,11 @@ import os
 import sys
 import textwrap
 
-import greyml
-from greyml.gap import EFFECTS, diagnose_gap
+# Only light modules here: ``greyml --help`` and ``--version`` must answer
+# without importing NumPy, pandas or scikit-learn (each command imports what
+# it needs when it runs).
+from greyml import __version__
+from greyml._command_names import CSV_TIME_UNITS, MACHINES, MODEL_NAMES
 
 __all__ = ["main"]
 
@@ -79,7 +92,7 @@ __all__ = ["main"]
 EXIT_OK = 0
 EXIT_ERROR = 2
 
-_GAP_EPILOG = f"""\
+_GAP_EPILOG = """\
 The CSV files have the columns test and time_s, then the data columns; SIM.csv
 holds the simulated target (a column named like --target, or a single column)
 for every measured (test, time_s) row.
@@ -87,20 +100,29 @@ for every measured (test, time_s) row.
 Output: without --json, the report for people is printed. --json FILE also
 writes the report as JSON to FILE; --json - writes only the JSON to standard
 output. The JSON holds "cause" (null when no effect is significant), "causes"
-(one row per effect) and "where" (where the gap lies), and never NaN.
+(one row per effect) and "where" (where the gap lies), and never NaN. An
+existing FILE is replaced only with --force.
 
-{textwrap.fill("Effects (--effects): " + ", ".join(EFFECTS) + ".", width=79)}
+{effects}
 
 Exit codes:
-  {EXIT_OK}  the diagnosis ran (whether or not it names a cause)
-  {EXIT_ERROR}  usage error, unreadable or unwritable file, or data that cannot be
-     diagnosed (message on standard error)
+  {ok}  the diagnosis ran (whether or not it names a cause)
+  {error}  usage error, unreadable or unwritable file, or data that cannot be
+     diagnosed (one line on standard error: greyml gap: error: <message>)
 """
+
+
+def _gap_epilog():
+    """The gap epilog, listing the effects (imported only when the help is shown)."""
+    from greyml.gap import EFFECTS
+
+    effects = textwrap.fill("Effects (--effects): " + ", ".join(EFFECTS) + ".", width=79)
+    return _GAP_EPILOG.format(effects=effects, ok=EXIT_OK, error=EXIT_ERROR)
 
 
 def _version():
     """greyml's version, or the installed distribution's, or ``"unknown"``."""
-    version = getattr(greyml, "__version__", None)
+    version = __version__
     if version is None:
         from importlib.metadata import PackageNotFoundError
         from importlib.metadata import version as dist_version
@@ -144,6 +166,83 @@ class _Parser(argparse.ArgumentParser):
         if not self.one_line:
             super().error(message)
         self.exit(EXIT_ERROR, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+    def format_help(self):
+        if callable(self.epilog):  # an epilog that needs a heavy import, made when shown
+            self.epilog = self.epilog()
+        return super().format_help()
+
+
+class _Deprecated(argparse.Action):
+    """An old spelling of an option: works, with a one-line message on standard error.
+
+    ``new`` is the option to use instead; ``extend=True`` adds the value to a
+    list (as ``action="extend"``), ``as_list=True`` adds one value.
+    """
+
+    def __init__(self, option_strings, dest, *, new, extend=False, as_list=False, **kwargs):
+        self.new = new
+        self.extend = extend
+        self.as_list = as_list
+        super().__init__(option_strings, dest, **kwargs)
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        print(
+            f"{parser.prog}: warning: {option_string} is deprecated and will be removed in the "
+            f"next release; use {self.new}",
+            file=sys.stderr,
+        )
+        if self.extend or self.as_list:
+            items = list(getattr(namespace, self.dest, None) or [])
+            items += values if self.extend else [values]
+            values = items
+        setattr(namespace, self.dest, values)
+
+
+def _add_quiet(parser):
+    parser.add_argument(
+        "--quiet",
+        action="store_true",
+        help="no progress on standard error (shown only on a terminal, for steps that "
+        "can take seconds)",
+    )
+
+
+def _separator(text):
+    """``--sep``: one character; ``tab`` or ``\\t`` for a tab."""
+    value = {"tab": "\t", "\\t": "\t"}.get(text.strip().lower(), text)
+    if len(value) != 1:
+        raise argparse.ArgumentTypeError(f"must be one character or 'tab'; got {text!r}")
+    return value
+
+
+def _add_csv_options(parser):
+    """``--time-unit``, ``--sep`` and ``--decimal`` of a command that reads CSV files."""
+    group = parser.add_argument_group("reading the CSV files")
+    group.add_argument(
+        "--time-unit",
+        choices=CSV_TIME_UNITS,
+        default="s",
+        help="unit of the time_s column in the files, converted to seconds (default: s)",
+    )
+    group.add_argument(
+        "--sep",
+        type=_separator,
+        metavar="C",
+        help="separator: one character, or tab (default: the first of , ; and tab that "
+        "splits the header into test and time_s)",
+    )
+    group.add_argument(
+        "--decimal",
+        choices=(".", ","),
+        help="decimal mark (default: '.', or ',' when a ;- or tab-separated file "
+        "has numbers like 20,5)",
+    )
+
+
+def _csv_options(args):
+    """The keyword arguments of ``read_tests_csv`` from the parsed options."""
+    return {"time_unit": args.time_unit, "sep": args.sep, "decimal": args.decimal}
 
 
 def _count(text):
@@ -228,13 +327,14 @@ def _add_demo_parser(subparsers):
     parser.add_argument(
         "--quick", action="store_true", help="smaller swarms and fewer epochs: a first look"
     )
+    _add_quiet(parser)
     parser.set_defaults(handler=_run_demo, parser=parser)
 
 
 def _run_demo(args):
     from greyml._commands import run_demo
 
-    return run_demo(args.out, force=args.force, quick=args.quick)
+    return run_demo(args.out, force=args.force, quick=args.quick, quiet=args.quiet)
 
 
 _SIMULATE_EPILOG = (
@@ -259,7 +359,7 @@ or c_rpm (gantry). The air stays at --ambient degrees C.
 Examples:
   greyml simulate --machine vmc --out vmc.csv
   greyml simulate --machine vmc --tests IV,V --out vmc-iv-v.csv
-  greyml simulate --machine vmc --out mine.csv \\
+  greyml simulate --machine vmc --out mine.csv --random-state 1 \\
       --programme 120:spindle_rpm=4000,60 --programme 60:spindle_rpm=8000,60
   greyml simulate --machine gantry --out c.csv --programme 120:c_rpm=2500,120
 """
@@ -268,8 +368,6 @@ Examples:
 
 
 def _add_simulate_parser(subparsers):
-    from greyml._commands import MACHINES
-
     parser = _subparser(
         subparsers,
         "simulate",
@@ -304,13 +402,24 @@ def _add_simulate_parser(subparsers):
         help="air temperature in degrees C of --programme tests (default: 20)",
     )
     parser.add_argument(
-        "--seed",
+        "--random-state",
         type=int,
         default=0,
         metavar="N",
-        help="seed of the measurement noise (default: 0, the data of greyml.datasets)",
+        help="seed of the measurement noise (default: 0, the data of greyml.datasets); "
+        "--seed N is its deprecated spelling",
+    )
+    parser.add_argument(
+        "--seed",
+        dest="random_state",
+        type=int,
+        action=_Deprecated,
+        new="--random-state",
+        metavar="N",
+        help=argparse.SUPPRESS,
     )
     parser.add_argument("--force", action="store_true", help="replace FILE.csv if it exists")
+    _add_quiet(parser)
     parser.set_defaults(handler=_run_simulate, parser=parser)
 
 
@@ -328,8 +437,9 @@ def _run_simulate(args):
         programmes=args.programme,
         tests=tests,
         ambient=args.ambient,
-        seed=args.seed,
+        seed=args.random_state,
         force=args.force,
+        quiet=args.quiet,
     )
 
 
@@ -339,22 +449,24 @@ _SENSORS_HELP = (
     "feed_mm_min, c_rpm, ambient_C)"
 )
 _CLUSTER_HELP = (
-    "what fuzzy c-means groups: series (default; sensors that move together) or "
-    "influence (seed 001: sensors of similar influence weight)"
+    "what fuzzy c-means groups: influence (default, as GreyInfluenceSelector; "
+    "Abdulshahed et al. (2015): sensors of similar influence weight) or series "
+    "(sensors that move together)"
 )
 
 _SELECT_EPILOG = (
     """\
 DATA.csv has the columns test and time_s, then the data columns (as greyml
 simulate writes them). For every candidate sensor, GM(1,N) of the target
-gives an influence weight; fuzzy c-means sorts the sensors into --n groups and
-the most influential sensor of each group is kept (greyml.GreyInfluenceSelector).
-The sensors are used as they are in the file.
+gives an influence weight; fuzzy c-means sorts the sensors into --n-sensors
+groups and the most influential sensor of each group is kept
+(greyml.GreyInfluenceSelector). The sensors are used as they are in the file.
 
 Examples:
   greyml simulate --machine vmc --out vmc.csv
-  greyml select vmc.csv --target dy_um --n 5 --train-test IV
-  greyml select vmc.csv --target dy_um --cluster-on influence --sensors T1_C,T2_C,T3_C
+  greyml select vmc.csv --target dy_um --n-sensors 5 --train-tests IV
+  greyml select vmc.csv --target dy_um --cluster-on series --sensors T1_C,T2_C,T3_C
+  greyml select spreadsheet.csv --target dz_um --time-unit min --sep ';' --decimal ,
 """
     + _EXIT_CODES
 )
@@ -376,16 +488,39 @@ def _add_select_parser(subparsers):
         "--target", required=True, type=_name, metavar="COL", help="target column, e.g. dy_um"
     )
     parser.add_argument(
-        "--n", type=_count, default=5, metavar="N", help="sensors to keep (default: 5)"
+        "--n-sensors",
+        type=_count,
+        default=5,
+        metavar="N",
+        help="sensors to keep (default: 5); --n N is its deprecated spelling",
     )
     parser.add_argument(
-        "--cluster-on", choices=("series", "influence"), default="series", help=_CLUSTER_HELP
+        "--n",
+        dest="n_sensors",
+        type=_count,
+        action=_Deprecated,
+        new="--n-sensors",
+        metavar="N",
+        help=argparse.SUPPRESS,
+    )
+    parser.add_argument("--cluster-on", choices=("series", "influence"), help=_CLUSTER_HELP)
+    parser.add_argument(
+        "--train-tests",
+        type=_names,
+        action="extend",
+        metavar="A,B",
+        help="select on these tests only (default: all tests); --train-test LABEL is its "
+        "deprecated spelling",
     )
     parser.add_argument(
         "--train-test",
+        dest="train_tests",
         type=_name,
+        action=_Deprecated,
+        new="--train-tests",
+        as_list=True,
         metavar="LABEL",
-        help="select on this test only (default: all tests)",
+        help=argparse.SUPPRESS,
     )
     parser.add_argument(
         "--sensors", type=_names, action="extend", metavar="A,B", help=_SENSORS_HELP
@@ -397,6 +532,8 @@ def _add_select_parser(subparsers):
         metavar="N",
         help="seed of the c-means starts (default: 0)",
     )
+    _add_csv_options(parser)
+    _add_quiet(parser)
     parser.set_defaults(handler=_run_select, parser=parser)
 
 
@@ -406,11 +543,13 @@ def _run_select(args):
     return run_select(
         args.data,
         args.target,
-        n=args.n,
+        n=args.n_sensors,
         cluster_on=args.cluster_on,
-        train_test=args.train_test,
+        train_tests=_unique(args.train_tests),
         sensors=_unique(args.sensors),
         random_state=args.random_state,
+        csv_options=_csv_options(args),
+        quiet=args.quiet,
     )
 
 
@@ -424,7 +563,7 @@ Models (the seeds' settings):
   anfis-fcm   ANFIS with 3 fuzzy c-means rules, 100 epochs (seed 001)
   mlp         one hidden layer of 10, Levenberg-Marquardt (seed 000's baseline)
 
---select N puts GreyInfluenceSelector before the model in one Pipeline, so the
+--n-sensors N puts GreyInfluenceSelector before the model in one Pipeline, so the
 saved model chooses its own sensors. The model is saved with
 greyml.persist.save_model (a file that holds no code); apply it with greyml
 predict.
@@ -436,7 +575,7 @@ temperatures (greyml demo uses rises): write rises into the CSV if so.
 
 Examples:
   greyml simulate --machine vmc --out vmc.csv
-  greyml fit vmc.csv --target dy_um --model anfis-fcm --select 5 \\
+  greyml fit vmc.csv --target dy_um --model anfis-fcm --n-sensors 5 \\
       --train-tests IV --out vmc-anfis.greyml
   greyml fit vmc.csv --target dy_um --model gmc --sensors T18_C,T55_C,T63_C \\
       --out vmc-gmc.greyml
@@ -446,8 +585,6 @@ Examples:
 
 
 def _add_fit_parser(subparsers):
-    from greyml._commands import MODEL_NAMES
-
     parser = _subparser(
         subparsers,
         "fit",
@@ -465,23 +602,32 @@ def _add_fit_parser(subparsers):
     parser.add_argument("--model", required=True, choices=list(MODEL_NAMES), help="the model")
     parser.add_argument("--out", required=True, metavar="MODEL.file", help="model file to write")
     parser.add_argument(
-        "--select",
+        "--n-sensors",
         type=_count,
         metavar="N",
-        help="keep N sensors with GreyInfluenceSelector before the model",
+        help="keep N sensors with GreyInfluenceSelector before the model; --select N is "
+        "its deprecated spelling",
+    )
+    parser.add_argument(
+        "--select",
+        dest="n_sensors",
+        type=_count,
+        action=_Deprecated,
+        new="--n-sensors",
+        metavar="N",
+        help=argparse.SUPPRESS,
     )
     parser.add_argument(
         "--cluster-on",
         choices=("series", "influence"),
-        default="series",
-        help="the selector's grouping, with --select: " + _CLUSTER_HELP.split(": ", 1)[1],
+        help="the selector's grouping, with --n-sensors: " + _CLUSTER_HELP.split(": ", 1)[1],
     )
     parser.add_argument(
         "--sensors",
         type=_names,
         action="extend",
         metavar="A,B",
-        help="the model's inputs, or the selector's candidates with --select, "
+        help="the model's inputs, or the selector's candidates with --n-sensors, "
         + _SENSORS_HELP.split("candidate sensor columns, ", 1)[1],
     )
     parser.add_argument(
@@ -499,6 +645,8 @@ def _add_fit_parser(subparsers):
         help="seed of the model's random choices (default: 0)",
     )
     parser.add_argument("--force", action="store_true", help="replace MODEL.file if it exists")
+    _add_csv_options(parser)
+    _add_quiet(parser)
     parser.set_defaults(handler=_run_fit, parser=parser)
 
 
@@ -510,12 +658,14 @@ def _run_fit(args):
         args.target,
         args.model,
         args.out,
-        select=args.select,
+        select=args.n_sensors,
         cluster_on=args.cluster_on,
         sensors=_unique(args.sensors),
         train_tests=_unique(args.train_tests),
         random_state=args.random_state,
         force=args.force,
+        csv_options=_csv_options(args),
+        quiet=args.quiet,
     )
 
 
@@ -530,6 +680,10 @@ printed. A grey model predicts the change since each test's first row: for a
 test that starts mid-run, give the measured target there with
 --initial-displacement (a warning names a test whose sensors start away from
 where the training tests started).
+printed. A model that predicts NaN or an infinite value for any row is an
+error (exit 2), and no PRED.csv is written; the file is written to a
+temporary name and renamed, so a failure never leaves a partial PRED.csv.
+Test labels a spreadsheet would run as formulas (=, +, -, @) get a leading '.
 
 Examples:
   greyml simulate --machine vmc --tests IV --out train.csv
@@ -565,6 +719,8 @@ def _add_predict_parser(subparsers):
             "every test (VALUE) or of the tests named, for tests that start mid-run"
         ),
     )
+    _add_csv_options(parser)
+    _add_quiet(parser)
     parser.set_defaults(handler=_run_predict, parser=parser)
 
 
@@ -577,6 +733,8 @@ def _run_predict(args):
         args.out,
         force=args.force,
         initial_displacement=args.initial_displacement,
+        csv_options=_csv_options(args),
+        quiet=args.quiet,
     )
 
 
@@ -592,9 +750,16 @@ def _add_gap_parser(subparsers):
             "(greyml.gap.diagnose_gap).",
             width=79,
         ),
-        epilog=_GAP_EPILOG,
+        epilog=_gap_epilog,
         formatter_class=argparse.RawDescriptionHelpFormatter,
+        one_line=True,
     )
+    _add_gap_arguments(parser)
+    return parser
+
+
+def _add_gap_arguments(parser):
+    """The arguments of ``greyml gap``."""
     parser.add_argument("real", metavar="REAL.csv", help="measured tests (CSV)")
     parser.add_argument("sim", metavar="SIM.csv", help="simulation of the same tests (CSV)")
     parser.add_argument(
@@ -648,38 +813,80 @@ def _add_gap_parser(subparsers):
         metavar="FILE|-",
         help="write the report as JSON to FILE, or only JSON to standard output with -",
     )
+    parser.add_argument("--force", action="store_true", help="replace the --json FILE if it exists")
+    _add_csv_options(parser)
+    _add_quiet(parser)
     parser.set_defaults(handler=_run_gap, parser=parser)
-    return parser
 
 
 def _run_gap(args):
     """Run ``greyml gap`` on parsed arguments; return the exit code."""
+    from greyml._commands import _check_output_file, _progress, _read
+    from greyml.gap import diagnose_gap
+
     if args.effects is not None and not args.effects:
         raise ValueError("--effects names no effect; leave it out to try them all.")
-    report = diagnose_gap(
-        args.real,
-        args.sim,
-        target=args.target,
-        ambient=args.ambient,
-        drivers=_unique(args.drivers),
-        sensors=_unique(args.sensors),
-        fbgs=_unique(args.fbgs),
-        effects=None if args.effects is None else _unique(args.effects),
-        random_state=args.random_state,
-        sensitivities=args.sensitivities,
-        tolerance=args.tolerance,
-    )
-    data = report.to_dict()
+    if args.json not in (None, "-"):
+        _check_output_file(args.json, args.force, what="--json")
+    options = _csv_options(args)
+    with _progress(3, args.quiet) as progress:
+        progress.step(f"reading {args.real!r} and {args.sim!r}")
+        real = _read(args.real, options)
+        sim = _read(args.sim, options)
+        sensitivities = args.sensitivities
+        if sensitivities is not None:
+            sensitivities = _read(sensitivities, options)
+        progress.step("diagnosing the gap (effects against random placebos)")
+        report = diagnose_gap(
+            real,
+            sim,
+            target=args.target,
+            ambient=args.ambient,
+            drivers=_unique(args.drivers),
+            sensors=_unique(args.sensors),
+            fbgs=_unique(args.fbgs),
+            effects=None if args.effects is None else _unique(args.effects),
+            random_state=args.random_state,
+            sensitivities=sensitivities,
+            tolerance=args.tolerance,
+        )
+        data = report.to_dict()
+        if args.json not in (None, "-"):
+            progress.step(f"writing {args.json!r}")
+            text = json.dumps(data, indent=2, allow_nan=False, ensure_ascii=False) + "\n"
+            _write_text(args.json, text, args.force)
     if args.json == "-":
         # ASCII-only JSON reads back the same through any stdout encoding.
         sys.stdout.write(json.dumps(data, indent=2, allow_nan=False, ensure_ascii=True) + "\n")
         return EXIT_OK
-    if args.json is not None:
-        text = json.dumps(data, indent=2, allow_nan=False, ensure_ascii=False) + "\n"
-        with open(args.json, "w", encoding="utf-8") as fh:
-            fh.write(text)
     print(report)
     return EXIT_OK
+
+
+def _write_text(path, text, force):
+    """Write ``text`` to ``path`` through a temporary file; an existing file only if ``force``."""
+    import secrets
+
+    folder = os.path.dirname(os.path.abspath(path))
+    temp = os.path.join(folder, f".{os.path.basename(path)}.{secrets.token_hex(4)}.part")
+    fd = os.open(temp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
+    try:
+        with open(fd, "w", encoding="utf-8") as fh:
+            fh.write(text)
+        if force:
+            os.replace(temp, path)
+        else:
+            try:
+                os.link(temp, path)  # FileExistsError if the file appeared meanwhile
+            except FileExistsError:
+                raise ValueError(f"--json {path!r} exists; pass --force to replace it.") from None
+            except OSError:  # no hard links on this file system
+                os.replace(temp, path)
+            else:
+                os.unlink(temp)
+    finally:
+        if os.path.exists(temp):
+            os.unlink(temp)
 
 
 def _os_message(exc):
@@ -754,5 +961,7 @@ def main(argv=None):
         message = _os_message(exc)
     except ValueError as exc:
         message = str(exc)
-    print(f"{args.parser.prog}: error: {message}", file=sys.stderr)
+    from greyml._commands import printable
+
+    print(f"{args.parser.prog}: error: {printable(message)}", file=sys.stderr)
     return EXIT_ERROR

@@ -241,7 +241,7 @@ def run_cli_fit(X, y, case, ctx):
 
 def run_cli_select(X, y, case, ctx):
     data = _to_csv(_table(X, y), ctx["tmp"] / "train.csv")
-    return _cli(["select", data, "--target", TARGET, "--n", "2"], ctx["capsys"])
+    return _cli(["select", data, "--target", TARGET, "--n-sensors", "2"], ctx["capsys"])
 
 
 def run_cli_predict(X, y, case, ctx):
@@ -1327,7 +1327,7 @@ CLI_CASES = [
     ),
     (
         "simulate-seed-negative",
-        _sim_cli("--programme", "60", "--seed", "-1"),
+        _sim_cli("--programme", "60", "--random-state", "-1"),
         r"random_state|seed.*-1",
     ),
     (
@@ -1404,12 +1404,12 @@ CLI_CASES = [
             TARGET,
             "--model",
             "gmc",
-            "--select",
+            "--n-sensors",
             "9",
             "--out",
             tmp / "m",
         ],
-        r"--select 9.*3 candidate",
+        r"--n-sensors 9.*3 candidate",
     ),
     (
         "fit-select-zero",
@@ -1420,12 +1420,12 @@ CLI_CASES = [
             TARGET,
             "--model",
             "gmc",
-            "--select",
+            "--n-sensors",
             "0",
             "--out",
             tmp / "m",
         ],
-        r"--select.*at least 1.*0",
+        r"--n-sensors.*at least 1.*0",
     ),
     (
         "fit-model-unknown",
@@ -1443,13 +1443,13 @@ CLI_CASES = [
     ),
     (
         "select-n-too-many",
-        lambda tmp: ["select", _to_csv(REAL, tmp / "d.csv"), "--target", TARGET, "--n", "9"],
-        r"--n 9.*3 candidate",
+        lambda tmp: ["select", _to_csv(REAL, tmp / "d.csv"), "--target", TARGET, "--n-sensors", "9"],
+        r"--n-sensors 9.*3 candidate",
     ),
     (
         "select-n-zero",
-        lambda tmp: ["select", _to_csv(REAL, tmp / "d.csv"), "--target", TARGET, "--n", "0"],
-        r"--n.*at least 1",
+        lambda tmp: ["select", _to_csv(REAL, tmp / "d.csv"), "--target", TARGET, "--n-sensors", "0"],
+        r"--n-sensors.*at least 1",
     ),
     (
         "select-train-test-missing",
@@ -1458,10 +1458,10 @@ CLI_CASES = [
             _to_csv(REAL, tmp / "d.csv"),
             "--target",
             TARGET,
-            "--train-test",
+            "--train-tests",
             "Z",
         ],
-        r"--train-test: test 'Z'",
+        r"--train-tests: test 'Z'",
     ),
     (
         "predict-model-missing",

@@ -113,7 +113,7 @@ def test_csv_without_test_and_time_columns(capsys, tmp_path):
 
 def test_csv_with_text_in_a_number_column(capsys, tmp_path):
     bad = _write(tmp_path / "bad.csv", "test,time_s,T1_C,dz_um\nA,0,20.0,0\nA,60,warm,1\n")
-    err = _error(capsys, ["select", bad, "--target", "dz_um", "--n", "1"])
+    err = _error(capsys, ["select", bad, "--target", "dz_um", "--n-sensors", "1"])
     assert "'warm'" in err and "line 3" in err
 
 
@@ -131,13 +131,13 @@ def test_unknown_machine(capsys, tmp_path):
 
 @pytest.mark.parametrize("value", ["0", "-3", "five"])
 def test_bad_n(capsys, tiny, value):
-    err = _error(capsys, ["select", tiny["data"], "--target", "dz_um", "--n", value])
-    assert "--n" in err
+    err = _error(capsys, ["select", tiny["data"], "--target", "dz_um", "--n-sensors", value])
+    assert "--n-sensors" in err
 
 
 def test_n_larger_than_the_candidates(capsys, tiny):
-    err = _error(capsys, ["select", tiny["data"], "--target", "dz_um", "--n", "4"])
-    assert "--n 4" in err and "3 candidate" in err
+    err = _error(capsys, ["select", tiny["data"], "--target", "dz_um", "--n-sensors", "4"])
+    assert "--n-sensors 4" in err and "3 candidate" in err
 
 
 def test_unwritable_output_folder(capsys, tmp_path):
@@ -268,7 +268,7 @@ def test_unknown_training_test(capsys, tiny, tmp_path):
     argv = ["fit", tiny["data"], "--target", "dz_um", "--model", "gmc"]
     err = _error(capsys, [*argv, "--train-tests", "A,Z", "--out", tmp_path / "m.greyml"])
     assert "'Z'" in err and "A, B" in err
-    err = _error(capsys, ["select", tiny["data"], "--target", "dz_um", "--train-test", "Q"])
+    err = _error(capsys, ["select", tiny["data"], "--target", "dz_um", "--train-tests", "Q"])
     assert "'Q'" in err
 
 
@@ -283,7 +283,7 @@ def test_anfis_grid_on_too_many_inputs(capsys, tmp_path):
     data = write_tests_csv(frame[frame.index.get_level_values("test") == "IV"], tmp_path / "iv.csv")
     argv = ["fit", data, "--target", "dy_um", "--model", "anfis-grid"]
     err = _error(capsys, [*argv, "--out", tmp_path / "m.greyml"])
-    assert "76 inputs" in err and "--select" in err
+    assert "76 inputs" in err and "--n-sensors" in err
 
 
 @pytest.mark.parametrize(
@@ -324,7 +324,7 @@ def test_simulate_select_fit_predict_round_trip(capsys, tmp_path):
     data = read_tests_csv(train_csv)
     assert list(dict.fromkeys(data.index.get_level_values("test"))) == ["I", "IV"]
 
-    argv = ["select", str(train_csv), "--target", "dy_um", "--n", "3", "--train-test", "IV"]
+    argv = ["select", str(train_csv), "--target", "dy_um", "--n-sensors", "3", "--train-tests", "IV"]
     assert main(argv) == 0
     out = capsys.readouterr().out
     assert "kept 3 of 76 candidate sensors" in out
@@ -332,7 +332,7 @@ def test_simulate_select_fit_predict_round_trip(capsys, tmp_path):
     assert len(kept) == 3 and all(k in data.columns for k in kept)
 
     model = tmp_path / "anfis.greyml"
-    argv = ["fit", str(train_csv), "--target", "dy_um", "--model", "anfis-fcm", "--select", "3"]
+    argv = ["fit", str(train_csv), "--target", "dy_um", "--model", "anfis-fcm", "--n-sensors", "3"]
     assert main([*argv, "--train-tests", "IV", "--out", str(model)]) == 0
     out = capsys.readouterr().out
     assert "trained ANFISFCM" in out and "saved to" in out
@@ -416,7 +416,7 @@ def test_simulate_a_programme_of_ones_own(capsys, tmp_path):
     path = tmp_path / "gantry.csv"
     argv = ["simulate", "--machine", "gantry", "--programme", "30:c_rpm=2500,30"]
     argv += ["--programme", "20:feed_mm_min=70000:c_rpm=1000,10", "--ambient", "22.5"]
-    assert main([*argv, "--seed", "3", "--out", str(path)]) == 0
+    assert main([*argv, "--random-state", "3", "--out", str(path)]) == 0
     frame = read_tests_csv(path)
     tests = frame.index.get_level_values("test")
     assert list(dict.fromkeys(tests)) == ["P1", "P2"]

@@ -1,5 +1,7 @@
 """CSV reading and writing of greyml's test-data layout (issue 3)."""
 
+import os
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -102,3 +104,152 @@ def test_write_checks_the_frame(tmp_path):
     with pytest.raises(ValueError, match="key name"):
         check_test_frame(good.assign(time_s=1.0))
     assert not (tmp_path / "a.csv").exists()
+
+
+# ------------------------------------------------------------------------------
+# Files from spreadsheets, time units, long lines, formula cells (issues 15 and 19)
+# ------------------------------------------------------------------------------
+
+
+def test_byte_order_mark_is_skipped(tmp_path):
+    path = tmp_path / "bom.csv"
+    path.write_bytes("\ufefftest,time_s,T1_C\nA,0,20.0\nA,60,20.5\n".encode())
+    frame = read_tests_csv(path)
+    assert list(frame.columns) == ["T1_C"]
+    assert frame["T1_C"].tolist() == [20.0, 20.5]
+
+
+@pytest.mark.parametrize("sep", [";", "\t"])
+def test_other_separators_and_decimal_commas_are_detected(tmp_path, sep):
+    rows = ["test|time_s|T1_C|dz_um", "A|0|20,25|-1,5", "A|60|20,75|-3,0e0", "B|0|19|0"]
+    path = write(tmp_path, "\n".join(r.replace("|", sep) for r in rows) + "\n")
+    frame = read_tests_csv(path)
+    assert frame["T1_C"].tolist() == [20.25, 20.75, 19.0]
+    assert frame["dz_um"].tolist() == [-1.5, -3.0, 0.0]
+    assert frame.index.get_level_values("test").tolist() == ["A", "A", "B"]
+
+
+def test_separator_and_decimal_can_be_named(tmp_path):
+    path = write(tmp_path, "test;time_s;T1_C\nA;0;20.5\nA;60;21.0\n")
+    assert read_tests_csv(path, sep=";", decimal=".")["T1_C"].tolist() == [20.5, 21.0]
+    path = write(tmp_path, "test;time_s;T1_C\nA;0;20,5\nA;60;21\n", "b.csv")
+    assert read_tests_csv(path, sep=";", decimal=",")["T1_C"].tolist() == [20.5, 21.0]
+    with pytest.raises(ValueError, match=r"decimal ',' cannot also be the separator"):
+        read_tests_csv(path, sep=",", decimal=",")
+
+
+def test_decimal_commas_in_a_comma_separated_file_are_named(tmp_path):
+    path = write(tmp_path, "test,time_s,T1_C\nA,0,20,5\nA,60,21,0\n")
+    match = r"Line 2 .* 4 fields but the header has 3.*decimal commas"
+    with pytest.raises(ValueError, match=match):
+        read_tests_csv(path)
+
+
+def test_a_quoted_decimal_comma_is_named(tmp_path):
+    path = write(tmp_path, 'test,time_s,T1_C\nA,0,"20,5"\n')
+    with pytest.raises(ValueError, match=r"'T1_C'.*'20,5'.*line 2.*decimal comma"):
+        read_tests_csv(path)
+
+
+@pytest.mark.parametrize("unit, factor", [("s", 1.0), ("min", 60.0), ("h", 3600.0)])
+def test_time_unit_converts_to_seconds(tmp_path, unit, factor):
+    path = write(tmp_path, "test,time_s,T1_C\nA,0,20\nA,1.5,21\nA,3,22\n")
+    frame = read_tests_csv(path, time_unit=unit)
+    assert frame.index.get_level_values("time_s").tolist() == [0.0, 1.5 * factor, 3 * factor]
+    assert frame.index.names == ["test", "time_s"]
+
+
+def test_unknown_time_unit_is_named(tmp_path):
+    path = write(tmp_path, "test,time_s,T1_C\nA,0,20\n")
+    with pytest.raises(ValueError, match=r"time_unit must be one of 's', 'min', 'h'.*'hours'"):
+        read_tests_csv(path, time_unit="hours")
+
+
+@pytest.mark.parametrize("line", [1, 3])
+def test_a_line_longer_than_the_limit_is_one_error(tmp_path, line):
+    rows = ["test,time_s,T1_C", "A,0,20", "A,60,21"]
+    rows[line - 1] += "," + "9" * 5000
+    path = write(tmp_path, "\n".join(rows) + "\n")
+    with pytest.raises(ValueError, match=rf"Line {line} of .* longer than 4,096 bytes"):
+        read_tests_csv(path, max_line_bytes=4096)
+    ok = read_tests_csv(write(tmp_path, "test,time_s,T1_C\nA,0,20\n", "ok.csv"), max_line_bytes=16)
+    assert ok["T1_C"].tolist() == [20]
+
+
+def test_a_file_without_newlines_is_refused_without_reading_it_whole(tmp_path):
+    path = tmp_path / "one-line.csv"
+    with open(path, "wb") as fh:
+        for _ in range(8):
+            fh.write(b"1," * 2**19)  # 8 MiB, no newline
+    with pytest.raises(ValueError, match=r"Line 1 of .* longer than 1,048,576 bytes"):
+        read_tests_csv(path, max_line_bytes=2**20)
+
+
+@pytest.mark.parametrize(
+    "label", ["=cmd|' /C calc'!A0", "+1+1", "-2", "@SUM(A1)", "'=x", "''+y", "plain", "'quoted"]
+)
+def test_formula_labels_are_neutralised_and_read_back(tmp_path, label):
+    frame = pd.DataFrame(
+        {"T1_C": [-1.5, 2.0], "=dz_um": [-3.0, 4.0]}, index=make_test_index([label] * 2, [0, 60])
+    )
+    path = write_tests_csv(frame, tmp_path / "f.csv")
+    cells = [line.split(",") for line in path.read_text().splitlines()]
+    assert cells[0] == ["test", "time_s", "T1_C", "'=dz_um"]
+    for row in cells[1:]:
+        # no text cell starts like a formula; numbers (negative too) stay numbers
+        assert not row[0].startswith(("=", "+", "-", "@", "\t", "\r"))
+        assert row[2] in ("-1.5", "2.0")
+    back = read_tests_csv(path)
+    assert back.index.get_level_values("test").tolist() == [label, label]
+    assert list(back.columns) == ["T1_C", "=dz_um"]
+    assert back["T1_C"].tolist() == [-1.5, 2.0]
+
+
+def test_a_failed_write_leaves_no_file(tmp_path, monkeypatch):
+    frame = load_gantry_tests().frame.iloc[:5]
+
+    def fail(*args, **kwargs):
+        raise OSError(28, "No space left on device")
+
+    monkeypatch.setattr(pd.DataFrame, "to_csv", fail)
+    with pytest.raises(OSError, match="No space left"):
+        write_tests_csv(frame, tmp_path / "out.csv")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_wide_files_keep_column_order_and_dtypes(tmp_path):
+    n = 300
+    header = "test,T0_C,time_s," + ",".join(f"c{k}" for k in range(n))
+    body = "".join(
+        f"A,{r}.5,{r}," + ",".join(str(k + r) for k in range(n)) + "\n" for r in range(3)
+    )
+    frame = read_tests_csv(write(tmp_path, header + "\n" + body))
+    assert list(frame.columns) == ["T0_C", *[f"c{k}" for k in range(n)]]
+    assert frame["T0_C"].tolist() == [0.5, 1.5, 2.5]
+    assert frame["c7"].tolist() == [7, 8, 9]
+    assert frame["c7"].dtype == np.int64 and frame["T0_C"].dtype == np.float64
+
+
+@pytest.mark.parametrize("gap", [False, True])
+def test_very_wide_files_read_the_same_numbers(tmp_path, gap):
+    n = 1200  # past WIDE_COLUMNS: NumPy's parser, or pandas' when a cell is empty
+    header = "test,time_s," + ",".join(f"c{k}" for k in range(n))
+    rows = [f"A,{60 * r}," + ",".join(f"{k + r / 4}" for k in range(n)) for r in range(3)]
+    if gap:
+        rows[1] = rows[1].replace(",1.25,", ",,", 1)
+    frame = read_tests_csv(write(tmp_path, "\n".join([header, *rows]) + "\n"))
+    assert frame.shape == (3, n)
+    assert frame["c7"].tolist() == [7.0, 7.25, 7.5]
+    assert frame["c1"].isna().tolist() == [False, gap, False]
+    assert frame.index.get_level_values("time_s").tolist() == [0.0, 60.0, 120.0]
+
+
+def test_a_folder_or_pipe_is_not_read(tmp_path):
+    with pytest.raises(ValueError, match=r"is a folder; give a CSV file"):
+        read_tests_csv(tmp_path)
+    fifo = tmp_path / "pipe.csv"
+    if not hasattr(os, "mkfifo"):
+        pytest.skip("no named pipes on this system")
+    os.mkfifo(fifo)
+    with pytest.raises(ValueError, match=r"not a regular file \(a pipe or device\)"):
+        read_tests_csv(fifo)  # without the check, opening it would wait for a writer

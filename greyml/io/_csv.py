@@ -7,17 +7,28 @@ then numeric data columns (operating inputs ``spindle_rpm``, ``feed_mm_min``,
 ``dy_um``, ``dz_um``). Rows of one test are contiguous and in strictly
 increasing time. In memory the two key columns become the ``(test, time_s)``
 row index (:func:`greyml._sequences.make_test_index`).
+
+Files from spreadsheets are read as they are: a UTF-8 byte-order mark is
+skipped, ``;``- or tab-separated files and decimal commas are detected (or
+named with ``sep=`` and ``decimal=``). Text cells that a spreadsheet would run
+as a formula (a test label or column name starting with ``=``, ``+``, ``-``,
+``@``, a tab or a carriage return) are written with a leading ``'`` and read
+back without it.
 """
 
 from __future__ import annotations
 
 import csv
+import io
 import os
+import re
+import secrets
 import warnings
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from pandas.api.types import is_numeric_dtype
 
 from greyml._sequences import TEST_LEVEL, TIME_LEVEL, make_test_index, test_segments
 from greyml._validation import check_unique_columns
@@ -25,6 +36,49 @@ from greyml._validation import check_unique_columns
 __all__ = ["read_tests_csv", "write_tests_csv", "check_test_frame"]
 
 KEYS = (TEST_LEVEL, TIME_LEVEL)
+
+#: Units ``read_tests_csv(..., time_unit=)`` accepts for the ``time_s``
+#: column, with their length in seconds.
+TIME_UNITS = {"s": 1.0, "min": 60.0, "h": 3600.0}
+
+#: Longest line (bytes) :func:`read_tests_csv` reads by default: 16 MiB, over
+#: 500,000 columns of numbers. A longer line is not a row of tests (a file of
+#: one huge line would otherwise take all memory).
+MAX_LINE_BYTES = 16 * 2**20
+
+#: From this many columns on, a file of plain numbers is read with NumPy's
+#: parser (every data column float64): pandas' reader spends time per column
+#: that grows faster than the column count.
+WIDE_COLUMNS = 1000
+
+#: Separators tried when ``sep`` is not given, the usual one first.
+_SEPARATORS = (",", ";", "\t")
+
+#: A text cell starting with one of these is run as a formula by spreadsheets.
+_FORMULA_START = re.compile(r"^'*[=+\-@\t\r]")
+_ESCAPED_FORMULA = re.compile(r"^'(?='*[=+\-@\t\r])")
+
+#: A number written with a decimal comma: ``20,5``, ``-0,25``, ``1,5e-3``.
+_DECIMAL_COMMA = re.compile(r"^[+-]?\d*,\d+([eE][+-]?\d+)?$")
+
+
+def neutralise_cell(text):
+    """``text`` with a leading ``'`` if a spreadsheet would run it as a formula.
+
+    Cells starting with ``=``, ``+``, ``-``, ``@``, a tab or a carriage return
+    (after any ``'``) get one more ``'``; :func:`read_tests_csv` removes it
+    again, so labels read back unchanged. Non-text values are returned as they
+    are: a negative number is a number, not a formula.
+    """
+    if isinstance(text, str) and _FORMULA_START.match(text):
+        return "'" + text
+    return text
+
+
+def _unneutralise(text):
+    if isinstance(text, str):
+        return _ESCAPED_FORMULA.sub("", text, count=1)
+    return text
 
 
 def _line(row: int) -> int:
@@ -102,8 +156,7 @@ def check_test_frame(frame, *, what="The frame"):
             raise ValueError(f"{what} has a data column named '{c}', which is a key name.")
     check_unique_columns(frame.columns, what)
     lower = what.lower() if what[:1].isupper() and what[1:2].islower() else what
-    for c in frame.columns:
-        dtype = frame[c].dtype
+    for c, dtype in zip(frame.columns, frame.dtypes):
         if pd.api.types.is_complex_dtype(dtype):
             raise ValueError(
                 f"Column '{c}' of {lower} holds complex numbers (dtype {dtype}); every "
@@ -159,45 +212,151 @@ def write_tests_csv(frame, path, *, overwrite=False):
     check_test_frame(frame)
     path = Path(path)
     out = frame.copy()
-    for c in out.columns:
-        if pd.api.types.is_float_dtype(out[c].dtype) and out[c].dtype != np.float64:
+    for c, dtype in zip(out.columns, out.dtypes):
+        if pd.api.types.is_float_dtype(dtype) and dtype != np.float64:
             out[c] = out[c].astype(np.float64)
     out = out.reset_index(level=[n for n in out.index.names if n not in KEYS] or None)
     out = out.reset_index()[[*KEYS, *[c for c in out.columns if c not in KEYS]]]
-    mode = "w" if overwrite else "x"
+    # a label or name a spreadsheet would run as a formula gets a leading '
+    out[TEST_LEVEL] = out[TEST_LEVEL].map(neutralise_cell)
+    out.columns = [neutralise_cell(c) for c in out.columns]
+    if path.exists() and not overwrite:
+        raise FileExistsError(f"{os.fspath(path)!r} exists; pass overwrite=True to replace it.")
+    # written to a file beside path, then renamed: a failure leaves no partial file
+    temp = path.parent / f".{path.name}.{os.getpid()}.{secrets.token_hex(4)}.part"
+    fd = os.open(temp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
     try:
-        with open(path, mode, newline="", encoding="utf-8") as fh:
+        with open(fd, "w", newline="", encoding="utf-8") as fh:
             out.to_csv(fh, index=False, lineterminator="\n")
+        if overwrite:
+            os.replace(temp, path)
+        else:
+            _rename_new(temp, path)
+    except BaseException:
+        if os.path.exists(temp):
+            os.unlink(temp)
+        raise
+    return path
+
+
+def _rename_new(temp, path):
+    """Rename ``temp`` to ``path``, refusing to replace a file made meanwhile."""
+    try:
+        os.link(temp, path)
     except FileExistsError:
         raise FileExistsError(
             f"{os.fspath(path)!r} exists; pass overwrite=True to replace it."
         ) from None
-    return path
+    except OSError:  # no hard links here (some file systems): check, then rename
+        if os.path.exists(path):
+            raise FileExistsError(
+                f"{os.fspath(path)!r} exists; pass overwrite=True to replace it."
+            ) from None
+        os.replace(temp, path)
+        return
+    os.unlink(temp)
 
 
-def _header(path):
-    with open(path, newline="", encoding="utf-8") as fh:
-        try:
-            header = next(csv.reader(fh))
-        except StopIteration:
-            raise ValueError(f"{os.fspath(path)!r} is empty: expected a header line.") from None
-    header = [h.strip() for h in header]
+def _check_line_lengths(path, name, max_line_bytes):
+    """Refuse a file with a line longer than ``max_line_bytes``, reading it in chunks."""
+    line = 1  # the line the next byte belongs to
+    run = 0  # bytes of that line seen so far
+    with open(path, "rb") as fh:
+        while chunk := fh.read(2**20):
+            ends = np.flatnonzero(np.frombuffer(chunk, dtype=np.uint8) == 10)
+            lengths = np.diff(ends, prepend=-1) - 1
+            if ends.size:
+                lengths[0] += run
+                long = np.flatnonzero(lengths > max_line_bytes)
+                if long.size:
+                    _too_long(name, line + int(long[0]), max_line_bytes)
+                line += ends.size
+                run = len(chunk) - int(ends[-1]) - 1
+            else:
+                run += len(chunk)
+            if run > max_line_bytes:
+                _too_long(name, line, max_line_bytes)
+
+
+def _too_long(name, line, max_line_bytes):
+    raise ValueError(
+        f"Line {line} of {name!r} is longer than {max_line_bytes:,} bytes (max_line_bytes), "
+        "too long for a row of tests: is it a CSV file of tests, one sample per line?"
+    )
+
+
+def _split_line(text, sep, name, line):
+    try:
+        return next(csv.reader([text], delimiter=sep), [])
+    except csv.Error as exc:
+        raise ValueError(f"Line {line} of {name!r} is not well-formed CSV: {exc}.") from None
+
+
+def _header(path, sep, max_line_bytes):
+    """The header's names, the separator and the first data lines (up to 50)."""
+    name = os.fspath(path)
+    try:
+        with open(path, newline="", encoding="utf-8-sig") as fh:
+            first = fh.readline(max_line_bytes + 1)
+            data = [fh.readline(max_line_bytes + 1) for _ in range(50)]
+    except UnicodeDecodeError as exc:
+        raise ValueError(
+            f"{name!r} is not UTF-8 text ({exc.reason} at byte {exc.start}); save it as "
+            "UTF-8 CSV."
+        ) from None
+    if not first.strip():
+        raise ValueError(f"{name!r} is empty: expected a header line.")
+    first = first.rstrip("\r\n")
+    if sep is None:
+        sep = ","
+        for candidate in _SEPARATORS:
+            names = [h.strip() for h in _split_line(first, candidate, name, 1)]
+            if all(key in names for key in KEYS):
+                sep = candidate
+                break
+    header = [_unneutralise(h.strip()) for h in _split_line(first, sep, name, 1)]
     seen = set()
-    for k, name in enumerate(header):
-        if name == "":
-            raise ValueError(f"Column {k + 1} of the header of {os.fspath(path)!r} has no name.")
-        if name in seen:
-            raise ValueError(
-                f"The header of {os.fspath(path)!r} names column '{name}' more than once."
-            )
-        seen.add(name)
+    for k, col in enumerate(header):
+        if col == "":
+            raise ValueError(f"Column {k + 1} of the header of {name!r} has no name.")
+        if col in seen:
+            raise ValueError(f"The header of {name!r} names column '{col}' more than once.")
+        seen.add(col)
     for key in KEYS:
         if key not in seen:
             raise ValueError(
-                f"{os.fspath(path)!r} has no '{key}' column; the header must contain "
-                f"'{TEST_LEVEL}' and '{TIME_LEVEL}' (found {header})."
+                f"{name!r} has no '{key}' column; the header must contain "
+                f"'{TEST_LEVEL}' and '{TIME_LEVEL}' (found {header[:12]}"
+                f"{'...' if len(header) > 12 else ''}; separator {sep!r})."
             )
-    return header
+    return header, sep, [d.rstrip("\r\n") for d in data if d.strip()]
+
+
+def _decimal(lines, header, sep, name, decimal):
+    """The decimal mark: ``decimal``, or ``","`` when the first data lines use it."""
+    if decimal is not None:
+        if decimal == sep:
+            raise ValueError(f"decimal {decimal!r} cannot also be the separator {sep!r}.")
+        return decimal
+    found = "."
+    for k, text in enumerate(lines):
+        cells = [c.strip() for c in _split_line(text, sep, name, k + 2)]
+        if len(cells) > len(header):
+            hint = ""
+            if sep == "," and len(cells) > len(header):
+                hint = (
+                    "; if its numbers have decimal commas (20,5), save the file with ';' "
+                    "as the separator or '.' as the decimal mark"
+                )
+            raise ValueError(
+                f"Line {k + 2} of {name!r} has {len(cells)} fields but the header has "
+                f"{len(header)} (separator {sep!r}){hint}."
+            )
+        if sep != "," and any(
+            _DECIMAL_COMMA.match(c) for j, c in enumerate(cells) if header[j] != TEST_LEVEL
+        ):
+            found = ","
+    return found
 
 
 def _first_bad(values: pd.Series):
@@ -227,6 +386,8 @@ def _numeric_column(values: pd.Series, col, name: str, context=lambda row: ""):
 def _what_text(text) -> str:
     """What a non-number cell seems to be, for the message: '' or ' (a complex number)'."""
     text = str(text).strip()
+    if _DECIMAL_COMMA.match(text):
+        return " (a decimal comma; pass decimal=',' or --decimal ,)"
     try:
         complex(text.replace(" ", ""))
         return " (a complex number; give the real part)"
@@ -241,20 +402,101 @@ def _what_text(text) -> str:
             return ""
 
 
-def read_tests_csv(path):
-    """Read test data written by :func:`write_tests_csv` (or by hand).
+def _number_or_nan(text):
+    """A cell of a wide file: a number, or NaN when empty."""
+    text = text.strip()
+    return float(text) if text else np.nan
+
+
+def _read_wide(path, header, positions, sep, decimal):
+    """The columns at ``positions`` of a wide file of plain numbers, or None.
+
+    With :data:`WIDE_COLUMNS` columns or more, a decimal point and no text
+    cell, NumPy's parser reads the file in one 2-D float64 array (empty cells
+    NaN); any other file (or any cell NumPy cannot read) is left to pandas.
+    """
+    if len(header) < WIDE_COLUMNS or decimal != ".":
+        return None
+    options = dict(
+        delimiter=sep,
+        skiprows=1,
+        usecols=positions,
+        dtype=np.float64,
+        ndmin=2,
+        encoding="utf-8-sig",
+        comments=None,
+        quotechar='"',
+    )
+    try:
+        values = np.loadtxt(path, **options)
+    except (ValueError, UnicodeDecodeError):
+        try:  # empty cells are missing values: slower, still linear
+            values = np.loadtxt(path, converters=_number_or_nan, **options)
+        except (ValueError, UnicodeDecodeError):
+            return None
+    return pd.DataFrame(values, columns=positions, copy=False)
+
+
+def _data_columns(raw, labels, name):
+    """The time and the data columns of ``raw`` as numbers, in time linear in their count.
+
+    pandas' reader gives one block per column, and removing a column from a
+    frame splits its blocks: operations on such frames cost time growing with
+    the square of the column count. So the frame is built once, without the
+    time: from one 2-D array when the columns share a dtype (the usual case),
+    else from the columns one by one, text columns converted to numbers.
+    """
+    names = list(raw.columns)
+    at = names.index(TIME_LEVEL)
+    del names[at]
+    dtypes = list(raw.dtypes)
+    data_dtypes = set(dtypes[:at] + dtypes[at + 1 :])
+    if len(data_dtypes) == 1 and all(is_numeric_dtype(dt) for dt in dtypes):
+        (dtype,) = data_dtypes
+        if dtype == np.float64 or all(dt == dtype for dt in dtypes):
+            values = raw.to_numpy(dtype=np.float64 if dtype == np.float64 else dtype)
+            time = pd.Series(values[:, at], name=TIME_LEVEL)
+            data = pd.DataFrame(np.delete(values, at, axis=1), columns=names, copy=False)
+            return time, data
+    where = lambda row: f" (test {labels.iloc[row]!r})"  # noqa: E731
+    columns = {}
+    for col, values in raw.items():
+        if not is_numeric_dtype(values.dtype):
+            values = _numeric_column(values, col, name, where)
+        columns[col] = values.to_numpy()
+    time = pd.Series(columns.pop(TIME_LEVEL), name=TIME_LEVEL)
+    return time, pd.DataFrame(columns, copy=False)
+
+
+def read_tests_csv(path, *, time_unit="s", sep=None, decimal=None, max_line_bytes=None):
+    """Read test data written by :func:`write_tests_csv` (or by hand, or a spreadsheet).
 
     Parameters
     ----------
     path : str or path-like
         CSV file with a header; columns ``test``, ``time_s`` and numeric
-        data columns. Empty cells are missing values (NaN).
+        data columns. Empty cells are missing values (NaN). A UTF-8
+        byte-order mark (as Excel writes) is skipped.
+    time_unit : {"s", "min", "h"}, default="s"
+        The unit of the ``time_s`` column in the file; it is converted to
+        seconds (the column keeps its name). A file in minutes read as
+        seconds would make every time constant 60 times too short.
+    sep : str, optional
+        The separator. By default the first of ``,``, ``;`` and tab that
+        splits the header into ``test`` and ``time_s``.
+    decimal : {".", ","}, optional
+        The decimal mark. By default ``.``, or ``,`` when the separator is
+        not a comma and the first 50 data lines hold numbers like ``20,5``.
+    max_line_bytes : int, optional
+        The longest line read, :data:`MAX_LINE_BYTES` (16 MiB) by default; a
+        longer one is an error, so a file of one huge line cannot exhaust
+        memory.
 
     Returns
     -------
     frame : DataFrame
         Indexed by ``(test, time_s)``; test labels are strings, ``time_s``
-        floats.
+        floats (seconds).
 
     Raises
     ------
@@ -263,7 +505,10 @@ def read_tests_csv(path):
         an empty file or header, a repeated column name, a missing ``test``
         or ``time_s`` column, a missing test label or time, a value that is
         not a number, two rows with the same test and time, time that does not
-        increase within a test, or a test whose rows are not contiguous.
+        increase within a test, a test whose rows are not contiguous, a line
+        longer than ``max_line_bytes``, a file that is not UTF-8, a path that
+        is not a regular file (a folder, pipe or device), or an unknown
+        ``time_unit``.
 
     Examples
     --------
@@ -276,26 +521,80 @@ def read_tests_csv(path):
     ...     df = read_tests_csv(p)
     >>> df.index.names, df.shape
     (FrozenList(['test', 'time_s']), (2, 2))
+
+    A spreadsheet's file, time in minutes:
+
+    >>> text = "\\ufefftest;time_s;T1_C\\nA;0;20,0\\nA;1;20,5\\n"
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     p = os.path.join(d, "b.csv")
+    ...     with open(p, "w", encoding="utf-8") as fh:
+    ...         _ = fh.write(text)
+    ...     df = read_tests_csv(p, time_unit="min")
+    >>> df.index.get_level_values("time_s").tolist(), df["T1_C"].tolist()
+    ([0.0, 60.0], [20.0, 20.5])
     """
     name = os.fspath(path)
-    header = _header(path)
+    if time_unit not in TIME_UNITS:
+        raise ValueError(
+            f"time_unit must be one of {', '.join(map(repr, TIME_UNITS))} (the unit of the "
+            f"'time_s' column in the file); got {time_unit!r}."
+        )
+    if sep is not None and (not isinstance(sep, str) or len(sep) != 1 or sep in "\"\r\n"):
+        raise ValueError(f"sep must be one character, such as ',', ';' or a tab; got {sep!r}.")
+    if decimal is not None and decimal not in (".", ","):
+        raise ValueError(f"decimal must be '.' or ','; got {decimal!r}.")
+    if decimal is not None and decimal == sep:
+        raise ValueError(f"decimal {decimal!r} cannot also be the separator sep={sep!r}.")
+    if max_line_bytes is None:
+        max_line_bytes = MAX_LINE_BYTES
+    if (
+        not isinstance(max_line_bytes, int)
+        or isinstance(max_line_bytes, bool)
+        or max_line_bytes < 1
+    ):
+        raise ValueError(f"max_line_bytes must be a whole number >= 1; got {max_line_bytes!r}.")
+    if os.path.exists(path) and not os.path.isfile(path):
+        what = "a folder" if os.path.isdir(path) else "not a regular file (a pipe or device)"
+        raise ValueError(f"{name!r} is {what}; give a CSV file (it is read more than once).")
+    _check_line_lengths(path, name, max_line_bytes)
+    header, sep, first_lines = _header(path, sep, max_line_bytes)
     if len(header) == len(KEYS):
         raise ValueError(
             f"{name!r} has no data columns (0 features): its header holds only {', '.join(header)}."
         )
+    decimal = _decimal(first_lines, header, sep, name, decimal)
+    if not first_lines:
+        raise ValueError(f"{name!r} has a header but no rows (0 samples).")
+    options = dict(
+        sep=sep,
+        decimal=decimal,
+        encoding="utf-8-sig",
+        header=None,
+        skiprows=1,
+        skipinitialspace=True,
+        keep_default_na=False,
+        na_values=[""],
+        low_memory=False,
+    )
+    position = header.index(TEST_LEVEL)
     try:
-        raw = pd.read_csv(
-            path,
-            dtype={TEST_LEVEL: object},
-            skipinitialspace=True,
-            keep_default_na=False,
-            na_values=[""],
-        )
+        # the labels are text (read alone: a dtype for one column slows the
+        # whole read down with the square of the column count)
+        labels = pd.read_csv(path, usecols=[position], dtype=object, **options)[position]
+        positions = [k for k in range(len(header)) if k != position]
+        raw = _read_wide(path, header, positions, sep, decimal)
+        if raw is None or len(raw) != len(labels):
+            raw = pd.read_csv(path, names=list(range(len(header))), usecols=positions, **options)
     except pd.errors.ParserError as exc:
         raise ValueError(f"{name!r} is not a well-formed CSV file: {exc}") from None
+    except UnicodeDecodeError as exc:
+        raise ValueError(
+            f"{name!r} is not UTF-8 text ({exc.reason} at byte {exc.start}); save it as "
+            "UTF-8 CSV."
+        ) from None
     if raw.empty:
         raise ValueError(f"{name!r} has a header but no rows (0 samples).")
-    labels = raw[TEST_LEVEL]
+    raw.columns = [header[k] for k in positions]
     missing = labels.isna() | (labels.astype(str).str.strip() == "")
     if missing.any():
         row = int(np.flatnonzero(missing.to_numpy())[0])
@@ -303,35 +602,30 @@ def read_tests_csv(path):
             f"Line {_line(row)} of {name!r} (data row {row}) has no test label in column "
             "'test' (a missing test label); every row must name its test."
         )
-    raw[TEST_LEVEL] = labels.astype(str).str.strip()
-    for col in raw.columns:
-        if col == TEST_LEVEL:
-            continue
-        raw[col] = _numeric_column(
-            raw[col], col, name, lambda row: f" (test {raw[TEST_LEVEL].iloc[row]!r})"
-        )
-    time = raw[TIME_LEVEL].astype(float)
+    labels = labels.astype(str).str.strip().map(_unneutralise)
+    time, data = _data_columns(raw, labels, name)
+    time = time.astype(float) * TIME_UNITS[time_unit]
     if time.isna().any():
         row = int(np.flatnonzero(time.isna().to_numpy())[0])
         raise ValueError(
-            f"Line {_line(row)} of {name!r} (test {raw[TEST_LEVEL].iloc[row]!r}) has no value "
+            f"Line {_line(row)} of {name!r} (test {labels.iloc[row]!r}) has no value "
             "in column 'time_s': the time is missing."
         )
-    dup = raw.duplicated([TEST_LEVEL, TIME_LEVEL], keep=False).to_numpy()
+    keys = pd.DataFrame({TEST_LEVEL: labels.to_numpy(), TIME_LEVEL: time.to_numpy()})
+    dup = keys.duplicated(keep=False).to_numpy()
     if dup.any():
         rows = np.flatnonzero(dup)
         first = rows[0]
         same = rows[
-            (raw[TEST_LEVEL].to_numpy()[rows] == raw[TEST_LEVEL].iloc[first])
+            (labels.to_numpy()[rows] == labels.iloc[first])
             & (time.to_numpy()[rows] == time.iloc[first])
         ]
         raise ValueError(
-            f"{name!r} has duplicate rows for test {raw[TEST_LEVEL].iloc[first]!r} at "
+            f"{name!r} has duplicate rows for test {labels.iloc[first]!r} at "
             f"time_s {time.iloc[first]:g}: lines " + ", ".join(str(_line(r)) for r in same) + "."
         )
-    index = make_test_index(raw[TEST_LEVEL].to_numpy(dtype=object), time.to_numpy())
-    frame = raw.drop(columns=list(KEYS))
-    frame.index = index
+    frame = data
+    frame.index = make_test_index(labels.to_numpy(dtype=object), time.to_numpy())
     try:
         test_segments(frame)
     except ValueError as exc:
