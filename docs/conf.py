@@ -12,6 +12,7 @@ build goes on without them, with one line on the console and no warning.
 ``examples/**/plot_*.py``; its sections are the sub-folders of ``examples/``.
 """
 
+import argparse
 import os
 import re
 import shutil
@@ -279,8 +280,42 @@ class ReadmeDirective(Directive):
         return container.children
 
 
+class CommandHelpDirective(Directive):
+    """``.. greyml-help:: gap``: the ``--help`` text of a command, as of this build.
+
+    Taken from :func:`greyml.cli.build_parser` when the page is built (80
+    columns), so the command-line page always shows the options the code has.
+    Without an argument: ``greyml --help``.
+    """
+
+    optional_arguments = 1
+
+    def run(self):
+        from greyml.cli import build_parser
+
+        kept = os.environ.get("COLUMNS")
+        os.environ["COLUMNS"] = "80"
+        try:
+            parser = build_parser()
+            if self.arguments:
+                (commands,) = [
+                    a for a in parser._actions if isinstance(a, argparse._SubParsersAction)
+                ]
+                parser = commands.choices[self.arguments[0]]
+            text = parser.format_help()
+        finally:
+            if kept is None:
+                os.environ.pop("COLUMNS")
+            else:
+                os.environ["COLUMNS"] = kept
+        block = nodes.literal_block(text, text)
+        block["language"] = "none"
+        return [block]
+
+
 def setup(app):
     # before numpydoc (priority 500) rewrites the docstring
     app.connect("autodoc-process-docstring", _constant_doc, priority=100)
     app.connect("autodoc-process-bases", _public_bases)
     app.add_directive("readme", ReadmeDirective)
+    app.add_directive("greyml-help", CommandHelpDirective)

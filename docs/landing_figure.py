@@ -20,15 +20,15 @@ tests = X.index.get_level_values("test")
 model = GMC(solver="ls").fit(X[tests == "IV"], y[tests == "IV"])
 
 held_out = ["II", "V", "VI"]
-fig, axes = plt.subplots(1, 3, figsize=(10, 2.9), sharey=True, layout="constrained")
+fig, axes = plt.subplots(1, 3, figsize=(12, 2.6), sharey=True, layout="constrained")
 for ax, test in zip(axes, held_out):
     rows = tests == test
     minutes = X[rows].index.get_level_values("time_s") / 60
     predicted = model.predict(X[rows])
     ax.plot(minutes, y[rows], color="k", lw=1.6, label="measured")
     ax.plot(minutes, predicted, color="C1", lw=1.6, ls="--", label="GMC prediction")
-    ax.set_title(f"Test {test}: RMSE {rmse(y[rows], predicted):.1f} µm", fontsize=10)
+    ax.set_title(f"Test {test}, not seen in training: RMSE {rmse(y[rows], predicted):.1f} µm", fontsize=10)
     ax.set_xlabel("time (min)")
 axes[0].set_ylabel("Y drift of the tool (µm)")
 axes[0].legend(fontsize=8, loc="lower right")
-fig.suptitle("GMC(1,N) calibrated on Test IV of the simulated VMC, on tests it has not seen", fontsize=10)
+fig.suptitle("GMC(1,N) on five temperature rises, calibrated on Test IV of a simulated VMC", fontsize=10)

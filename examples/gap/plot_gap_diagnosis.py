@@ -37,7 +37,14 @@ from greyml.datasets import make_tests
 from greyml.gap import diagnose_gap
 from greyml.simulation import Effects, HeatingTest, Programme, diurnal
 
-OUT = os.environ.get("GREYML_EXAMPLE_OUT", ".")
+#: run as a script with GREYML_EXAMPLE_OUT set, the figures are also saved there
+OUT = os.environ.get("GREYML_EXAMPLE_OUT")
+
+
+def save(fig, name):
+    if OUT:
+        fig.savefig(os.path.join(OUT, name), dpi=100)
+
 TARGET = "dy_um"
 DRIVERS = ["spindle_rpm", "feed_mm_min"]
 #: five sensors from five groups of the VMC: column, spindle carrier strips 1
@@ -199,7 +206,7 @@ fig_a.suptitle(
     "Gap, measured minus simulated (black, left); air change since the start (blue, °C); "
     "shaded: heating"
 )
-fig_a.savefig(os.path.join(OUT, "gap_diagnosis_where.png"), dpi=100)
+save(fig_a, "gap_diagnosis_where.png")
 
 # %%
 # Which effect
@@ -276,7 +283,7 @@ ax.set(
     xlabel="held-out shrinkage of the gap (1 − RMSE after / before)",
     title="Held-out shrinkage by effect (red: significant)",
 )
-fig_b.savefig(os.path.join(OUT, "gap_diagnosis_effects.png"), dpi=100)
+save(fig_b, "gap_diagnosis_effects.png")
 
 # %%
 # Before and after
@@ -337,7 +344,7 @@ ax_t.set(
     title=f"Test {worst}, held out",
 )
 ax_t.legend(fontsize=8)
-fig_c.savefig(os.path.join(OUT, "gap_diagnosis_before_after.png"), dpi=100)
+save(fig_c, "gap_diagnosis_before_after.png")
 
 # %%
 # What next
@@ -367,6 +374,7 @@ print(again)
 # end before and after, where it lies by phase and band, and the ranking.
 
 fig_d = report.plot()
-fig_d.savefig(os.path.join(OUT, "gap_diagnosis_summary.png"), dpi=100)
-print(f"\nplots written to {os.path.abspath(OUT)}")
+save(fig_d, "gap_diagnosis_summary.png")
+if OUT:
+    print(f"\nplots written to {OUT}")
 plt.show()
