@@ -185,7 +185,7 @@ labels = list(dict.fromkeys(report.gap.index.get_level_values("test")))
 air_rise = real["ambient_C"] - real["ambient_C"].groupby(level="test").transform("first")
 air_lim = 1.1 * np.abs(air_rise).max()
 fig_a, axes = plt.subplots(2, 3, figsize=(11, 5.5), sharey=True, layout="constrained")
-for ax, label in zip(axes.flat, labels):
+for i, (ax, label) in enumerate(zip(axes.flat, labels)):
     gap = report.gap.xs(label, level="test")
     hours = gap.index.to_numpy() / 3600.0
     heating = (real.xs(label, level="test")[DRIVERS] != 0).any(axis=1).to_numpy()
@@ -198,6 +198,8 @@ for ax, label in zip(axes.flat, labels):
     ax_air.plot(hours, air_rise.xs(label, level="test").to_numpy(), color="C0", lw=1)
     ax_air.set_ylim(-air_lim, air_lim)
     ax_air.tick_params(colors="C0", labelsize=8)
+    if i % 3 == 2:  # the right-hand column
+        ax_air.set_ylabel("air change (°C)", color="C0")
 for ax in axes[1]:
     ax.set_xlabel("time since the test start (h)")
 for ax in axes[:, 0]:

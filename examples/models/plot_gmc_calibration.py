@@ -103,17 +103,19 @@ for name, result, paper in rows:
 t_min = frame.index.get_level_values("time_s").to_numpy() / 60.0
 fig, (ax, ax_r) = plt.subplots(2, 1, figsize=(8, 6), sharex=True, height_ratios=[3, 1])
 ax.plot(t_min, y, color="black", lw=2, label="measured (simulated)")
+styles = iter(["-", "--", ":", "-.", (0, (6, 2)), (0, (1, 3))])
 for name, pred in predictions.items():
+    style = next(styles)  # several solvers can land on the same curve
     if np.isfinite(pred).all() and np.abs(pred).max() < 1e6:
-        ax.plot(t_min, pred, lw=1, label=name)
+        ax.plot(t_min, pred, lw=1.2, ls=style, label=name)
 ax.axvspan(0, t_min[k], color="0.9", label="calibration")
 ax.set_ylabel("Z displacement (µm)")
 ax.legend(loc="lower left", fontsize=8)
 resid = y.to_numpy() - predictions["CS-GMC"]
-ax_r.plot(t_min, resid, color="C2")
+ax_r.plot(t_min, resid, color="0.3")
 band = np.abs(resid[k:]).max()
-ax_r.axhspan(-band, band, color="C2", alpha=0.15)
-ax_r.set_ylabel("residual (µm)")
+ax_r.axhspan(-band, band, color="0.3", alpha=0.15)
+ax_r.set_ylabel("CS-GMC residual (µm)")
 ax_r.set_xlabel("time (min)")
 fig.tight_layout()
 # run as a script with GREYML_EXAMPLE_OUT set, the figure is also saved there
