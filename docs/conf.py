@@ -100,7 +100,9 @@ def _intersphinx_mapping():
         up = dict(zip(_INVENTORIES, pool.map(_reachable, _INVENTORIES.values())))
     missing = sorted(name for name, ok in up.items() if not ok)
     if missing:
-        print(f"greyml docs: no intersphinx links to {', '.join(missing)} (inventory not reachable)")
+        print(
+            f"greyml docs: no intersphinx links to {', '.join(missing)} (inventory not reachable)"
+        )
     return {name: (url, None) for name, url in _INVENTORIES.items() if up[name]}
 
 
@@ -168,6 +170,7 @@ html_theme_options = {
 }
 html_sidebars = {"index": []}
 html_static_path = []
+
 
 # -- module constants -------------------------------------------------------
 def _constant_doc(app, what, name, obj, options, lines):

@@ -27,8 +27,12 @@ for ax, test in zip(axes, held_out):
     predicted = model.predict(X[rows])
     ax.plot(minutes, y[rows], color="k", lw=1.6, label="measured")
     ax.plot(minutes, predicted, color="C1", lw=1.6, ls="--", label="GMC prediction")
-    ax.set_title(f"Test {test}, not seen in training: RMSE {rmse(y[rows], predicted):.1f} µm", fontsize=10)
+    ax.set_title(
+        f"Test {test}, not seen in training: RMSE {rmse(y[rows], predicted):.1f} µm", fontsize=10
+    )
     ax.set_xlabel("time (min)")
 axes[0].set_ylabel("Y drift of the tool (µm)")
 axes[0].legend(fontsize=8, loc="lower right")
-fig.suptitle("GMC(1,N) on five temperature rises, calibrated on Test IV of a simulated VMC", fontsize=10)
+fig.suptitle(
+    "GMC(1,N) on five temperature rises, calibrated on Test IV of a simulated VMC", fontsize=10
+)

@@ -45,6 +45,7 @@ def save(fig, name):
     if OUT:
         fig.savefig(os.path.join(OUT, name), dpi=100)
 
+
 TARGET = "dy_um"
 DRIVERS = ["spindle_rpm", "feed_mm_min"]
 #: five sensors from five groups of the VMC: column, spindle carrier strips 1

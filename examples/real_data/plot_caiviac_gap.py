@@ -337,8 +337,10 @@ def save(fig, name):
 # ---
 loaded = load()
 if loaded is None:
-    print("CAIVIAC data not found (see the installation page, or set GREYML_CAIVIAC);"
-          " skipping this example.")
+    print(
+        "CAIVIAC data not found (see the installation page, or set GREYML_CAIVIAC);"
+        " skipping this example."
+    )
 else:
     frame, sensors = loaded
     cal = frame.xs(CALIBRATION_CYCLE, level="test")

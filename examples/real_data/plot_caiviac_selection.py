@@ -163,8 +163,10 @@ def plot(results):
 # ---
 loaded = load()
 if loaded is None:
-    print("CAIVIAC data not found (see the installation page, or set GREYML_CAIVIAC);"
-          " skipping this example.")
+    print(
+        "CAIVIAC data not found (see the installation page, or set GREYML_CAIVIAC);"
+        " skipping this example."
+    )
 else:
     # one BLAS thread: the products are small, and on busy cores more threads only wait
     with threadpool_limits(limits=1):
