@@ -1,6 +1,7 @@
 """greyml: thermal-error models of CNC machine tools, scikit-learn compatible."""
 
 from greyml._sequences import TEST_LEVEL, TIME_LEVEL, make_test_index, test_ids
+from greyml.dynamic import Compensator, LagFeatures
 from greyml.fuzzy import ANFISFCM, ANFISGrid
 from greyml.grey import (
     AGO,
@@ -9,10 +10,11 @@ from greyml.grey import (
     AccumulatedTargetRegressor,
     GreyConditioningWarning,
     GreyStabilityWarning,
+    GreyWarmStartWarning,
     fit_gm1n,
     simulate_gmc,
 )
-from greyml.neural import MLPBaseline
+from greyml.neural import MLPBaseline, UnderdeterminedWarning
 from greyml.selection import GreyInfluenceSelector, TrainOnOneTest
 
 __version__ = "0.1.0.dev0"
@@ -22,15 +24,19 @@ __all__ = [
     "ANFISFCM",
     "ANFISGrid",
     "AccumulatedTargetRegressor",
+    "Compensator",
     "GMC",
     "GNNMCI",
     "GreyConditioningWarning",
     "GreyStabilityWarning",
+    "GreyWarmStartWarning",
     "GreyInfluenceSelector",
+    "LagFeatures",
     "MLPBaseline",
     "TEST_LEVEL",
     "TIME_LEVEL",
     "TrainOnOneTest",
+    "UnderdeterminedWarning",
     "fit_gm1n",
     "make_test_index",
     "simulate_gmc",

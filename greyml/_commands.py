@@ -138,7 +138,7 @@ def make_model(name, *, random_state=0, quick=False):
 
     check = f"{100 * CHECKING_FRACTION:.0f} % checking data"
     if name == "gmc":
-        return GMC(solver="ls"), "GMC(1,N) calibrated by least squares (seed 000's GMC-LS)"
+        return GMC(solver="ls"), "GMC(1,N) calibrated by least squares, b1 >= 0 (GMC-LS)"
     if name == "gnnmci":
         particles, iterations = (20, 20) if quick else (90, 100)
         model = GNNMCI(n_particles=particles, max_iter=iterations, random_state=random_state)
@@ -190,10 +190,10 @@ def _fit_quietly(estimator, X, y):
     return seconds, list(dict.fromkeys(f"{x.category.__name__}: {x.message}" for x in w))
 
 
-def _predict_quietly(estimator, X):
+def _predict_quietly(estimator, X, **params):
     with warnings.catch_warnings(record=True) as w:
         warnings.simplefilter("always")
-        pred = np.asarray(estimator.predict(X), dtype=float)
+        pred = np.asarray(estimator.predict(X, **params), dtype=float)
     return pred, list(dict.fromkeys(f"{x.category.__name__}: {x.message}" for x in w))
 
 
@@ -1084,7 +1084,46 @@ def _model_inputs(estimator, path):
     return inputs, inputs
 
 
-def run_predict(model, data, out, *, force=False):
+def _initial_displacement(text, tests, model):
+    """``--initial-displacement``: a number, or TEST=VALUE pairs, for ``predict``."""
+    from greyml.grey._gmc import _GreyConvolutionModel
+
+    if text is None:
+        return {}
+    if not isinstance(_final_step(model), _GreyConvolutionModel):
+        raise ValueError(
+            "--initial-displacement is for grey models (gmc, gnnmci); this model is "
+            f"{type(_final_step(model)).__name__}, which predicts each row on its own."
+        )
+
+    def number(word, what):
+        try:
+            value = float(word)
+        except ValueError:
+            value = float("nan")
+        if not np.isfinite(value):
+            raise ValueError(
+                f"--initial-displacement: {what} must be a finite number; got {word!r}."
+            )
+        return value
+
+    if "=" not in text:
+        return {"initial_displacement": number(text.strip(), "VALUE")}
+    by_name = {str(t): t for t in tests}
+    values = {}
+    for item in text.split(","):
+        name, sep, word = item.partition("=")
+        name = name.strip()
+        if not sep or name not in by_name:
+            raise ValueError(
+                f"--initial-displacement: {item.strip()!r} is not TEST=VALUE for a test of the "
+                f"data (its tests: {', '.join(list(by_name)[:10])})."
+            )
+        values[by_name[name]] = number(word.strip(), f"the value of test {name!r}")
+    return {"initial_displacement": values}
+
+
+def run_predict(model, data, out, *, force=False, initial_displacement=None):
     """``greyml predict``: apply a saved model to tests and write the compensation.
 
     Parameters
@@ -1099,6 +1138,10 @@ def run_predict(model, data, out, *, force=False):
         add to the axis position).
     force : bool, default=False
         Replace ``out`` if it exists.
+    initial_displacement : str or None, default=None
+        Grey models only: ``"VALUE"`` (every test) or ``"TEST=VALUE,..."``, the
+        measured target at the first row of tests that start mid-run (passed to
+        the model's ``predict``).
 
     Returns
     -------
@@ -1126,14 +1169,15 @@ def run_predict(model, data, out, *, force=False):
     X = pd.DataFrame(
         {c: frame[c] if c in frame.columns else 0.0 for c in inputs}, index=frame.index
     )
-    pred, messages = _predict_quietly(estimator, X)
+    tests = list(dict.fromkeys(frame.index.get_level_values("test")))
+    params = _initial_displacement(initial_displacement, tests, estimator)
+    pred, messages = _predict_quietly(estimator, X, **params)
     _warn("predict", messages)
     target = getattr(_final_step(estimator), "target_name_", None) or "target"
     result = pd.DataFrame(
         {f"predicted_{target}": pred, f"compensation_{target}": -pred}, index=frame.index
     )
     write_tests_csv(result, path, overwrite=force)
-    tests = list(dict.fromkeys(frame.index.get_level_values("test")))
     print(
         f"wrote {len(result)} rows of {len(tests)} test(s) to {os.fspath(path)!r}: "
         f"predicted_{target} and compensation_{target} = -predicted_{target}."

@@ -82,14 +82,32 @@ def has_test_index(X) -> bool:
     return index is not None and TEST_LEVEL in (index.names or [])
 
 
-def _first_runs(labels: np.ndarray):
-    """Start positions of runs of equal consecutive labels."""
-    n = len(labels)
+def _label_codes(index):
+    """An integer code per row for its test label (−1: missing), and the labels of rows.
+
+    Integer codes let the runs of a long recording be found without comparing
+    Python objects row by row (a MultiIndex holds them already).
+    """
+    if isinstance(index, pd.MultiIndex):
+        level = index.names.index(TEST_LEVEL)
+        codes = np.asarray(index.codes[level])
+        values = index.levels[level]
+    else:
+        codes, values = pd.factorize(index.get_level_values(TEST_LEVEL), use_na_sentinel=True)
+
+    def label_of(rows):
+        return np.asarray(values.take(codes[rows]), dtype=object)
+
+    return codes, label_of
+
+
+def _first_runs(codes: np.ndarray):
+    """Start positions of runs of equal consecutive label codes."""
+    n = len(codes)
     if n == 0:
         return np.array([], dtype=int)
     change = np.ones(n, dtype=bool)
-    # pandas-aware inequality so that NaN labels are caught separately
-    change[1:] = ~(pd.Series(labels[1:]).to_numpy() == pd.Series(labels[:-1]).to_numpy())
+    change[1:] = codes[1:] != codes[:-1]
     return np.flatnonzero(change)
 
 
@@ -121,20 +139,19 @@ def test_segments(X, n_samples: int | None = None) -> list[Segment]:
     if index is None or TEST_LEVEL not in (index.names or []):
         return [Segment(None, 0, int(n_samples))]
 
-    labels = np.asarray(index.get_level_values(TEST_LEVEL), dtype=object)
-    missing = pd.isna(labels)
+    codes, label_of = _label_codes(index)
+    missing = codes < 0
     if missing.any():
         row = int(np.flatnonzero(missing)[0])
         raise ValueError(
             f"The '{TEST_LEVEL}' index level has a missing test label at row {row}; "
             "every row must name the test it belongs to."
         )
-    starts = _first_runs(labels)
-    stops = np.append(starts[1:], len(labels))
+    starts = _first_runs(codes)
+    stops = np.append(starts[1:], len(codes))
     segments = []
     seen = {}
-    for start, stop in zip(starts, stops):
-        label = labels[start]
+    for start, stop, label in zip(starts, stops, label_of(starts)):
         if label in seen:
             first = seen[label]
             raise ValueError(

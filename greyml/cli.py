@@ -16,7 +16,7 @@ Usage
     greyml fit DATA.csv --target COL --model {gmc,gnnmci,anfis-grid,anfis-fcm,mlp}
                --out MODEL.file [--select N] [--cluster-on ...] [--sensors A,B]
                [--train-tests A,B] [--random-state N] [--force]
-    greyml predict MODEL.file DATA.csv --out PRED.csv [--force]
+    greyml predict MODEL.file DATA.csv --out PRED.csv [--force] [--initial-displacement V]
     greyml --version
 
 ``greyml gap`` compares measured tests (``REAL.csv``) with a simulation of
@@ -417,7 +417,7 @@ def _run_select(args):
 _FIT_EPILOG = (
     """\
 Models (the seeds' settings):
-  gmc         GMC(1,N) by least squares (seed 000's GMC-LS)
+  gmc         GMC(1,N) by least squares, b1 >= 0 (GMC-LS)
   gnnmci      GNNMCI(1,N), particle swarm of 90 x 100 iterations (seed 000)
   anfis-grid  ANFIS with 3 Gaussian MFs per input, 100 epochs (seed 001;
               3^5 = 243 rules on 5 inputs, so give few inputs)
@@ -526,13 +526,17 @@ reads only the sensors it kept). PRED.csv has the columns test, time_s,
 predicted_<target> (the thermal error the model predicts, in the target's
 unit) and compensation_<target> = -predicted_<target> (the correction to add to
 the axis). When DATA.csv also holds the measured target, the accuracy is
-printed.
+printed. A grey model predicts the change since each test's first row: for a
+test that starts mid-run, give the measured target there with
+--initial-displacement (a warning names a test whose sensors start away from
+where the training tests started).
 
 Examples:
   greyml simulate --machine vmc --tests IV --out train.csv
   greyml simulate --machine vmc --tests V,VI --out new-tests.csv
   greyml fit train.csv --target dy_um --model anfis-fcm --select 5 --out vmc.greyml
   greyml predict vmc.greyml new-tests.csv --out compensation.csv
+  greyml predict gmc.greyml tail.csv --out comp.csv --initial-displacement V=-48.5
 """
     + _EXIT_CODES
 )
@@ -553,13 +557,27 @@ def _add_predict_parser(subparsers):
     parser.add_argument("data", metavar="DATA.csv", help="tests (CSV) with the model's sensors")
     parser.add_argument("--out", required=True, metavar="PRED.csv", help="CSV file to write")
     parser.add_argument("--force", action="store_true", help="replace PRED.csv if it exists")
+    parser.add_argument(
+        "--initial-displacement",
+        metavar="VALUE|TEST=VALUE[,TEST=VALUE]",
+        help=(
+            "grey models (gmc, gnnmci) only: the measured target at the first row of "
+            "every test (VALUE) or of the tests named, for tests that start mid-run"
+        ),
+    )
     parser.set_defaults(handler=_run_predict, parser=parser)
 
 
 def _run_predict(args):
     from greyml._commands import run_predict
 
-    return run_predict(args.model, args.data, args.out, force=args.force)
+    return run_predict(
+        args.model,
+        args.data,
+        args.out,
+        force=args.force,
+        initial_displacement=args.initial_displacement,
+    )
 
 
 def _add_gap_parser(subparsers):

@@ -24,10 +24,41 @@ splitters listed in ``ALLOWED_CLASSES``, SciPy's ``OptimizeResult``, NumPy's
 scalar types, dtypes, random generators and ufuncs (``numpy.log`` as a
 ``TransformedTargetRegressor`` function, for example), and Python's built-in
 containers.
+
+What :func:`load_model` guarantees for a file from anyone, and nothing more:
+
+* **No code from the file is executed.** Nothing is unpickled, imported or
+  evaluated; only the classes above are created, and a file sets only data:
+  no attribute named like a method, property or other attribute of its class,
+  and a function (a NumPy ufunc, a type) only as the value of a constructor
+  parameter (``func=numpy.log``).
+* **Memory is bounded by** ``max_bytes`` (``DEFAULT_MAX_BYTES``, 256 MiB, by
+  default). Only a regular file of at most ``max_bytes`` is opened. Before
+  any array is read, what the load will build is added up and the file
+  refused if the total passes the limit: zipfile's index of the members
+  (1 KiB per 46 bytes of the zip's directory), the JSON description (128
+  bytes per byte, what its Python objects can take) and every array as its
+  shape and dtype say, each reference to a member counted as a copy of its
+  own, each empty axis as one entry and each entry as at least one byte.
+  Each member is inflated once, through a reader that stops at its declared
+  size.
+* **Processes are not taken from the file.** Every loaded object's ``n_jobs``
+  is set to ``None`` (joblib's default: one process, unless the caller's
+  ``joblib.parallel_backend`` says otherwise); set it after loading if you
+  want more.
+
+A file that breaks these rules is refused with one line naming it, and so is
+one whose arrays disagree with their estimator (for greyml's and
+scikit-learn's estimators on the allowlist: ``feature_names_in_`` has
+``n_features_in_`` names, coefficients and scalings one entry per input), or
+whose JSON holds a number that overflows. These checks catch files that were
+altered carelessly; they are not a guarantee that a file which passes them
+holds a right model.
 """
 
 from __future__ import annotations
 
+import contextlib
 import datetime as _datetime
 import importlib
 import inspect
@@ -38,6 +69,7 @@ import os
 import platform
 import re
 import secrets
+import stat
 import warnings
 import zipfile
 from pathlib import Path
@@ -70,6 +102,7 @@ from sklearn.preprocessing import (
 )
 from sklearn.utils.validation import check_is_fitted
 
+from greyml.dynamic import Compensator, LagFeatures
 from greyml.fuzzy import ANFISFCM, ANFISGrid
 from greyml.grey import AGO, GMC, GNNMCI, AccumulatedTargetRegressor
 from greyml.neural import MLPBaseline
@@ -86,9 +119,26 @@ FORMAT_VERSION = 1
 _MODEL_MEMBER = "model.json"
 _ARRAY_MEMBER = re.compile(r"arrays/(?:0|[1-9][0-9]{0,8})\.npy")
 _DTYPE_TEXT = re.compile(r"[<>|=]?[?a-zA-Z][0-9]{0,4}(?:\[[0-9]{0,3}[a-zA-Z]{1,2}\])?")
-_MAX_JSON_BYTES = 256 * 2**20
-_MAX_ARRAY_BYTES = 4 * 2**30
 _MAX_DEPTH = 200
+
+_ABSENT = object()  # "no such attribute" where None is a value
+
+#: The most a model file may make :func:`load_model` build, in bytes (256 MiB),
+#: unless the caller passes another ``max_bytes``.
+DEFAULT_MAX_BYTES = 256 * 2**20
+# what one byte of model.json can cost in Python objects, parsed and then built:
+# measured up to 77 bytes (4 MiB of "[[[]]]," items took 321 MB; "[]," 50x,
+# numbers and strings 12-14x)
+_JSON_COST = 128
+# what an entry of an object array (a pointer) takes
+_OBJECT_ENTRY_BYTES = 8
+# what zipfile's index takes per member (~560 bytes measured)
+_ENTRY_COST = 1024
+# members are read this much at a time, never in one piece
+_READ_CHUNK = 2**20
+_MAX_NPY_HEADER = 10_000  # numpy's own default; greyml's headers take ~120 bytes
+# the longest whole number a model file may spell out: a PCG64 state is 39 digits
+_MAX_INT_DIGITS = 60
 
 #: Classes a model file may create, by the name written in the file (read-only).
 ALLOWED_CLASSES = MappingProxyType(
@@ -98,9 +148,11 @@ ALLOWED_CLASSES = MappingProxyType(
         "greyml.AccumulatedTargetRegressor": AccumulatedTargetRegressor,
         "greyml.ANFISFCM": ANFISFCM,
         "greyml.ANFISGrid": ANFISGrid,
+        "greyml.Compensator": Compensator,
         "greyml.GMC": GMC,
         "greyml.GNNMCI": GNNMCI,
         "greyml.GreyInfluenceSelector": GreyInfluenceSelector,
+        "greyml.LagFeatures": LagFeatures,
         "greyml.MLPBaseline": MLPBaseline,
         "greyml.optimize.CuckooSearch": CuckooSearch,
         "greyml.optimize.ParticleSwarm": ParticleSwarm,
@@ -528,6 +580,22 @@ def _reject_constant(text):
     raise _Corrupt(f"the JSON holds the non-standard number {text}")
 
 
+def _finite_float(text):
+    value = float(text)
+    if not math.isfinite(value):  # 1e999: too large for a float
+        raise _Corrupt(f"the JSON holds the number {text[:40]}, which overflows a float")
+    return value
+
+
+def _bounded_int(text):
+    if len(text.lstrip("-")) > _MAX_INT_DIGITS:
+        raise _Corrupt(
+            f"the JSON holds a whole number of {len(text.lstrip('-'))} digits; greyml writes "
+            f"at most {_MAX_INT_DIGITS}"
+        )
+    return int(text)
+
+
 def _unique_keys(pairs):
     keys = [k for k, _ in pairs]
     if len(set(keys)) != len(keys):
@@ -535,13 +603,32 @@ def _unique_keys(pairs):
     return dict(pairs)
 
 
-def _read_header(archive):
+def _fill(stream, view, name):
+    """Fill ``view`` from ``stream`` a chunk at a time; never read past its end."""
+    done, size = 0, len(view)
+    while done < size:
+        chunk = stream.read(min(size - done, _READ_CHUNK))
+        if not chunk:
+            raise _Corrupt(f"{name} is shorter than its declared size (the file is truncated)")
+        view[done : done + len(chunk)] = chunk
+        done += len(chunk)
+
+
+def _too_big(what, size, max_bytes):
+    return _Corrupt(
+        f"{what} {size:,} bytes, over the limit max_bytes={max_bytes:,} (if you trust the "
+        "file's source, pass a larger max_bytes= to load_model)"
+    )
+
+
+def _read_header(archive, max_bytes, index_cost=0):
     try:
         info = archive.getinfo(_MODEL_MEMBER)
     except KeyError:
         raise _Corrupt(f"not a greyml model file (no {_MODEL_MEMBER} inside)") from None
     # greyml writes model.json and arrays/<n>.npy, each once: anything else was added
-    names = archive.namelist()
+    infos = archive.infolist()
+    names = [i.filename for i in infos]
     if len(set(names)) != len(names):
         raise _Corrupt("the archive holds two members of the same name; the file has been altered")
     unexpected = [n for n in names if n != _MODEL_MEMBER and not _ARRAY_MEMBER.fullmatch(n)]
@@ -549,12 +636,33 @@ def _read_header(archive):
         raise _Corrupt(
             f"the archive holds the unexpected member {unexpected[0]!r}; the file has been altered"
         )
-    if info.file_size > _MAX_JSON_BYTES:
-        raise _Corrupt(f"{_MODEL_MEMBER} is implausibly large ({info.file_size} bytes)")
+    for member in infos:
+        if member.compress_type not in (zipfile.ZIP_STORED, zipfile.ZIP_DEFLATED):
+            raise _Corrupt(
+                f"{member.filename} is compressed with zip method {member.compress_type}; "
+                "greyml writes deflate only"
+            )
+        if member.flag_bits & 0x1:
+            raise _Corrupt(f"{member.filename} is encrypted; greyml never encrypts")
+    # what the archive says it holds, added up before anything is inflated
+    json_cost = index_cost + _JSON_COST * info.file_size  # with zipfile's index
+    declared = json_cost + sum(i.file_size for i in infos if i is not info)
+    if declared > max_bytes:
+        raise _too_big(
+            f"its members declare (counting {_MODEL_MEMBER} {_JSON_COST} times, and the "
+            "zip's index)",
+            declared,
+            max_bytes,
+        )
+    text = bytearray(info.file_size)
+    with archive.open(info) as stream:
+        _fill(stream, memoryview(text), _MODEL_MEMBER)
     try:
         header = json.loads(
-            archive.read(info).decode("utf-8"),
+            text.decode("utf-8"),
             parse_constant=_reject_constant,
+            parse_float=_finite_float,
+            parse_int=_bounded_int,
             object_pairs_hook=_unique_keys,
         )
     except (UnicodeDecodeError, json.JSONDecodeError) as exc:
@@ -572,19 +680,44 @@ def _read_header(archive):
         )
     if "tree" not in header:
         raise _Corrupt("the model tree is missing")
-    return header
+    return header, json_cost
+
+
+def _nominal_size(shape, itemsize):
+    """What an array counts toward ``max_bytes``: each empty axis as one entry,
+    each entry as at least one byte (an array of 10**15 zero-width strings, or
+    of shape (10**18, 0), costs nothing to hold but everything to go through)."""
+    return math.prod(max(n, 1) for n in shape) * max(itemsize, 1)
+
+
+def _object_shape(node):
+    shape = node.get("shape")
+    if (
+        type(shape) is not list
+        or len(shape) > 32
+        or not all(type(n) is int and n >= 0 for n in shape)
+    ):
+        raise _Corrupt(f"invalid array shape {shape!r}")
+    return shape
 
 
 def _referenced_names(tree):
-    """Every class, type, function and bit generator the tree names, by kind."""
+    """Every class, type, function and bit generator the tree names, by kind;
+    also how often each array member is referred to (``"file"``) and what the
+    object arrays count toward ``max_bytes`` (``"object_bytes"``)."""
     found = {"class": set(), "type": set(), "ufunc": set(), "bit_generator": set()}
-    stack = [(tree, 0)]
+    files: dict[str, int] = {}
+    object_bytes = 0
+    stack = [iter([tree])]  # iterators, not nodes: memory grows with depth only
     while stack:
-        node, depth = stack.pop()
-        if depth > _MAX_DEPTH:
+        node = next(stack[-1], _ABSENT)
+        if node is _ABSENT:
+            stack.pop()
+            continue
+        if len(stack) > _MAX_DEPTH + 1:
             raise _Corrupt(f"the model tree is nested more than {_MAX_DEPTH} levels deep")
         if isinstance(node, list):
-            stack.extend((child, depth + 1) for child in node)
+            stack.append(iter(node))
         elif isinstance(node, dict):
             kind = node.get("kind")
             if kind == "object":
@@ -593,8 +726,91 @@ def _referenced_names(tree):
                 found[kind].add(str(node.get("name")))
             elif kind == "generator":
                 found["bit_generator"].add(str(node.get("bit_generator")))
-            stack.extend((child, depth + 1) for child in node.values())
+            # (what is malformed here is refused when the tree is built)
+            if kind == "scalar" and node.get("dtype") in ("|O", "O"):
+                raise _Corrupt("object scalars are not allowed")
+            name = node.get("file")
+            if (
+                kind in ("ndarray", "scalar")
+                and type(name) is str
+                and _ARRAY_MEMBER.fullmatch(name)
+            ):
+                files[name] = files.get(name, 0) + 1
+            elif kind == "object_array":
+                with contextlib.suppress(_Corrupt):
+                    object_bytes += _nominal_size(_object_shape(node), _OBJECT_ENTRY_BYTES)
+            stack.append(iter(node.values()))
+    found["file"] = files
+    found["object_bytes"] = object_bytes
     return found
+
+
+def _npy_header(stream, name):
+    """(shape, fortran_order, dtype, header length) of an ``.npy`` member."""
+    try:
+        version = np.lib.format.read_magic(stream)
+        if version == (1, 0):
+            read = np.lib.format.read_array_header_1_0
+        elif version == (2, 0):
+            read = np.lib.format.read_array_header_2_0
+        else:
+            raise ValueError(f".npy format version {version} is not one greyml writes")
+        shape, fortran_order, dtype = read(stream, max_header_size=_MAX_NPY_HEADER)
+    except (ValueError, SyntaxError, TypeError) as exc:
+        raise _Corrupt(f"the array {name} cannot be read ({exc})") from None
+    if dtype.hasobject:
+        raise _Corrupt(
+            f"the array {name} cannot be read (it holds Python objects, which only "
+            "pickle could build)"
+        )
+    if dtype.fields is not None or dtype.subdtype is not None or dtype.kind not in "biufcUSmM":
+        raise _Corrupt(f"the array {name} has the dtype {dtype}, which greyml does not write")
+    if len(shape) > 32:
+        raise _Corrupt(f"the array {name} has {len(shape)} dimensions")
+    return shape, fortran_order, dtype, stream.tell()
+
+
+def _plan_arrays(archive, files, budget, max_bytes):
+    """Read each referenced array member's header (not its data) and add up what
+    the load will build: every reference a copy of its own. Returns
+    ``{name: (info, header)}``."""
+    plan = {}
+    total = budget
+    for name, count in sorted(files.items()):
+        try:
+            info = archive.getinfo(name)
+        except KeyError:
+            raise _Corrupt(f"the array {name} is missing") from None
+        with archive.open(info) as stream:
+            header = _npy_header(stream, name)
+        shape, _, dtype, start = header
+        if start + math.prod(shape) * dtype.itemsize != info.file_size:
+            raise _Corrupt(
+                f"the array {name} of shape {tuple(shape)} and dtype {dtype} does not fill "
+                f"its member of {info.file_size} bytes"
+            )
+        total += count * max(info.file_size, start + _nominal_size(shape, dtype.itemsize))
+        plan[name] = (info, header)
+    if total > max_bytes:
+        raise _too_big(
+            f"loading it would build (counting {_MODEL_MEMBER} {_JSON_COST} times, the zip's "
+            "index, and every reference to an array as a copy of its own)",
+            total,
+            max_bytes,
+        )
+    return plan
+
+
+def _read_npy(archive, info, header):
+    """An array member's data, read into an array of the planned shape."""
+    shape, fortran_order, dtype, _ = header
+    with archive.open(info) as stream:
+        if _npy_header(stream, info.filename) != header:  # pragma: no cover - same bytes
+            raise _Corrupt(f"the array {info.filename} changed while it was read")
+        array = np.empty(shape[::-1] if fortran_order else shape, dtype=dtype)
+        if array.nbytes:
+            _fill(stream, memoryview(array.reshape(-1).view(np.uint8)), info.filename)
+    return array.T if fortran_order else array
 
 
 def _untrusted(found, extra_classes):
@@ -652,9 +868,19 @@ def _trusted_classes(trusted, wanted):
 
 
 def _shadows_behaviour(cls, key):
-    """True if an instance attribute ``key`` would hide a method or property."""
-    static = inspect.getattr_static(cls, key, None)
-    return static is not None and (callable(static) or hasattr(type(static), "__get__"))
+    """True if the class or one of its bases has something named ``key`` (a
+    method, property or class attribute), which an instance attribute would hide."""
+    return inspect.getattr_static(cls, key, _ABSENT) is not _ABSENT
+
+
+def _parameter_names(cls):
+    """The names ``cls.__init__`` takes: the only attributes a function may be."""
+    if hasattr(cls, "_get_param_names"):
+        try:
+            return set(cls._get_param_names())
+        except RuntimeError:  # pragma: no cover - an *args estimator (none is allowed)
+            return set()
+    return set()
 
 
 def _dtype(text):
@@ -669,24 +895,22 @@ def _dtype(text):
 class _Reader:
     """Builds objects from the checked tree."""
 
-    def __init__(self, archive, classes):
+    def __init__(self, archive, classes, plan):
         self.archive = archive
         self.classes = classes
+        self._plan = plan  # {member: (info, npy header)}, from _plan_arrays
+        self._read: dict[str, np.ndarray] = {}
 
     def _npy(self, name):
-        if type(name) is not str or not _ARRAY_MEMBER.fullmatch(name):
+        # each member is inflated once; a second reference gets a copy (counted
+        # in the plan), as greyml writes every array to a member of its own
+        if name in self._read:
+            return self._read[name].copy(order="K")
+        if name not in self._plan:
             raise _Corrupt(f"invalid array reference {name!r}")
-        try:
-            info = self.archive.getinfo(name)
-        except KeyError:
-            raise _Corrupt(f"the array {name} is missing") from None
-        if info.file_size > _MAX_ARRAY_BYTES:
-            raise _Corrupt(f"the array {name} is implausibly large")
-        data = io.BytesIO(self.archive.read(info))
-        try:
-            return np.lib.format.read_array(data, allow_pickle=False)
-        except ValueError as exc:
-            raise _Corrupt(f"the array {name} cannot be read ({exc})") from None
+        array = _read_npy(self.archive, *self._plan[name])
+        self._read[name] = array
+        return array
 
     def decode(self, node, depth=0):
         if depth > _MAX_DEPTH:
@@ -740,13 +964,7 @@ class _Reader:
         return self._npy(node.get("file"))
 
     def _decode_object_array(self, node, depth):
-        shape = node.get("shape")
-        if (
-            type(shape) is not list
-            or len(shape) > 32
-            or not all(type(n) is int and n >= 0 for n in shape)
-        ):
-            raise _Corrupt(f"invalid array shape {shape!r}")
+        shape = _object_shape(node)
         items = self._list(node, "items", depth)
         if len(items) != math.prod(shape):
             raise _Corrupt(f"an object array of shape {tuple(shape)} has {len(items)} items")
@@ -768,7 +986,13 @@ class _Reader:
         allowed = {"b": (int,), "i": (int,), "u": (int,), "f": (float, int), "U": (str,)}
         if type(value) not in allowed.get(dtype.kind, ()):
             raise _Corrupt(f"invalid value {value!r} for a NumPy {dtype} scalar")
-        return dtype.type(value)
+        if dtype.kind in "iu" and not np.iinfo(dtype).min <= value <= np.iinfo(dtype).max:
+            raise _Corrupt(f"the value {value} overflows a NumPy {dtype} scalar")
+        with np.errstate(over="ignore"):
+            scalar = dtype.type(value)
+        if dtype.kind == "f" and math.isfinite(value) and not np.isfinite(scalar):
+            raise _Corrupt(f"the value {value!r} overflows a NumPy {dtype} scalar")
+        return scalar
 
     def _decode_dtype(self, node, depth):
         return _dtype(node.get("value"))
@@ -802,13 +1026,112 @@ class _Reader:
                 raise _Corrupt(f"the {name} object sets the forbidden attribute {key!r}")
         if "items" in node and not issubclass(cls, dict):
             raise _Corrupt(f"the {name} object has dict items but is not a dict")
+        attributes = {k: self.decode(v, depth) for k, v in state.items()}
+        parameters = _parameter_names(cls)
+        for key, value in attributes.items():
+            # only data: a function (a ufunc, a type) only as a constructor parameter
+            if callable(value) and key not in parameters:
+                raise _Corrupt(
+                    f"the {name} object sets the attribute {key!r} to a function "
+                    f"({_describe_callable(value)}); only data may come from a file"
+                )
+        if "n_jobs" in attributes:  # processes are the caller's choice, not the file's
+            attributes["n_jobs"] = None
         obj = cls.__new__(cls)
         if "items" in node:
             dict.update(obj, self._pairs(node, depth))
-        obj.__dict__.update({k: self.decode(v, depth) for k, v in state.items()})
+        obj.__dict__.update(attributes)
+        if cls in _NAME_OF_CLASS:
+            _check_shapes(attributes, name)
         if name.startswith("greyml."):
             _check_greyml_params(obj, name)
         return obj
+
+
+def _describe_callable(value):
+    if isinstance(value, np.ufunc):
+        return _NAME_OF_UFUNC.get(id(value), repr(value))
+    if isinstance(value, type):
+        return _NAME_OF_TYPE.get(value, value.__name__)
+    return f"a callable {type(value).__name__}"
+
+
+# The shapes an allowlisted estimator's arrays must have, by attribute name:
+# "n" is its n_features_in_, "n+1" one more, "*" any length. A file whose
+# shapes disagree was altered (a feature_names_in_ of 10**15 names for a model of
+# 4 inputs would make predict hang), and is refused at load.
+_FEATURE_SHAPES = {
+    # scikit-learn
+    "feature_names_in_": [("n",)],
+    "coef_": [("n",), ("*", "n")],
+    "mean_": [("n",)],
+    "var_": [("n",)],
+    "scale_": [("n",)],
+    "center_": [("n",)],
+    "min_": [("n",)],
+    "data_min_": [("n",)],
+    "data_max_": [("n",)],
+    "data_range_": [("n",)],
+    "max_abs_": [("n",)],
+    "n_samples_seen_": [("n",)],
+    # greyml
+    "driving_coef_": [("n",)],
+    "x_mean_": [("n",)],
+    "x_scale_": [("n",)],
+    "influence_": [("n",)],
+    "clusters_": [("n",)],
+    "support_": [("n",)],
+    "membership_": [("*", "n")],
+    "cluster_centres_": [("*", "n")],
+    "_mf_of_rule": [("*", "n")],
+    "_consequents": [("*", "n+1")],
+    "coefs_[0]": [("n", "*")],
+}
+
+
+def _check_shapes(attributes, name):
+    """Every array of an allowlisted estimator has the shape its inputs imply."""
+    n = attributes.get("n_features_in_", _ABSENT)
+    if n is not _ABSENT:
+        if not isinstance(n, int | np.integer) or isinstance(n, bool) or n < 1:
+            raise _Corrupt(f"the {name} object's n_features_in_ is {n!r}, not a count of inputs")
+        n = int(n)
+    names = attributes.get("feature_names_in_", _ABSENT)
+    if names is not _ABSENT:
+        if not (
+            isinstance(names, np.ndarray)
+            and names.dtype == object
+            and names.ndim == 1
+            and all(type(v) is str for v in names)
+        ):
+            raise _Corrupt(
+                f"the {name} object's feature_names_in_ is not a one-dimensional array "
+                "of column names"
+            )
+        if n is _ABSENT:  # n_features_in_ is a property (TransformedTargetRegressor)
+            n = len(names)
+    if n is _ABSENT:
+        return
+    sizes = {"n": n, "n+1": n + 1}
+    for key, shapes in _FEATURE_SHAPES.items():
+        attribute, _, index = key.partition("[")
+        value = attributes.get(attribute)
+        if index and isinstance(value, list | tuple) and value:
+            value = value[0]
+        if not isinstance(value, np.ndarray) or (key == "n_samples_seen_" and value.ndim == 0):
+            continue
+        if not any(
+            len(value.shape) == len(shape)
+            and all(want == "*" or got == sizes[want] for got, want in zip(value.shape, shape))
+            for shape in shapes
+        ):
+            wanted = " or ".join(
+                "(" + ", ".join(str(sizes.get(w, "any")) for w in shape) + ")" for shape in shapes
+            )
+            raise _Corrupt(
+                f"the {name} object's {key} has shape {value.shape}, but its "
+                f"n_features_in_ = {n} implies {wanted}"
+            )
 
 
 def _check_greyml_params(estimator, name):
@@ -816,32 +1139,89 @@ def _check_greyml_params(estimator, name):
 
     A model fitted with its parameters passes them, so a failure means the file
     was altered (e.g. ``initial`` or ``response`` of a GMC, which ``predict``
-    uses too).
+    uses too). The checks are the class's own methods, never an attribute.
     """
     for check in ("_check_params", "_check_common_params"):
-        method = getattr(estimator, check, None)
-        if method is None:
+        method = inspect.getattr_static(type(estimator), check, None)
+        if not inspect.isfunction(method):
             continue
         try:
-            method()
+            method(estimator)
         except (ValueError, TypeError, AttributeError) as exc:  # AttributeError: one is missing
             raise _Corrupt(
                 f"the {name} object has an invalid parameter: {str(exc).rstrip('.')}"
             ) from None
 
 
-def _open_archive(path):
-    if not path.exists():
-        raise FileNotFoundError(f"No model file at {path}.")
-    if path.is_dir():
-        raise IsADirectoryError(f"{path} is a folder, not a model file.")
+@contextlib.contextmanager
+def _open_archive(path, max_bytes):
+    """The zip archive at ``path``, and what zipfile's index of it takes. ``path``
+    must be a regular file of at most ``max_bytes`` (a FIFO or a device such as
+    /dev/zero is refused, never read), whose index fits in ``max_bytes`` too."""
+    flags = os.O_RDONLY | getattr(os, "O_NONBLOCK", 0) | getattr(os, "O_BINARY", 0)
     try:
-        return zipfile.ZipFile(path)
-    except (zipfile.BadZipFile, EOFError, ValueError):
-        raise ValueError(
-            f"Cannot load {path}: not a greyml model file (not a zip archive; the file may "
-            "be truncated or in another format)."
-        ) from None
+        fd = os.open(path, flags)  # non-blocking: opening a FIFO does not wait
+    except FileNotFoundError:
+        raise FileNotFoundError(f"No model file at {path}.") from None
+    except IsADirectoryError:  # pragma: no cover - Windows; POSIX opens folders
+        raise IsADirectoryError(f"{path} is a folder, not a model file.") from None
+    with os.fdopen(fd, "rb") as handle:
+        mode = os.fstat(fd)
+        if stat.S_ISDIR(mode.st_mode):
+            raise IsADirectoryError(f"{path} is a folder, not a model file.")
+        if not stat.S_ISREG(mode.st_mode):
+            raise ValueError(
+                f"Cannot load {path}: it is not a regular file (a device, pipe or socket); "
+                "give the path of a model file."
+            )
+        if mode.st_size > max_bytes:
+            raise ValueError(
+                f"Cannot load {path}: {_too_big('the file holds', mode.st_size, max_bytes)}."
+            )
+        index = _zip_index_cost(handle, mode.st_size)
+        if index > max_bytes:
+            too_big = _too_big("the index of its members would take", index, max_bytes)
+            raise ValueError(f"Cannot load {path}: {too_big}.")
+        try:
+            archive = zipfile.ZipFile(handle)
+        except (zipfile.BadZipFile, EOFError, ValueError):
+            raise ValueError(
+                f"Cannot load {path}: not a greyml model file (not a zip archive; the file "
+                "may be truncated or in another format)."
+            ) from None
+        with archive:
+            yield archive, index
+
+
+def _zip_index_cost(handle, size):
+    """What zipfile's index of the archive's members will take (0 if the file
+    has no zip end record: zipfile then says it is not a zip). zipfile builds
+    one entry (~560 bytes) for every record in the central directory, whose
+    size the end record gives; a record takes at least 46 bytes."""
+    tail_size = min(size, 22 + 65535 + 20 + 56)  # end record, comment, ZIP64 records
+    handle.seek(size - tail_size)
+    tail = handle.read(tail_size)
+    handle.seek(0)
+    at = tail.rfind(b"PK\x05\x06")
+    if at < 0 or len(tail) - at < 22:
+        return 0
+    directory = int.from_bytes(tail[at + 12 : at + 16], "little")
+    locator = at - 20  # a ZIP64 file gives the size in its own end record
+    if locator >= 56 and tail[locator : locator + 4] == b"PK\x06\x07":
+        record = tail[locator - 56 : locator]
+        if record[:4] == b"PK\x06\x06":
+            directory = int.from_bytes(record[40:48], "little")
+    return directory // 46 * _ENTRY_COST
+
+
+def _check_max_bytes(max_bytes):
+    if isinstance(max_bytes, bool) or not isinstance(max_bytes, int | np.integer):
+        raise TypeError(
+            f"max_bytes must be a whole number of bytes; got {type(max_bytes).__name__}."
+        )
+    if max_bytes < 1:
+        raise ValueError(f"max_bytes must be positive; got {max_bytes}.")
+    return int(max_bytes)
 
 
 def _failure(path, exc):
@@ -853,14 +1233,18 @@ def _failure(path, exc):
     )
 
 
-def load_model(path, *, trusted=None):
+def load_model(path, *, trusted=None, max_bytes=DEFAULT_MAX_BYTES):
     """Read an estimator written by :func:`save_model`.
 
     Nothing in the file is executed: no unpickling, no imports, no ``eval``.
     Before building anything, every class the file names is checked against
     greyml's allowlist (``ALLOWED_CLASSES``, plus NumPy's scalar types, dtypes,
     random generators and ufuncs); objects are then created without calling
-    their ``__init__`` and given the saved attributes.
+    their ``__init__`` and given the saved attributes, which must be data
+    (see :mod:`greyml.persist` for exactly what is guaranteed). Every loaded
+    object's ``n_jobs`` is set to ``None``: how many processes a model uses is
+    for the caller to decide (``model.set_params(n_jobs=4)`` after loading),
+    never the file's.
 
     Parameters
     ----------
@@ -871,7 +1255,17 @@ def load_model(path, *, trusted=None):
         (e.g. ``"sklearn.linear_model.HuberRegressor"``, or the defining
         module's path as :func:`describe_model` lists it under
         ``"untrusted_types"``). Their modules are imported. Only classes can be
-        trusted; functions named by a file are never called.
+        trusted; functions named by a file are never called. (There is no
+        ``trusted=True``: trust is given class by class, and trusting a class
+        lifts none of the other rules, ``n_jobs`` included.)
+    max_bytes : int, default=DEFAULT_MAX_BYTES (256 MiB)
+        The most the file may make the load build, in bytes: the file
+        itself, the sizes its members declare (``model.json`` counted 128
+        times, for the Python objects its JSON becomes), and every array,
+        each reference to one counted as a copy of its own and each empty
+        axis as one entry. All are added up before any array is read, and a
+        file over the limit is refused with one line. greyml's own models
+        take kilobytes to a few megabytes; raise it only for a file you trust.
 
     Returns
     -------
@@ -886,9 +1280,13 @@ def load_model(path, *, trusted=None):
         If the file names a class, type or function outside the allowlist
         and ``trusted``; nothing has been built.
     ValueError
-        If the file is not a greyml model, is truncated or damaged, was
-        written by a newer format version, holds archive members greyml does
-        not write, or gives a greyml estimator parameters its ``fit`` would
+        If the file is not a regular file, is not a greyml model, is truncated
+        or damaged, was written by a newer format version, holds archive
+        members greyml does not write, would take more than ``max_bytes``,
+        holds an array whose shape disagrees with its estimator's
+        ``n_features_in_``, a number that overflows, an attribute that is a
+        function or is named like a method, property or attribute of its
+        class, or gives a greyml estimator parameters its ``fit`` would
         reject. The message is one line naming the file.
 
     Warns
@@ -924,9 +1322,10 @@ def load_model(path, *, trusted=None):
     """
     path = Path(path)
     trusted = _check_trusted(trusted)
-    with _open_archive(path) as archive:
+    max_bytes = _check_max_bytes(max_bytes)
+    with _open_archive(path, max_bytes) as (archive, index_cost):
         try:
-            header = _read_header(archive)
+            header, json_cost = _read_header(archive, max_bytes, index_cost)
             found = _referenced_names(header["tree"])
         except Exception as exc:  # any damage: one line naming the file
             raise _failure(path, exc) from None
@@ -951,7 +1350,10 @@ def load_model(path, *, trusted=None):
                     f"the header names {header.get('class')!r} but the tree holds "
                     f"{tree.get('class')!r}; the file has been altered"
                 )
-            estimator = _Reader(archive, {**ALLOWED_CLASSES, **extra}).decode(tree)
+            plan = _plan_arrays(
+                archive, found["file"], json_cost + found["object_bytes"], max_bytes
+            )
+            estimator = _Reader(archive, {**ALLOWED_CLASSES, **extra}, plan).decode(tree)
         except UnsafeModelError as exc:  # pragma: no cover - the scan above catches these
             raise UnsafeModelError(f"Refusing to load {path}: {exc}.") from None
         except Exception as exc:
@@ -972,13 +1374,16 @@ def load_model(path, *, trusted=None):
     return estimator
 
 
-def describe_model(path):
+def describe_model(path, *, max_bytes=DEFAULT_MAX_BYTES):
     """What a model file holds, read from its JSON without building anything.
 
     Parameters
     ----------
     path : str or path-like
         A file written by :func:`save_model`.
+    max_bytes : int, default=DEFAULT_MAX_BYTES (256 MiB)
+        As :func:`load_model`: the file and what its members declare may take
+        at most this many bytes.
 
     Returns
     -------
@@ -1012,13 +1417,13 @@ def describe_model(path):
     ('greyml.AGO', ['T1_C', 'T2_C'], [])
     """
     path = Path(path)
-    archive = _open_archive(path)
-    try:
-        with archive:
-            header = _read_header(archive)
+    max_bytes = _check_max_bytes(max_bytes)
+    with _open_archive(path, max_bytes) as (archive, index_cost):
+        try:
+            header, _ = _read_header(archive, max_bytes, index_cost)
             found = _referenced_names(header["tree"])
-    except Exception as exc:
-        raise _failure(path, exc) from None
+        except Exception as exc:
+            raise _failure(path, exc) from None
     info = {k: v for k, v in header.items() if k not in ("tree", "format")}
     info["classes"] = sorted(found["class"])
     info["untrusted_types"] = sorted(sum(_untrusted(found, {}), []))

@@ -109,12 +109,49 @@ def test_accumulated_target_regressor_accumulates_within_each_test():
     y1 = np.r_[np.cumsum(y.to_numpy()[:30]), np.cumsum(y.to_numpy()[30:])]
     direct = LinearRegression().fit(X, y1)
     np.testing.assert_allclose(model.regressor_.coef_, direct.coef_, rtol=1e-12)
-    # and predict differences the inner prediction within each test
-    p1 = direct.predict(X)
+    # and predict differences the inner prediction within each test; a test's
+    # first row against the prediction at zero inputs, where the intercept is
+    p1 = direct.predict(X) - direct.intercept_
     expected = np.r_[p1[0], np.diff(p1[:30]), p1[30], np.diff(p1[30:])]
     np.testing.assert_allclose(model.predict(X), expected, rtol=1e-12, atol=1e-12)
     pd.testing.assert_frame_equal(X, X0)
     pd.testing.assert_series_equal(y, y0)
+
+
+def _heating_test(label, n, start, rng):
+    """Two sensors rising from ``start`` °C; the target 2·T1 + T2 starts near 50."""
+    t = np.arange(n)
+    T1 = start + 8 * (1 - np.exp(-t / 30)) + 0.05 * rng.normal(size=n)
+    T2 = start / 2 + 3 * (1 - np.exp(-t / 60)) + 0.05 * rng.normal(size=n)
+    index = make_test_index([label] * n, 60.0 * t)
+    X = pd.DataFrame({"T1_C": T1, "T2_C": T2}, index=index)
+    return X, pd.Series(2.0 * T1 + T2 + 0.3 * rng.normal(size=n), index=index, name="dz_um")
+
+
+@pytest.mark.parametrize("regressor", ["linear", "ridgecv"])
+def test_first_row_of_a_new_test_carries_no_accumulated_constant(regressor):
+    # issue 15: AGO + AccumulatedTargetRegressor put the intercept fitted in
+    # accumulated space (here -3.6) on the first row of a new test
+    from sklearn.linear_model import LinearRegression, RidgeCV
+    from sklearn.pipeline import make_pipeline
+
+    from greyml import AccumulatedTargetRegressor
+
+    rng = np.random.default_rng(0)
+    starts = [("A", 20.0), ("B", 21.0), ("C", 19.5)]
+    parts = [_heating_test(label, 120, start, rng) for label, start in starts]
+    X, y = pd.concat([p[0] for p in parts]), pd.concat([p[1] for p in parts])
+    X_new, y_new = _heating_test("new", 80, 20.0, rng)
+    assert abs(y_new.iloc[0] - 50) < 1 and (X_new.iloc[0] > 9).all()  # nothing starts at zero
+    inner = LinearRegression() if regressor == "linear" else RidgeCV()
+    model = make_pipeline(AGO(), AccumulatedTargetRegressor(inner)).fit(X, y)
+    assert abs(model[-1].regressor_.intercept_) > 3  # a constant to cancel
+    error = model.predict(X_new) - y_new.to_numpy()
+    rest = np.sqrt(np.mean(error[1:] ** 2))
+    # measured: first row 0.22, the other rows' RMSE 0.33 (the intercept on the
+    # first row made it -3.36)
+    assert abs(error[0]) <= 3 * rest, (error[0], rest)
+    assert rest < 0.4
 
 
 def test_transformed_target_regressor_would_sum_across_tests():

@@ -2,7 +2,6 @@
 
 import itertools
 import pickle
-import time
 
 import numpy as np
 import pandas as pd
@@ -151,13 +150,10 @@ def test_sinc_benchmark_16_rules_250_epochs():
     y = _sinc(X[:, 0]) * _sinc(X[:, 1])
     Xt = np.random.default_rng(0).uniform(-10, 10, size=(1000, 2))
     yt = _sinc(Xt[:, 0]) * _sinc(Xt[:, 1])
-    start = time.perf_counter()
     model = ANFISGrid(n_mfs=4, n_epochs=250).fit(X, y)
-    elapsed = time.perf_counter() - start
     assert model.n_rules_ == 16
     rmse = np.sqrt(np.mean((model.predict(Xt) - yt) ** 2))
     assert rmse <= 0.035, rmse
-    assert elapsed < 2.0  # the benchmark measures ~0.04 s; this only catches blow-ups
 
 
 def test_friedman1_three_rules():

@@ -244,14 +244,12 @@ def test_help_documents_exit_codes(capsys):
 
 def test_python_m_greyml(drift_case):
     argv = ["gap", *drift_case, "--target", "dz_um", "--random-state", "0", "--json", "-"]
-    proc = subprocess.run(
-        [sys.executable, "-m", "greyml", *argv], capture_output=True, text=True, timeout=120
-    )
+    proc = subprocess.run([sys.executable, "-m", "greyml", *argv], capture_output=True, text=True)
     assert proc.returncode == 0, proc.stderr
     assert "cause" in _strict_json(proc.stdout)
     script = shutil.which("greyml")
     if script is not None:  # the console script, when it is installed on PATH
-        proc = subprocess.run([script, "--version"], capture_output=True, text=True, timeout=120)
+        proc = subprocess.run([script, "--version"], capture_output=True, text=True)
         assert proc.returncode == 0, proc.stderr
         assert proc.stdout.startswith("greyml ")
 

@@ -26,6 +26,7 @@ MODULES = [
     "greyml.cli",
     "greyml.selection",
     "greyml.gap",
+    "greyml.dynamic",
 ]
 
 # numpydoc section header: the title, then a line of dashes at least as long

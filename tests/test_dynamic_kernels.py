@@ -66,3 +66,20 @@ def test_constant_input_stays_put_and_long_tau_barely_moves():
     lags, _ = lag_filter(x, np.full(50, 1.0), np.array([1e9]), [(0, 50)])
     np.testing.assert_array_equal(lags[:, 0, 0], 3.0)
     assert abs(lags[-1, 1, 0] - 3.0) < 1e-7
+
+
+def test_chunked_even_runs_stay_bit_equal(monkeypatch):
+    # long evenly sampled runs are filtered in chunks along time; each chunk
+    # continues from the last output of the one before, bit for bit
+    import greyml.dynamic._kernels as kernels
+
+    rng = np.random.default_rng(5)
+    n = 9000
+    x = rng.normal(size=(n, 2)).cumsum(axis=0)
+    dt = np.full(n, 15.0)
+    taus = np.array([60.0, 900.0])
+    bounds = [(0, 5000), (5000, n)]
+    expected = _loop(x, dt, taus, bounds, True)
+    monkeypatch.setattr(kernels, "_CHUNK_VALUES", 2 * 4096)  # 4096 samples per call
+    lags, _ = lag_filter(x, dt, taus, bounds, carry=True)
+    np.testing.assert_array_equal(lags, expected)

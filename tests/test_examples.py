@@ -1,7 +1,6 @@
-"""Every example runs as a script, headless, within the time budget."""
+"""Every example runs as a script, headless (no clock decides pass or fail)."""
 
 import runpy
-import time
 from pathlib import Path
 
 import pandas as pd
@@ -16,13 +15,11 @@ def test_example_runs(path, tmp_path, monkeypatch, capsys):
     monkeypatch.setenv("MPLBACKEND", "Agg")
     monkeypatch.setenv("GREYML_EXAMPLE_OUT", str(tmp_path))
     monkeypatch.chdir(tmp_path)
-    start = time.perf_counter()
     # an example may set pandas display options for its own printing; they are
     # restored afterwards so that they cannot leak into other tests' doctests
     kept = ["display.width", "display.float_format", "display.max_columns"]
     with pd.option_context(*[x for name in kept for x in (name, pd.get_option(name))]):
         runpy.run_path(str(path), run_name="__main__")
-    assert time.perf_counter() - start < 60
     import matplotlib.pyplot as plt
 
     plt.close("all")

@@ -10,7 +10,14 @@ from sklearn.model_selection import GridSearchCV, LeaveOneGroupOut, cross_val_sc
 from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import StandardScaler
 
-from greyml import GMC, GreyStabilityWarning, make_test_index, simulate_gmc
+from greyml import (
+    GMC,
+    GreyConditioningWarning,
+    GreyStabilityWarning,
+    GreyWarmStartWarning,
+    make_test_index,
+    simulate_gmc,
+)
 from greyml import test_ids as groups_of
 from greyml.grey import gmc_design
 from greyml.optimize import ParticleSwarm
@@ -256,6 +263,7 @@ def test_mismatched_columns(gmc_tests):
         ),
         ({"response": "euler"}, "'response' parameter"),
         ({"search": "grid"}, "'search' parameter"),
+        ({"bounds": "wide"}, "'bounds' parameter of GMC must be a str among"),
     ],
 )
 def test_bad_parameters(params, match, gmc_tests):
@@ -274,8 +282,73 @@ def _unstable_data():
 def test_least_squares_warns_when_unstable():
     X, y = _unstable_data()
     with pytest.warns(GreyStabilityWarning, match=r"b1 = -0\.\d+ < 0.*factor .* over the longest"):
-        model = GMC(solver="ls").fit(X, y)
+        model = GMC(solver="ls", bounds="papers").fit(X, y)
     assert model.development_coef_ < 0
+
+
+def test_default_bounds_keep_b1_non_negative_and_papers_box_is_named():
+    X, y = _unstable_data()
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # the default box: no GreyStabilityWarning
+        default = GMC().fit(X, y)
+    assert default.development_coef_ == 0.0
+    boxed = GMC(bounds=(0.0, 100.0)).fit(X, y)
+    np.testing.assert_array_equal(default.predict(X), boxed.predict(X))
+    with pytest.warns(GreyStabilityWarning):
+        papers = GMC(bounds="papers").fit(X, y)
+    with pytest.warns(GreyStabilityWarning):
+        free = GMC(bounds=(-100.0, 100.0)).fit(X, y)
+    assert papers.development_coef_ == free.development_coef_ < 0
+    # the swarm's box too: b1 in [0, 100] by default, [-100, 100] by name
+    for bounds, lower in [("stable", 0.0), ("papers", -100.0)]:
+        lo, hi = GMC(bounds=bounds)._search_bounds(4)
+        np.testing.assert_array_equal(lo, [lower, -100, -100, -100])
+        np.testing.assert_array_equal(hi, [100.0] * 4)
+
+
+def test_least_squares_says_why_its_response_overflows():
+    # an alternating drift whose least-squares b1 is -202: in the papers' box it
+    # is set to -100, whose response overflows; the default box sets it to 0
+    Y = (-1.02) ** np.arange(40)
+    X, y = np.linspace(1.0, 2.0, 40)[:, None], np.r_[Y[0], np.diff(Y)]
+    match = (
+        r"GMC\(solver='ls'\) calibration failed: least squares on the grey equation gives "
+        r"b1 = -202, outside bounds, so b1 was set to their nearer end, -100; .*overflows"
+    )
+    with pytest.warns(GreyStabilityWarning), pytest.raises(ValueError, match=match):
+        GMC(bounds="papers").fit(X, y)
+    assert GMC().fit(X, y).development_coef_ == 0.0
+
+
+def static_case(seed=0):
+    """Issue 15's two tests of 60 rows: a static mix of saturating inputs."""
+    t = np.arange(120.0)
+    noise = np.random.default_rng(seed).normal(scale=0.01, size=120)
+    X = np.column_stack(
+        [1 - np.exp(-t / 20), 1 - np.exp(-t / 35), 0.5 * (1 - np.exp(-t / 50)), 0.2 + noise]
+    )
+    index = make_test_index(np.repeat(["A", "B"], 60), 60.0 * np.r_[np.arange(60), np.arange(60)])
+    X = pd.DataFrame(X, index=index, columns=["a", "b", "c", "d"])
+    return X, pd.Series(X.to_numpy() @ [3.0, -1.0, 2.0, 0.5], index=index, name="y")
+
+
+def test_default_gmc_fits_a_static_mix_of_saturating_inputs():
+    X, y = static_case()
+    # the static target makes the grey equation rank deficient (a line of
+    # equally good least-squares solutions); its minimum-norm b1 is -0.41
+    with pytest.warns(GreyConditioningWarning):
+        model = GMC().fit(X, y)
+    assert model.development_coef_ == 0.0
+    rmse = float(np.sqrt(np.mean((model.predict(X) - y) ** 2)))
+    assert 0.40 < rmse < 0.43, rmse  # measured 0.419, target std 0.715
+    with pytest.warns(GreyConditioningWarning):
+        swarm = GMC(solver="pso", random_state=0).fit(X, y)
+    rmse_swarm = float(np.sqrt(np.mean((swarm.predict(X) - y) ** 2)))
+    assert rmse_swarm < 0.1, rmse_swarm  # measured 0.098, b1 = 1.23
+    # the papers' box keeps least squares' b1 < 0, whose response explodes
+    with pytest.warns(GreyConditioningWarning), pytest.warns(GreyStabilityWarning):
+        papers = GMC(bounds="papers").fit(X, y)
+    assert np.abs(papers.predict(X) - y).max() > 1e6
 
 
 def test_least_squares_keeps_b1_in_its_bounds():
@@ -302,3 +375,75 @@ def test_least_squares_bounds_inside_change_nothing(gmc_tests):
     boxed = GMC(solver="ls", bounds=(0.0, 100.0)).fit(X, y)
     assert 0 < free.development_coef_ < 100
     np.testing.assert_array_equal(free.predict(X), boxed.predict(X))
+
+
+# -- a test that starts mid-run (issue 15, item 5) ------------------------------
+def _warm_case():
+    """Two cold tests rising from about 20 C (temperatures given as T - 20), a GMC
+    target with b1 = 0.05, and the last 30 % of a third, slower test as a new test."""
+    rng = np.random.default_rng(3)
+    t = np.arange(100.0)
+
+    def run(label, ambient, tau):
+        T = ambient + 6 * (1 - np.exp(-t / tau)) + 0.02 * rng.normal(size=t.size)
+        X = pd.DataFrame({"T1_C": T - 20.0}, index=make_test_index([label] * t.size, t))
+        return X, simulate_gmc(X.to_numpy(), 0.05, [0.6], 0.0)
+
+    (Xa, ya), (Xb, yb), (Xc, yc) = run("A", 20.0, 25), run("B", 20.4, 25), run("C", 20.2, 40)
+    X = pd.concat([Xa, Xb])
+    y = pd.Series(np.r_[ya, yb], index=X.index, name="dz_um")
+    tail = Xc.iloc[70:].copy()
+    tail.index = make_test_index(["C-tail"] * 30, t[:30])
+    return X, y, tail, yc[70:]
+
+
+def test_initial_displacement_starts_a_mid_run_test_from_its_measured_value():
+    X, y, tail, y_tail = _warm_case()
+    model = GMC().fit(X, y)
+    assert model.development_coef_ == pytest.approx(0.05, abs=0.002)
+    np.testing.assert_allclose(model.start_range_, [[0.0], [0.4]], atol=0.05)
+    match = r"test 'C-tail'.*column 'T1_C' starts at 5\.[0-9]"
+    with pytest.warns(GreyWarmStartWarning, match=match):
+        cold = model.predict(tail)
+    start = float(y_tail[0])  # 51.5 um
+    for given in (start, {"C-tail": start}, pd.Series({"C-tail": start})):
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")  # a test with its start given: no warning
+            warm = model.predict(tail, initial_displacement=given)
+        assert warm[0] == pytest.approx(start, rel=1e-12)
+    cold_rmse = np.sqrt(np.mean((cold - y_tail) ** 2))
+    warm_rmse = np.sqrt(np.mean((warm - y_tail) ** 2))
+    assert cold_rmse > 25 and warm_rmse < 0.2, (cold_rmse, warm_rmse)  # measured 28.8, 0.12
+    # GNNMCI shares the implementation
+    from greyml import GNNMCI
+
+    net = GNNMCI(n_particles=10, max_iter=10, random_state=0).fit(X, y)
+    with pytest.warns(GreyWarmStartWarning, match=r"GNNMCI predicts test 'C-tail'"):
+        net.predict(tail)
+    assert net.predict(tail, initial_displacement=start)[0] == pytest.approx(start, rel=1e-12)
+    # the same through a Pipeline, which hands the keyword to its last step
+    pipe = make_pipeline(StandardScaler(with_mean=False).set_output(transform="pandas"), GMC())
+    pipe.fit(X, y)
+    np.testing.assert_allclose(
+        pipe.predict(tail, initial_displacement=start), warm, rtol=1e-6, atol=1e-6
+    )
+
+
+def test_initial_displacement_bad_values():
+    X, y, tail, _ = _warm_case()
+    model = GMC().fit(X, y)
+    with pytest.raises(ValueError, match=r"names test 'D', which X does not hold.*'C-tail'"):
+        model.predict(tail, initial_displacement={"D": 1.0})
+    with pytest.raises(ValueError, match=r"initial_displacement of test 'C-tail'.*finite.*nan"):
+        model.predict(tail, initial_displacement={"C-tail": np.nan})
+    with pytest.raises(ValueError, match=r"finite number; got inf"):
+        model.predict(tail, initial_displacement=np.inf)
+    with pytest.raises(TypeError, match=r"number, a dict or a Series.*got list"):
+        model.predict(tail, initial_displacement=[1.0])
+    plain = GMC().fit(X.to_numpy(), y.to_numpy())
+    with pytest.raises(ValueError, match=r"needs X with a 'test' index level"):
+        plain.predict(tail.to_numpy()[:, :1] * 0 + 20.0, initial_displacement={"C-tail": 1.0})
+    # a test that starts as the training tests did gets no warning
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        model.predict(X)

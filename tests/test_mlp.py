@@ -20,6 +20,7 @@ from greyml import make_test_index
 from greyml import test_ids as groups_of
 from greyml.neural import (
     MLPBaseline,
+    UnderdeterminedWarning,
     hidden,
     init_nguyen_widrow,
     levenberg_marquardt,
@@ -479,6 +480,27 @@ def test_bad_values_name_column_and_test(corrupt, match):
 def test_too_few_rows():
     with pytest.raises(ValueError, match="1 samples in 1 test"):
         MLPBaseline().fit(np.array([[1.0, 2.0]]), np.array([3.0]))
+
+
+def test_fewer_rows_than_weights_trains_and_warns():
+    # scikit-learn's check_dont_overwrite_parameters data: 20 rows of 3 columns,
+    # 51 weights in a default 3-10-1 network; validation_fraction=0 trains on all
+    rng = np.random.default_rng(0)
+    X = 3 * rng.uniform(size=(20, 3))
+    y = X[:, 0] - 2 * X[:, 1] ** 2 + np.sin(X[:, 2])
+    msg = (
+        r"MLPBaseline is under-determined: 20 training rows for the 51 weights of a "
+        r"3-10-1 network\..*damping.*hidden_layer_sizes=3 or fewer is determined"
+    )
+    with pytest.warns(UnderdeterminedWarning, match=msg):
+        model = MLPBaseline(validation_fraction=0, random_state=0).fit(X, y)
+    # the damped fit is well-posed: finite weights, and it reaches the goal on
+    # the rows it has (it interpolates them, which is what the warning says)
+    assert np.isfinite(np.concatenate([c.ravel() for c in model.coefs_])).all()
+    assert model.stop_reason_ == "goal" and model.loss_ <= 1e-4
+    np.testing.assert_allclose(model.predict(X), y, atol=0.05 * np.std(y))
+    # three hidden units (16 weights) are determined by 20 rows: no warning
+    MLPBaseline(3, validation_fraction=0, random_state=0).fit(X, y)
 
 
 def test_predict_checks_columns():

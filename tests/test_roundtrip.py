@@ -539,7 +539,7 @@ def test_duplicate_archive_member_is_refused(model_file, tripwire, name):
         (lambda s: s.update(x={"kind": "float", "value": "1e999"}), "invalid float"),
         (lambda s: s.update(x={"kind": "dtype", "value": "O; import os"}), "invalid dtype"),
         (lambda s: s.update(x={"kind": "ndarray", "file": 0}), "array reference"),
-        (lambda s: s.update(x={"kind": "ndarray", "file": "arrays/7.npy"}), "missing"),
+        (lambda s: s.update(x={"kind": "ndarray", "file": "arrays/999.npy"}), "missing"),
         (lambda s: s["random_state"].update(state="garbage"), None),
         (lambda s: s["random_state"].update(bit_generator="MT19937"), None),
         (lambda s: s["optimizer_result_"].update(items=[["x"]]), "key-value"),

@@ -16,7 +16,6 @@ def test_plot_simulated_tests_runs():
         env=env,
         capture_output=True,
         text=True,
-        timeout=60,
         check=False,
     )
     assert done.returncode == 0, done.stderr

@@ -11,9 +11,11 @@ The data is greyml's simulation of that test (``greyml.datasets.load_probe_test`
 The drivers are temperature rises from the test start: GMC has no intercept of its
 own (u only shapes a transient), so absolute temperatures would turn the ambient
 drift into a spurious offset. b₁ is kept ≥ 0 for the swarm and cuckoo solvers, so
-that the response cannot grow without bound. The least-squares solver has no such
-constraint: here it settles on b₁ < 0, and GMC warns as it calibrates
-(:class:`greyml.GreyStabilityWarning`), which the script prints.
+that the response cannot grow without bound. The least-squares solver is given the
+papers' box (``bounds="papers"``, b₁ in [−100, 100]) to show what it does without
+that constraint: here it settles on b₁ < 0, and GMC warns as it calibrates
+(:class:`greyml.GreyStabilityWarning`), which the script prints. GMC's default box
+(``bounds="stable"``) keeps b₁ ≥ 0 for every solver.
 
 The script prints the paper's metrics (R, RMSE, E, ±residual, improvement) next to
 the numbers it reports. It also prints an ordinary least-squares regression
@@ -60,7 +62,7 @@ print(
 # sensors, ``AccumulatedTargetRegressor`` fits the accumulated target and
 # differences its predictions back).
 models = {
-    "GMC-LS": GMC(solver="ls"),
+    "GMC-LS": GMC(solver="ls", bounds="papers"),
     "PSO-GMC": GMC(solver="pso", bounds=(0.0, 100.0), random_state=0),
     "CS-GMC": GMC(solver="cs", bounds=(0.0, 100.0), random_state=0),
     "GNNMCI": GNNMCI(n_particles=30, max_iter=50, random_state=0),

@@ -21,7 +21,7 @@ The grid (16 candidates × 6 folds = 96 fits, about 12 s on 2 cores):
 * the selector: 3 or 5 groups, grouping the influence weights or the series;
 * the model:
 
-  - GMC calibrated by least squares (b₁ free);
+  - GMC calibrated by least squares in the papers' box (b₁ free in [−100, 100]);
   - GMC calibrated by particle swarm with b₁ ≥ 0. The swarm searches only
     b₁ (the other coefficients follow by least squares) and the result is
     polished by a bounded Brent search, so a swarm of 10 for 30
@@ -102,7 +102,7 @@ print(
 # machine starting workers and copying the data to them cost more than the
 # second core gave back.
 MODELS = {
-    "GMC-LS": GMC(solver="ls"),
+    "GMC-LS": GMC(solver="ls", bounds="papers"),  # the papers' box: b1 may end < 0
     "GMC-PSO b₁≥0": GMC(
         solver="pso", bounds=(0.0, 100.0), n_population=10, max_iter=30, random_state=0
     ),

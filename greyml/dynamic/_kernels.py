@@ -26,6 +26,8 @@ __all__ = ["lag_filter", "lag_step", "steady_state"]
 # runs row by row (vectorised over columns and time constants) instead of one
 # lfilter call per run of equal steps.
 _RUN_SHARE = 0.02
+# Values per lfilter call (inputs × samples) on evenly sampled runs: 4 MB.
+_CHUNK_VALUES = 2**19
 
 
 def steady_state(x0, n_taus):
@@ -72,7 +74,7 @@ def _filter_even(xt, a, zi):
     return y
 
 
-def lag_filter(x, dt, taus, test_bounds, *, carry=False, initial=None):
+def lag_filter(x, dt, taus, test_bounds, *, carry=False, initial=None, out=None):
     """First-order lags of every column of ``x`` at every time constant.
 
     Parameters
@@ -94,10 +96,15 @@ def lag_filter(x, dt, taus, test_bounds, *, carry=False, initial=None):
         previous one left, stepping by ``dt`` at its first row.
     initial : ndarray of shape (p, m), optional
         State before the first row when ``carry`` is True.
+    out : ndarray of shape (p, m, n), optional
+        C-contiguous float64 array to write the lags into (e.g. a block of a
+        larger output array, so that the caller needs no copy); by default a
+        new one is allocated.
 
     Returns
     -------
     lags : ndarray of shape (n, p, m)
+        A view of ``out`` (or of the new array) with its axes moved.
     final : ndarray of shape (p, m)
         The state after the last row (to carry on, or to resume streaming).
     """
@@ -109,7 +116,7 @@ def lag_filter(x, dt, taus, test_bounds, *, carry=False, initial=None):
     # computed as (p, m, n), each lag a contiguous row, and handed back as an
     # (n, p, m) view: reshaped to (n, p·m) it is a Fortran-ordered array that a
     # DataFrame takes without copying
-    store = np.empty((p, m, n))
+    store = np.empty((p, m, n)) if out is None else out
     out = np.moveaxis(store, 2, 0)
     xt = np.ascontiguousarray(x.T)
     state = None
@@ -149,9 +156,18 @@ def _filter_segment(xt, steps, taus, before, store):
         return
     run_starts = np.concatenate(([0], change))
     run_stops = np.concatenate((change, [n]))
+    # lfilter returns a new array: in chunks of a few MB along time it is
+    # recycled by the allocator instead of being fresh (page-faulting) memory;
+    # a chunk continues from the last output of the one before, exactly as a
+    # new run of equal steps does
+    chunk = max(4096, _CHUNK_VALUES // max(1, xt.shape[0]))
     state = before
     for r0, r1 in zip(run_starts, run_stops):
         for j, tau in enumerate(taus):
             a = float(np.exp(-steps[r0] / tau))
-            store[:, j, r0:r1] = _filter_even(xt[:, r0:r1], a, state[:, j])
+            s = state[:, j]
+            for c0 in range(r0, r1, chunk):
+                c1 = min(c0 + chunk, r1)
+                store[:, j, c0:c1] = _filter_even(xt[:, c0:c1], a, s)
+                s = store[:, j, c1 - 1]
         state = store[:, :, r1 - 1]

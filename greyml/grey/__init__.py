@@ -2,7 +2,12 @@
 
 from greyml.grey._ago import AGO, AccumulatedTargetRegressor
 from greyml.grey._functions import fit_gm1n, simulate_gmc
-from greyml.grey._gmc import GMC, GreyConditioningWarning, GreyStabilityWarning
+from greyml.grey._gmc import (
+    GMC,
+    GreyConditioningWarning,
+    GreyStabilityWarning,
+    GreyWarmStartWarning,
+)
 from greyml.grey._gnnmci import GNNMCI
 from greyml.grey._kernels import (
     ago,
@@ -29,6 +34,7 @@ __all__ = [
     "GNNMCI",
     "GreyConditioningWarning",
     "GreyStabilityWarning",
+    "GreyWarmStartWarning",
     "ago",
     "background",
     "fit_gm1n",

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numpy as np
+import pandas as pd
 from sklearn.base import (
     BaseEstimator,
     OneToOneFeatureMixin,
@@ -146,12 +147,17 @@ class AccumulatedTargetRegressor(RegressorMixin, BaseEstimator):
     that row and the row before it in the same test, so it depends on the
     previous row: predict whole tests, as for every grey model.
 
-    The regressor's intercept survives the differencing only on each test's
-    first row. So behind :class:`AGO`, a constant offset in the target (which
-    accumulates to a ramp c·k) is fitted only as far as the accumulated
-    inputs can mimic a ramp, as in GM(1,N), which has no constant term
-    either. Measure the target from each test's start, or add a column of
-    ones before ``AGO`` if the target carries an offset.
+    Each test's first row is differenced against the regressor's prediction
+    at a row of zeros, the accumulated inputs before the test's first sample
+    (``X`` is meant to come from :class:`AGO`). So the regressor's constant,
+    e.g. an intercept, cancels on every row, the first included; were it kept
+    there, the first prediction of a new test would be off by that constant
+    (a thousand µm on a real spindle recording). So behind :class:`AGO`, a
+    constant offset in the target (which accumulates to a ramp c·k) is
+    fitted only as far as the accumulated inputs can mimic a ramp, as in
+    GM(1,N), which has no constant term either. Measure the target from each
+    test's start, or add a column of ones before ``AGO`` if the target
+    carries an offset.
 
     Examples
     --------
@@ -201,6 +207,9 @@ class AccumulatedTargetRegressor(RegressorMixin, BaseEstimator):
     def predict(self, X):
         """Predict the target: the regressor's output differenced within each test.
 
+        A test's first row is the regressor's output there minus its output at
+        a row of zeros (the accumulated inputs before the test starts).
+
         Parameters
         ----------
         X : array-like or DataFrame of shape (n_samples, n_features)
@@ -217,7 +226,17 @@ class AccumulatedTargetRegressor(RegressorMixin, BaseEstimator):
                 f"{type(self.regressor_).__name__} predicted {y1.shape[1]} columns; "
                 "AccumulatedTargetRegressor needs one."
             )
-        return iago(y1, [(s.start, s.stop) for s in segments])[:, 0]
+        pred = iago(y1, [(s.start, s.stop) for s in segments])[:, 0]
+        # each test's first row is differenced against the regressor at the row
+        # before the test, where the accumulated inputs are zero: a constant of the
+        # regressor (an intercept) then cancels there as on every other row
+        if isinstance(X, pd.DataFrame):
+            zero = pd.DataFrame(np.zeros((1, Xa.shape[1])), columns=X.columns)
+        else:
+            zero = np.zeros((1, Xa.shape[1]))
+        before = float(np.asarray(self.regressor_.predict(zero), dtype=np.float64).reshape(-1)[0])
+        pred[[s.start for s in segments]] -= before
+        return pred
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()

@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+import numbers
 import warnings
+from collections.abc import Mapping
 
 import numpy as np
+import pandas as pd
 from scipy.optimize import minimize_scalar
 from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.utils.validation import check_is_fitted
@@ -25,7 +28,7 @@ from greyml.grey._kernels import (
 from greyml.optimize import CuckooSearch, ParticleSwarm, PopulationOptimizer
 from greyml.optimize._base import check_bounds
 
-__all__ = ["GMC", "GreyConditioningWarning", "GreyStabilityWarning"]
+__all__ = ["GMC", "GreyConditioningWarning", "GreyStabilityWarning", "GreyWarmStartWarning"]
 
 
 class GreyConditioningWarning(UserWarning):
@@ -58,8 +61,8 @@ class GreyStabilityWarning(UserWarning):
     Its response grows like e^{−b₁k} instead of settling, so it can fit the
     training tests and still predict absurd values on a longer test. The
     warning says by how much the response grows over the longest training
-    test. Give ``bounds=(0, 100)`` (to any solver, least squares too), or use
-    :class:`GNNMCI`, whose default keeps b₁ ≥ 0.
+    test. The default ``bounds="stable"`` (any solver, least squares too)
+    keeps b₁ ≥ 0; it happens with ``bounds="papers"`` or a box of your own.
 
     Examples
     --------
@@ -73,7 +76,7 @@ class GreyStabilityWarning(UserWarning):
     >>> y = np.exp(0.05 * np.arange(40))
     >>> with warnings.catch_warnings(record=True) as caught:
     ...     warnings.simplefilter("always")
-    ...     model = GMC().fit(X, y)
+    ...     model = GMC(bounds="papers").fit(X, y)
     >>> [w.category.__name__ for w in caught]
     ['GreyStabilityWarning']
     >>> bool(model.development_coef_ < 0)
@@ -81,7 +84,58 @@ class GreyStabilityWarning(UserWarning):
     """
 
 
+class GreyWarmStartWarning(UserWarning):
+    """A grey model predicts a test that does not start where the training tests did.
+
+    A grey model predicts the change since each test's first row, where its
+    inputs start accumulating. Without the measured displacement there
+    (``predict(X, initial_displacement=...)``) it starts from its own value
+    for a machine as the training tests started, which is wrong for a test
+    that starts mid-run; such a test's inputs often start away from the
+    training tests' first values, and then this warning names the test and
+    the column.
+
+    Examples
+    --------
+    Trained on tests that start at 20 °C, applied to one that starts at 30 °C:
+
+    >>> import warnings
+    >>> import numpy as np
+    >>> import pandas as pd
+    >>> from greyml import GMC, make_test_index
+    >>> from greyml.grey import GreyWarmStartWarning
+    >>> t = np.arange(40.0)
+    >>> rise = 5 * (1 - np.exp(-t / 10))
+    >>> index = make_test_index(["I"] * 40 + ["II"] * 40, np.r_[t, t])
+    >>> X = pd.DataFrame({"T1_C": np.r_[20 + rise, 20.5 + rise]}, index=index)
+    >>> y = 2 * (X["T1_C"] - 20)
+    >>> model = GMC().fit(X, y)
+    >>> hot = pd.DataFrame({"T1_C": 30 + rise}, index=make_test_index(["III"] * 40, t))
+    >>> with warnings.catch_warnings(record=True) as caught:
+    ...     warnings.simplefilter("always")
+    ...     _ = model.predict(hot)
+    >>> [w.category.__name__ for w in caught]
+    ['GreyWarmStartWarning']
+    >>> "test 'III'" in str(caught[0].message)
+    True
+    >>> model.predict(hot, initial_displacement={"III": 20.0})[0]
+    np.float64(20.0)
+    """
+
+
 _SOLVERS = ("ls", "pso", "cs")
+
+#: A test's first value counts as a cold start when it lies within the training
+#: tests' first values widened by their range, or by this share of the column's
+#: range over the training rows, whichever is larger (one training test has a
+#: range of 0).
+START_TOLERANCE = 0.1
+
+#: The papers' search box for every grey coefficient, b₁ included (Tien (2012);
+#: Abdulshahed et al. (2016, 2017)): ``bounds="papers"``. It admits b₁ < 0, an
+#: unstable response; ``bounds="stable"`` (the default) narrows b₁ to [0, 100].
+PAPERS_BOUNDS = (-100.0, 100.0)
+BOUNDS_NAMES = ("stable", "papers")
 
 
 def _bounds_list(segments):
@@ -123,6 +177,11 @@ class _GreyConvolutionModel(RegressorMixin, BaseEstimator):
         )
         bounds = _bounds_list(segments)
         self.n_tests_ = len(segments)
+        firsts = Xa[[seg.start for seg in segments]]
+        self.start_range_ = np.vstack([firsts.min(axis=0), firsts.max(axis=0)])
+        self.start_tolerance_ = np.maximum(
+            np.ptp(firsts, axis=0), START_TOLERANCE * np.ptp(Xa, axis=0)
+        )
         with blas_threads_for(Xa.size * (Xa.shape[1] + 2)):
             return self._calibrate(Xa, ya, bounds, optimizer)
 
@@ -146,6 +205,7 @@ class _GreyConvolutionModel(RegressorMixin, BaseEstimator):
             # squares optimum has b1 at the nearer end
             lower, upper = check_bounds(self._search_bounds(n_theta), n_theta)
             theta = theta_ls
+            ls_b1 = float(b1)
             if not lower[0] <= b1 <= upper[0]:
                 edge = float(np.clip(b1, lower[0], upper[0]))
                 b, u = gmc_lstsq_fixed_b1(ya, Xa, edge, bounds)
@@ -199,13 +259,25 @@ class _GreyConvolutionModel(RegressorMixin, BaseEstimator):
                 f"{self.development_coef_:.4g} < 0, so its response grows like "
                 f"exp({-self.development_coef_:.4g}·k), a factor {factor} over the longest "
                 f"training test ({n_max} samples), and more on longer tests. Keep b1 >= 0 "
-                "with bounds=(0, 100) (any solver), or use GNNMCI.",
+                "with bounds='stable' (the default, any solver).",
                 GreyStabilityWarning,
                 stacklevel=3,
             )
         self.loss_ = float(
             gmc_sse_population(X1, ya, theta[None, :], bounds, self.response, self.initial)[0]
         )
+        if self.loss_ >= LARGE_LOSS and optimizer is None:
+            where = (
+                "inside bounds"
+                if theta[0] == ls_b1
+                else f"outside bounds, so b1 was set to their nearer end, {theta[0]:g}"
+            )
+            raise ValueError(
+                f"{type(self).__name__}(solver='ls') calibration failed: least squares on the "
+                f"grey equation gives b1 = {ls_b1:.4g}, {where}; with it the time response "
+                f"grows like exp({-theta[0]:g}·k) and overflows on the training tests. Use "
+                "bounds='stable' (b1 >= 0) or solver='pso'."
+            )
         if self.loss_ >= LARGE_LOSS:
             raise ValueError(
                 f"{type(self).__name__} calibration failed: every candidate trajectory diverged on "
@@ -213,15 +285,28 @@ class _GreyConvolutionModel(RegressorMixin, BaseEstimator):
             )
         return self
 
-    def predict(self, X):
+    def predict(self, X, initial_displacement=None):
         """Predict the target of every test in ``X``.
 
-        Each test's response starts from that test's first driver values
-        (see ``initial``); its target is not needed.
+        Each test's response starts from that test's first row: from the
+        measured value given in ``initial_displacement``, else from the first
+        driver values (see ``initial``); the target is not needed.
 
         Parameters
         ----------
         X : array-like or DataFrame of shape (n_samples, n_features)
+        initial_displacement : float, dict, Series or None, default=None
+            The measured target at each test's first row, for a test that
+            starts mid-run (e.g. the end of the previous test): a float for
+            every test, or a mapping (a dict, or a Series indexed by test
+            label) from test label to value; tests it leaves out start as with
+            ``None``. A given test's prediction starts at that value and adds
+            the model's predicted change since the first row
+            (:func:`~greyml.grey.gmc_predict`). With ``None``, a test whose
+            first driver values lie away from the training tests' first values
+            by more than their range (at least ``START_TOLERANCE`` = 10 % of
+            the column's range in ``fit``) gets a
+            :class:`GreyWarmStartWarning` naming the test and the column.
 
         Returns
         -------
@@ -230,6 +315,8 @@ class _GreyConvolutionModel(RegressorMixin, BaseEstimator):
         check_is_fitted(self)
         Xa, _, segments = validate_sequences(self, X, reset=False, min_samples_per_test=1)
         bounds = _bounds_list(segments)
+        start = _initial_values(self, initial_displacement, segments)
+        self._check_cold_starts(Xa, segments, start)
         pred = gmc_predict(
             ago(Xa, bounds),
             self.development_coef_,
@@ -238,6 +325,7 @@ class _GreyConvolutionModel(RegressorMixin, BaseEstimator):
             bounds,
             self.response,
             self.initial,
+            start=start,
         )
         bad = ~np.isfinite(pred)
         if bad.any():
@@ -251,8 +339,47 @@ class _GreyConvolutionModel(RegressorMixin, BaseEstimator):
             )
         return pred
 
+    def _check_cold_starts(self, Xa, segments, start):
+        """Warn for each test without a given start whose inputs start warm."""
+        low_high = getattr(self, "start_range_", None)
+        if low_high is None:  # a model saved before the starts were kept
+            return
+        names = getattr(self, "feature_names_in_", None)
+        for seg, given in zip(segments, start):
+            if np.isfinite(given):
+                continue
+            first = Xa[seg.start]
+            off = np.maximum(low_high[0] - first, first - low_high[1])
+            warm = np.flatnonzero(off > self.start_tolerance_)
+            if warm.size == 0:
+                continue
+            j = int(warm[np.argmax(off[warm] - self.start_tolerance_[warm])])
+            column = f"column {names[j]!r}" if names is not None else f"column {j}"
+            label = "" if seg.label is None else f"{{{seg.label!r}: value}}"
+            warnings.warn(
+                f"{type(self).__name__} predicts {segment_label(seg)} from a cold start, "
+                f"but its {column} starts at {first[j]:.4g}, away from the training tests' "
+                f"first values {low_high[0, j]:.4g} to {low_high[1, j]:.4g} by more than "
+                f"{self.start_tolerance_[j]:.3g}: if it starts mid-run, give its measured "
+                f"value at the first row, predict(X, initial_displacement="
+                f"{label or 'value'}) (greyml predict --initial-displacement).",
+                GreyWarmStartWarning,
+                stacklevel=3,
+            )
+
     def _search_bounds(self, n_theta):
-        """The optimiser's box for (b₁, b₂…b_N, u); subclasses may derive it."""
+        """The optimiser's box for (b₁, b₂…b_N, u), with the named boxes resolved."""
+        if isinstance(self.bounds, str):
+            if self.bounds not in BOUNDS_NAMES:
+                raise ValueError(
+                    f"The 'bounds' parameter of {type(self).__name__} must be a str among "
+                    f"{{'stable', 'papers'}} or a (lower, upper) pair. Got {self.bounds!r} "
+                    "instead."
+                )
+            lower = np.full(n_theta, PAPERS_BOUNDS[0])
+            if self.bounds == "stable":
+                lower[0] = 0.0
+            return lower, np.full(n_theta, PAPERS_BOUNDS[1])
         return self.bounds
 
     def __sklearn_tags__(self):
@@ -292,14 +419,21 @@ class GMC(_GreyConvolutionModel):
         is fixed (variable projection). ``"full"``: every coefficient, as in
         seeds 002/004. The separable search reaches the trajectory optimum in a
         budget where the full search does not (see Notes).
-    bounds : (float, float) or (array, array), default=(-100, 100)
-        Search box (seed 004). With ``search="full"``: for (b₁, b₂…b_N, u), the
-        same for all coefficients when scalars. With ``search="separable"``: for
-        b₁ (the first entry when arrays are given). With ``solver="ls"``: the
-        range of b₁ only; if the least-squares b₁ falls outside it, b₁ is set to
-        the nearer end and the other coefficients are solved again (the least
-        squares optimum within the range). ``bounds=(0, 100)`` keeps any solver
-        stable (b₁ ≥ 0).
+    bounds : {"stable", "papers"} or (float, float) or (array, array), \
+            default="stable"
+        Search box. ``"stable"``: b₁ in [0, 100] and every other coefficient
+        in [−100, 100], so that every solver calibrates a response that
+        settles (b₁ ≥ 0), as :class:`GNNMCI` does. ``"papers"``: [−100, 100] for
+        every coefficient, b₁ included, the setting of Tien (2012) and
+        Abdulshahed et al. (2017); it admits b₁ < 0, which
+        :class:`GreyStabilityWarning` reports. A pair gives the box itself.
+        With ``search="full"``: for (b₁, b₂…b_N, u),
+        the same for all coefficients when scalars. With
+        ``search="separable"``: for b₁ (the first entry when arrays are given).
+        With ``solver="ls"``: the range of b₁ only; if the least-squares b₁
+        falls outside it, b₁ is set to the nearer end and the other
+        coefficients are solved again (the least-squares optimum within the
+        range).
     n_population : int, default=25
         Particles or nests (seed 004: 25).
     max_iter : int, default=100
@@ -369,10 +503,9 @@ class GMC(_GreyConvolutionModel):
     without bound (b₁ ≪ 0) is a large finite loss for the optimisers; ``predict``
     raises rather than return one that overflows. A mildly negative b₁ (e.g.
     −0.03) grows without overflowing: on a test longer than the training tests
-    it can predict absurd values. ``fit`` therefore warns
-    (:class:`GreyStabilityWarning`) whenever it ends with b₁ < 0; give
-    ``bounds`` with a lower limit of 0 for b₁ (as :class:`GNNMCI` does) to
-    rule it out.
+    it can predict absurd values. The default ``bounds="stable"`` therefore
+    keeps b₁ ≥ 0; with ``bounds="papers"`` (or any box that admits b₁ < 0)
+    ``fit`` warns (:class:`GreyStabilityWarning`) whenever it ends with b₁ < 0.
 
     References
     ----------
@@ -400,7 +533,7 @@ class GMC(_GreyConvolutionModel):
         solver="ls",
         *,
         search="separable",
-        bounds=(-100.0, 100.0),
+        bounds="stable",
         n_population=25,
         max_iter=100,
         response="trapezoid",
@@ -452,6 +585,52 @@ class GMC(_GreyConvolutionModel):
         if self.solver == "pso":
             return ParticleSwarm(n_particles=self.n_population, max_iter=self.max_iter)
         return CuckooSearch(n_nests=self.n_population, max_iter=self.max_iter)
+
+
+def _initial_values(estimator, given, segments):
+    """One starting value per test from ``initial_displacement`` (NaN: not given)."""
+    name = type(estimator).__name__
+    out = np.full(len(segments), np.nan)
+    if given is None:
+        return out
+    if isinstance(given, numbers.Real) and not isinstance(given, bool):
+        if not np.isfinite(given):
+            raise ValueError(
+                f"{name}: initial_displacement must be a finite number; got {given!r}."
+            )
+        out[:] = float(given)
+        return out
+    if not isinstance(given, (Mapping, pd.Series)):
+        raise TypeError(
+            f"{name}: initial_displacement must be a number, a dict or a Series from test "
+            f"label to value, or None; got {type(given).__name__}."
+        )
+    values = dict(given.items())
+    labels = [seg.label for seg in segments]
+    if labels == [None]:
+        raise ValueError(
+            f"{name}: initial_displacement as a mapping needs X with a 'test' index level "
+            "to name the tests; X is a single unlabelled test: give a number."
+        )
+    unknown = [key for key in values if key not in labels]
+    if unknown:
+        shown = ", ".join(map(repr, labels[:10])) + (", ..." if len(labels) > 10 else "")
+        raise ValueError(
+            f"{name}: initial_displacement names test {unknown[0]!r}, which X does not hold "
+            f"(its tests: {shown})."
+        )
+    for i, seg in enumerate(segments):
+        if seg.label not in values:
+            continue
+        value = values[seg.label]
+        ok = isinstance(value, numbers.Real) and not isinstance(value, bool)
+        if not ok or not np.isfinite(value):
+            raise ValueError(
+                f"{name}: initial_displacement of {segment_label(seg)} must be a finite "
+                f"number; got {value!r}."
+            )
+        out[i] = float(value)
+    return out
 
 
 def _polish(objective, result, lower, upper):

@@ -40,14 +40,15 @@ class GNNMCI(_GreyConvolutionModel):
         ``"separable"``: it searches w₁₁ = b₁ only, and for each particle the
         remaining weights, on which the output depends linearly, are solved
         exactly by least squares; see :class:`GMC` for why this is the default.
-    bounds : "stable" or (float, float) or (array, array), default="stable"
+    bounds : {"stable", "papers"} or (float, float) or (array, array), \
+            default="stable"
         Search box of the weights (as :class:`GMC`). ``"stable"``: w₁₁ = b₁ in
         [0, 100] and every other weight in [−100, 100]. b₁ < 0 is a response
         that grows like e^{−b₁k}: a heated machine that never settles. On two
         training tests such a trajectory can fit well and then predict values
         beyond 10¹⁰ µm on the next test (simulated gantry, Z and C tests → helical),
-        so the default keeps the network stable; ``(-100, 100)`` is seed
-        000's unconstrained search.
+        so the default keeps the network stable; ``"papers"`` (the same as
+        ``(-100, 100)``) is the unconstrained search of Abdulshahed et al. (2016).
     initial : {"model", "zero"}, default="model"
         The starting value x̂₁⁽¹⁾(1) of each test (w₂₁ = −x̂₁⁽¹⁾(1)), as in
         :class:`GMC`: the target of a new test is unknown when it is predicted.
@@ -156,18 +157,6 @@ class GNNMCI(_GreyConvolutionModel):
             c2=self.c2,
             inertia=self.inertia,
         )
-
-    def _search_bounds(self, n_theta):
-        if isinstance(self.bounds, str):
-            if self.bounds != "stable":
-                raise ValueError(
-                    "The 'bounds' parameter of GNNMCI must be 'stable' or a (lower, "
-                    f"upper) pair. Got {self.bounds!r} instead."
-                )
-            lower = np.full(n_theta, -100.0)
-            lower[0] = 0.0
-            return lower, np.full(n_theta, 100.0)
-        return self.bounds
 
     def layer_outputs(self, X):
         """Outputs of layers A–D for every test of ``X``.

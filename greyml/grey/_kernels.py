@@ -405,11 +405,25 @@ def _explodes(b1, n):
     return (-np.asarray(b1, dtype=float)) * max(n - 1, 0) > _MAX_EXPONENT
 
 
-def gmc_predict(X1, b1, coef, control, bounds=None, form="trapezoid", initial="model"):
+def gmc_predict(
+    X1, b1, coef, control, bounds=None, form="trapezoid", initial="model", start=None
+):
     """Predicted x̂₁⁽⁰⁾ of every test (IAGO of the time response), shape ``(n,)``.
 
     ``X1`` holds the 1-AGO of the drivers (per test). Values of an exploding
     trajectory come back as ``inf`` (never NaN); callers decide what to do.
+    ``start`` (one value per test, or ``None``) gives a test's measured value
+    at its first row, x₁⁽⁰⁾(1), for a test that starts mid-run. It is the
+    response's starting value x̂₁⁽¹⁾(1), and the inputs accumulated before
+    the test, which its own 1-AGO does not see, add a constant c to its
+    forcing: the one for which the grey equation holds at k = 1,
+    x₁⁽⁰⁾(1)(1 + b₁) = f(1) + c. The prediction then relaxes from the
+    measured value at the model's own rate b₁; with b₁ = 0 it is the measured
+    value plus the change the model predicts since the first row. (The
+    starting value alone would only add a transient that decays like
+    e^{−b₁k}: with a small b₁ the prediction would fall back to the cold
+    start's level from the second row on.) Where ``start`` is ``None`` or
+    NaN, the response starts as ``initial`` says (:func:`gmc_initial`).
 
     Examples
     --------
@@ -428,10 +442,21 @@ def gmc_predict(X1, b1, coef, control, bounds=None, form="trapezoid", initial="m
     >>> X1 = ago(np.array([[1.0], [2.0], [1.0], [3.0]]), bounds)
     >>> np.round(gmc_predict(X1, 0.4, [0.5], 0.1, bounds), 6).tolist()
     [0.428571, 0.859805, 0.428571, 1.109805]
+
+    The second test starting mid-run, from a measured 5.0; it relaxes at the
+    rate b₁ = 0.4. With b₁ = 0 it keeps 5.0 plus the change the model
+    predicts from its first row (1.35 − 0.6):
+
+    >>> np.round(gmc_predict(X1, 0.4, [0.5], 0.1, bounds, start=[np.nan, 5.0]), 6).tolist()
+    [0.428571, 0.859805, 5.0, 4.94772]
+    >>> np.round(gmc_predict(X1, 0.0, [0.5], 0.1, bounds), 6).tolist()
+    [0.6, 1.1, 0.6, 1.35]
+    >>> np.round(gmc_predict(X1, 0.0, [0.5], 0.1, bounds, start=[np.nan, 5.0]), 6).tolist()
+    [0.6, 1.1, 5.0, 5.75]
     """
     X1 = np.asarray(X1, dtype=float)
     out = np.empty(X1.shape[0])
-    for a, b in _as_bounds(bounds, X1.shape[0]):
+    for i, (a, b) in enumerate(_as_bounds(bounds, X1.shape[0])):
         if b == a:
             continue
         if _explodes(b1, b - a):
@@ -439,7 +464,15 @@ def gmc_predict(X1, b1, coef, control, bounds=None, form="trapezoid", initial="m
             continue
         with np.errstate(over="ignore", invalid="ignore"):
             f = gmc_forcing(X1[a:b], coef, control)
-            x0 = gmc_initial(f[0], b1, initial)
+            given = np.nan if start is None else float(start[i])
+            if np.isfinite(given):
+                # started mid-run: the inputs accumulated before the test add a
+                # constant to its forcing, the one that makes the grey equation
+                # hold at k = 1 with the measured value, x(1)(1 + b1) = f(1) + c
+                f = f + (given * (1.0 + b1) - f[0])
+                x0 = given
+            else:
+                x0 = gmc_initial(f[0], b1, initial)
             x1_hat = gmc_response(f, b1, float(x0), form)
             seg = iago(x1_hat)
         seg[~np.isfinite(seg)] = np.inf

@@ -13,7 +13,7 @@ from greyml.neural._kernels import (
     pack,
     unpack,
 )
-from greyml.neural._mlp import MLPBaseline
+from greyml.neural._mlp import MLPBaseline, UnderdeterminedWarning
 
 __all__ = [
     "ACTIVATIONS",
@@ -26,6 +26,7 @@ __all__ = [
     "mlp_jacobian",
     "mlp_residuals",
     "n_params",
+    "UnderdeterminedWarning",
     "pack",
     "unpack",
 ]

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import numbers
+import warnings
 
 import numpy as np
 from sklearn.base import BaseEstimator, RegressorMixin
@@ -28,7 +29,34 @@ from greyml.neural._kernels import (
     unpack,
 )
 
-__all__ = ["MLPBaseline"]
+__all__ = ["MLPBaseline", "UnderdeterminedWarning"]
+
+
+class UnderdeterminedWarning(UserWarning):
+    """A network has more weights than training rows.
+
+    :class:`MLPBaseline` still trains it: Levenberg–Marquardt's damping μ keeps
+    every step defined, and the goal or the validation stop ends training. But
+    many weight vectors then fit the training rows equally well, so the
+    network can interpolate them and generalise poorly; fewer hidden units or
+    more rows make the fit determined.
+
+    Examples
+    --------
+    Twenty rows of three inputs are fewer than the 51 weights of a 3-10-1
+    network:
+
+    >>> import warnings
+    >>> import numpy as np
+    >>> from greyml.neural import MLPBaseline, UnderdeterminedWarning
+    >>> rng = np.random.default_rng(0)
+    >>> X, y = rng.random((20, 3)), rng.random(20)
+    >>> with warnings.catch_warnings(record=True) as caught:
+    ...     warnings.simplefilter("always")
+    ...     model = MLPBaseline(max_iter=20, random_state=0).fit(X, y)
+    >>> [w.category.__name__ for w in caught]
+    ['UnderdeterminedWarning']
+    """
 
 
 class MLPBaseline(RegressorMixin, BaseEstimator):
@@ -48,8 +76,8 @@ class MLPBaseline(RegressorMixin, BaseEstimator):
         symmetry with :class:`sklearn.neural_network.MLPRegressor`, but only one
         hidden layer is supported. ``fit`` needs at least as many rows as the
         network has weights, h·(p + 2) + 1 for p inputs and h hidden units (61
-        for 4 sensors and 10 units); with fewer it raises rather than fit an
-        underdetermined network.
+        for 4 sensors and 10 units), to be determined; with fewer it still
+        trains (see Notes) and warns (:class:`UnderdeterminedWarning`).
     activation : {"logistic", "tanh"}, default="logistic"
         Hidden-layer function: log-sigmoid 1/(1 + e⁻ᶻ) (MATLAB's ``logsig``, seed
         000) or tanh (``tansig``). The output is linear.
@@ -136,10 +164,13 @@ class MLPBaseline(RegressorMixin, BaseEstimator):
     defaults serve temperatures in °C and displacements in µm; the weights are
     initialised by the Nguyen–Widrow rule for that scale.
 
-    **Rows and weights.** Fewer rows than weights is allowed, as in MATLAB:
-    the damping μ keeps every step defined, and the goal or the validation stop
-    ends training. Size the network by cross-validation (seed 000 tried 1 to 15
-    hidden units), e.g. ``GridSearchCV`` over ``hidden_layer_sizes`` with
+    **Rows and weights.** Fewer training rows than weights is allowed, as in
+    MATLAB: the damping μ keeps every step defined, and the goal or the
+    validation stop ends training. ``fit`` then warns
+    (:class:`UnderdeterminedWarning`), since such a network can interpolate
+    its training rows; it needs at least two rows. Size the network by
+    cross-validation (seed 000 tried 1 to 15 hidden units), e.g.
+    ``GridSearchCV`` over ``hidden_layer_sizes`` with
     ``LeaveOneGroupOut`` on the tests; refusing large networks on small folds
     would make such a search fail part-way.
 
@@ -263,8 +294,8 @@ class MLPBaseline(RegressorMixin, BaseEstimator):
             X,
             y,
             reset=True,
-            min_rows=lambda p: n_params(p, n_hidden),
-            n_params_msg=lambda p: f"the weights of a {p}-{n_hidden}-1 network",
+            min_rows=2,
+            n_params_msg=lambda p: f"a {p}-{n_hidden}-1 network",
             reject_constant=True,
             static=True,
         )
@@ -278,7 +309,22 @@ class MLPBaseline(RegressorMixin, BaseEstimator):
         X_fit, y_fit = Xs[train], ys[train]
 
         best = None
-        n_par = (Xa.shape[1] + 2) * n_hidden + 1
+        n_par = n_params(Xa.shape[1], n_hidden)
+        if train.size < n_par:
+            fits = (train.size - 1) // (Xa.shape[1] + 2)
+            advice = (
+                f"hidden_layer_sizes={fits} or fewer is determined"
+                if fits >= 1
+                else "more rows are needed for a determined fit"
+            )
+            warnings.warn(
+                f"{type(self).__name__} is under-determined: {train.size} training rows for "
+                f"the {n_par} weights of a {Xa.shape[1]}-{n_hidden}-1 network. "
+                f"Levenberg-Marquardt's damping keeps the fit defined, but it can interpolate "
+                f"the training rows; {advice}.",
+                UnderdeterminedWarning,
+                stacklevel=2,
+            )
         # the dominant product of an epoch is JᵀJ: 2 · rows · n_params² flops
         with blas_threads_for(2.0 * train.size * n_par**2):
             for _ in range(self.n_restarts):

@@ -1,0 +1,553 @@
+"""Compensator: a linear model of thermal lags, run sample by sample."""
+
+from __future__ import annotations
+
+import math
+import numbers
+import weakref
+from collections.abc import Mapping
+
+import numpy as np
+import pandas as pd
+from sklearn.base import BaseEstimator
+from sklearn.pipeline import Pipeline
+from sklearn.preprocessing import StandardScaler
+from sklearn.utils.validation import check_is_fitted
+
+from greyml._sequences import TIME_LEVEL
+from greyml.dynamic._lags import LagFeatures, _power_name, format_seconds
+
+__all__ = ["Compensator"]
+
+_PREFIX = "Compensator.update:"
+
+# per compensator, the last pandas index seen and the positions of time_s and
+# the inputs in it (kept outside the object: an Index is not part of its state)
+_SERIES_POSITIONS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _real(value):
+    return isinstance(value, numbers.Real) and not isinstance(value, bool) and math.isfinite(value)
+
+
+class Compensator(BaseEstimator):
+    """A thermal-error correction computed sample by sample, as a controller runs it.
+
+    The correction is a sum of terms, each the input ``x**power`` lagged
+    with a time constant ``tau_s`` (or taken as it is) and multiplied by a
+    weight::
+
+        correction = intercept + Σ weight · lag_tau(x**power)
+
+    with the first-order lag of :class:`greyml.LagFeatures`,
+    s_k = a_k s_{k−1} + (1 − a_k) x_k, a_k = exp(−Δt_k/τ), Δt_k from the
+    rows' ``time_s``. Each :meth:`update` costs a few small array operations
+    over the terms, whatever the length of the recording. Build one by hand,
+    or from a fitted ``Pipeline(LagFeatures, [StandardScaler], linear model)``
+    with :meth:`from_pipeline`: streaming a test row by row then gives the
+    pipeline's ``predict`` on that test.
+
+    Parameters
+    ----------
+    inputs : list of str
+        Names of the inputs, in the order of an array row after ``time_s``.
+    terms : list of tuple
+        ``(input_name, power, tau_s, weight)``: ``input_name`` one of
+        ``inputs``; ``power`` a finite number > 0; ``tau_s`` the time
+        constant in seconds (finite, > 0), or ``None`` for the input itself
+        without lag; ``weight`` a finite number. Terms with the same input,
+        power and time constant share one lag.
+    intercept : float, default=0.0
+    relative_to_start : bool, default=False
+        Subtract the sum of the terms at the first sample (after
+        construction or :meth:`reset`), so the correction is ``intercept``
+        plus the predicted change since the start.
+    nominal_step_s : float, optional
+        What to do with a row whose ``time_s`` is not later than the
+        previous row's. ``None``: refuse it (time went back). A step in
+        seconds: the row starts the next piece of the same recording, whose
+        clock starts anew (``LagFeatures(state="carry")``), and the lags
+        step into it by this much.
+
+    Attributes
+    ----------
+    state_ : dict
+        The running state, as :meth:`get_state` returns it.
+
+    See Also
+    --------
+    greyml.LagFeatures : the same lags, computed for whole tests.
+
+    Notes
+    -----
+    The first update after construction or :meth:`reset` starts every lag at
+    rest at that row's values (``state="restart"``); later updates step by
+    the time since the previous row. A step that is longer than a time
+    constant is bridged as if the input had been held (``LagFeatures``
+    refuses steps longer than its largest time constant inside a test).
+
+    The state (:meth:`get_state`, :meth:`set_state`) is plain numbers, and
+    :func:`greyml.persist.save_model` saves a compensator with its state, so
+    a controller can stop and resume exactly where it was.
+
+    Examples
+    --------
+    A 10 µm/°C expansion that follows a sensor through a 15 min lag:
+
+    >>> from greyml.dynamic import Compensator
+    >>> comp = Compensator(["T1_C"], [("T1_C", 1, 900.0, 10.0)],
+    ...                    relative_to_start=True)
+    >>> comp.update({"time_s": 0.0, "T1_C": 20.0})
+    0.0
+    >>> round(comp.update({"time_s": 900.0, "T1_C": 21.0}), 6)  # 1 - exp(-1) of 10 µm
+    6.321206
+    >>> comp.state_["lags"]
+    {'T1_C|lag 15 min': 20.632120558828558}
+    """
+
+    def __init__(
+        self, inputs, terms, intercept=0.0, *, relative_to_start=False, nominal_step_s=None
+    ):
+        self.inputs = inputs
+        self.terms = terms
+        self.intercept = intercept
+        self.relative_to_start = relative_to_start
+        self.nominal_step_s = nominal_step_s
+
+    # -- parameters and the plan -------------------------------------------
+
+    def _check_params(self):
+        """Check the parameters; return the plan of an update (arrays over terms)."""
+        name = type(self).__name__
+        inputs = self.inputs
+        if isinstance(inputs, str) or not isinstance(inputs, (list, tuple, np.ndarray)):
+            raise ValueError(
+                f"The 'inputs' parameter of {name} must be a list of input names. "
+                f"Got {inputs!r} instead."
+            )
+        inputs = [str(v) for v in inputs]
+        if len(set(inputs)) != len(inputs) or TIME_LEVEL in inputs:
+            bad = (
+                TIME_LEVEL
+                if TIME_LEVEL in inputs
+                else next(v for v in inputs if inputs.count(v) > 1)
+            )
+            raise ValueError(
+                f"The 'inputs' parameter of {name} names {bad!r} "
+                + ("more than once." if bad != TIME_LEVEL else "; time_s is read apart.")
+            )
+        if not _real(self.intercept):
+            raise ValueError(
+                f"The 'intercept' parameter of {name} must be a finite number. "
+                f"Got {self.intercept!r} instead."
+            )
+        if not isinstance(self.relative_to_start, (bool, np.bool_)):
+            raise ValueError(
+                f"The 'relative_to_start' parameter of {name} must be a bool. "
+                f"Got {self.relative_to_start!r} instead."
+            )
+        step = self.nominal_step_s
+        if step is not None and not (_real(step) and step > 0):
+            raise ValueError(
+                f"The 'nominal_step_s' parameter of {name} must be a float in the range "
+                f"(0, inf) or None. Got {step!r} instead."
+            )
+        if isinstance(self.terms, (str, Mapping)) or not hasattr(self.terms, "__iter__"):
+            raise ValueError(
+                f"The 'terms' parameter of {name} must be a list of "
+                f"(input_name, power, tau_s, weight). Got {self.terms!r} instead."
+            )
+        position = {v: j for j, v in enumerate(inputs)}
+        raw, lagged = {}, {}
+        for k, term in enumerate(self.terms):
+            try:
+                column, power, tau, weight = term
+            except (TypeError, ValueError):
+                raise ValueError(
+                    f"Term {k} of {name} must be (input_name, power, tau_s, weight); got {term!r}."
+                ) from None
+            if str(column) not in position:
+                raise ValueError(
+                    f"Term {k} of {name} names the input {column!r}, which is not in "
+                    f"inputs ({', '.join(inputs)})."
+                )
+            if not (_real(power) and power > 0):
+                raise ValueError(
+                    f"Term {k} of {name} ({column!r}) has power {power!r}; it must be a "
+                    "finite number > 0."
+                )
+            if tau is not None and not (_real(tau) and tau > 0):
+                raise ValueError(
+                    f"Term {k} of {name} ({column!r}) has the time constant {tau!r}; it "
+                    "must be a finite number of seconds > 0, or None for no lag."
+                )
+            if not _real(weight):
+                raise ValueError(
+                    f"Term {k} of {name} ({column!r}) has weight {weight!r}; it must be a "
+                    "finite number."
+                )
+            key = (position[str(column)], float(power))
+            if tau is None:
+                raw[key] = raw.get(key, 0.0) + float(weight)
+            else:
+                key = (*key, float(tau))
+                lagged[key] = lagged.get(key, 0.0) + float(weight)
+        used = {k[0] for k in raw} | {k[0] for k in lagged}
+        # one vector for every term: the lags first, then the inputs without lag,
+        # taken as lags with a = 0 (s = 1·x + 0·s is x, exactly); the terms with
+        # a power other than 1 in the middle, so one slice holds them all
+        lag_keys = sorted(lagged, key=lambda k: k[1] != 1.0)
+        raw_keys = sorted(raw, key=lambda k: k[1] == 1.0)
+        keys = lag_keys + raw_keys
+        powered = [i for i, k in enumerate(keys) if k[1] != 1.0]
+        start, stop = (powered[0], powered[-1] + 1) if powered else (0, 0)
+        return {
+            # positions in a row ("time_s", *inputs)
+            "index": np.array([k[0] + 1 for k in keys], dtype=np.intp),
+            "span": (start, stop),
+            "power": np.array([k[1] for k in keys[start:stop]], dtype=float),
+            "tau": np.array([k[2] for k in lag_keys], dtype=float),
+            "weight": np.array([lagged[k] for k in lag_keys] + [raw[k] for k in raw_keys]),
+            "labels": [
+                f"{_power_name(inputs[k[0]], k[1])}|lag {format_seconds(k[2])}" for k in lag_keys
+            ],
+            "names": inputs,
+            "shape": (len(inputs) + 1,),
+            "check_all": len(used) < len(inputs),
+        }
+
+    def _build(self):
+        plan = self._check_params()
+        self._plan = plan
+        _SERIES_POSITIONS.pop(self, None)
+        self.reset()
+        return plan
+
+    def set_params(self, **params):
+        """Set parameters (see scikit-learn); the state is reset.
+
+        Parameters
+        ----------
+        **params : dict
+
+        Returns
+        -------
+        self : Compensator
+        """
+        super().set_params(**params)
+        self.__dict__.pop("_plan", None)
+        self._build()
+        return self
+
+    def fit(self, X=None, y=None):
+        """Check the parameters; nothing is learnt (a compensator is its terms).
+
+        Present so that scikit-learn's tools and :mod:`greyml.persist` treat a
+        compensator as a ready estimator. The state is reset.
+
+        Parameters
+        ----------
+        X, y : ignored
+
+        Returns
+        -------
+        self : Compensator
+        """
+        self.__dict__.pop("_plan", None)
+        self._build()
+        return self
+
+    def __sklearn_is_fitted__(self):
+        # defined by its parameters: nothing to fit
+        return True
+
+    # -- state --------------------------------------------------------------
+
+    def reset(self):
+        """Forget the state: the next update starts the lags at rest.
+
+        Returns
+        -------
+        self : Compensator
+        """
+        self._time = None
+        self._lags = None
+        self._start = None
+        self._dt = None
+        self._a = None
+        self._b = None
+        return self
+
+    def _coefficients(self, dt, plan):
+        """``a`` and ``1 − a`` of every term for a step ``dt`` (cached while dt repeats)."""
+        n_lags = plan["tau"].size
+        a = np.zeros(plan["weight"].size)
+        a[:n_lags] = np.exp(-dt / plan["tau"])
+        self._a, self._b, self._dt = a, 1.0 - a, dt
+
+    def get_state(self):
+        """The running state, as plain numbers.
+
+        Returns
+        -------
+        state : dict
+            ``"time_s"`` of the last row (``None`` before the first update),
+            ``"lags"`` a dict from each lag's name (e.g.
+            ``"T4_C|lag 15 min"``) to its value, and ``"start"`` the sum of
+            the terms at the first row (``relative_to_start=True``; else
+            ``None``).
+        """
+        plan = self._plan_or_build()
+        lags = None
+        if self._lags is not None:
+            lags = {label: float(v) for label, v in zip(plan["labels"], self._lags)}  # lags first
+        return {"time_s": self._time, "lags": lags, "start": self._start}
+
+    @property
+    def state_(self):
+        """The running state (see :meth:`get_state`)."""
+        return self.get_state()
+
+    def set_state(self, state):
+        """Resume from a state :meth:`get_state` returned.
+
+        Parameters
+        ----------
+        state : dict
+
+        Returns
+        -------
+        self : Compensator
+        """
+        plan = self._plan_or_build()
+        if not isinstance(state, Mapping) or set(state) != {"time_s", "lags", "start"}:
+            raise ValueError(
+                "Compensator.set_state needs a dict with the keys 'time_s', 'lags' and "
+                "'start', as get_state returns it."
+            )
+        if state["time_s"] is None:
+            self.reset()
+            return self
+        lags = state["lags"]
+        labels = plan["labels"]
+        if not isinstance(lags, Mapping) or set(lags) != set(labels):
+            raise ValueError(
+                "Compensator.set_state: the state's lags are not this compensator's "
+                f"({', '.join(labels) or 'none'})."
+            )
+        values = np.zeros(plan["weight"].size)
+        values[: len(labels)] = [lags[label] for label in labels]
+        start = state["start"]
+        if (
+            not _real(state["time_s"])
+            or not np.isfinite(values).all()
+            or (self.relative_to_start and not _real(start))
+        ):
+            raise ValueError("Compensator.set_state: the state holds a value that is not finite.")
+        self.reset()
+        self._time = float(state["time_s"])
+        self._lags = values
+        self._start = float(start) if self.relative_to_start else None
+        return self
+
+    def _plan_or_build(self):
+        try:
+            return self._plan
+        except AttributeError:
+            return self._build()
+
+    # -- one sample ---------------------------------------------------------
+
+    def _read(self, row, plan):
+        """The row as an array ``(time_s, *inputs)`` from a mapping, a Series or an array."""
+        names = plan["names"]
+        if type(row) is np.ndarray and row.dtype == np.float64 and row.shape == plan["shape"]:
+            return row  # the fast path of a controller
+        if isinstance(row, pd.Series):
+            index = row.index
+            seen, positions = _SERIES_POSITIONS.get(self, (None, None))
+            if index is not seen:
+                positions = index.get_indexer([TIME_LEVEL, *names])
+                if (positions < 0).any():
+                    missing = [TIME_LEVEL, *names][int(np.flatnonzero(positions < 0)[0])]
+                    raise ValueError(f"{_PREFIX} the row has no {missing!r}.")
+                _SERIES_POSITIONS[self] = (index, positions)
+            try:
+                return row.to_numpy(dtype=float)[positions]
+            except (TypeError, ValueError):
+                raise ValueError(f"{_PREFIX} the row holds a value that is not a number.") from None
+        if isinstance(row, Mapping):
+            try:
+                values = [row[TIME_LEVEL], *(row[v] for v in names)]
+            except KeyError as exc:
+                raise ValueError(f"{_PREFIX} the row has no {exc.args[0]!r}.") from None
+        else:
+            values = row
+        try:
+            values = np.asarray(values, dtype=float)
+        except (TypeError, ValueError):
+            raise ValueError(f"{_PREFIX} the row holds a value that is not a number.") from None
+        if values.shape != (len(names) + 1,):
+            raise ValueError(
+                f"{_PREFIX} an array row must hold time_s and the {len(names)} inputs "
+                f"({len(names) + 1} values); got shape {values.shape}."
+            )
+        return values
+
+    def update(self, row):
+        """Take one row and return the correction.
+
+        Parameters
+        ----------
+        row : dict, pandas Series or 1-D array
+            A mapping (or Series) holding ``"time_s"`` and every input, or
+            an array ordered ``("time_s", *inputs)``.
+
+        Returns
+        -------
+        correction : float
+        """
+        try:
+            plan = self._plan
+        except AttributeError:
+            plan = self._build()
+        if not (type(row) is np.ndarray and row.dtype == np.float64 and row.shape == plan["shape"]):
+            row = self._read(row, plan)
+        time = float(row[0])
+        if plan["check_all"] and not np.isfinite(row).all():
+            self._bad_value(time, row, plan)
+        v = row[plan["index"]]
+        if plan["power"].size:
+            start, stop = plan["span"]
+            v[start:stop] **= plan["power"]
+        previous = self._time
+        if previous is None:
+            lags = v
+        else:
+            dt = time - previous
+            if not dt > 0:
+                if self.nominal_step_s is None or not math.isfinite(time):
+                    self._bad_time(time, previous)
+                dt = self.nominal_step_s
+            if dt != self._dt:
+                self._coefficients(dt, plan)
+            # as greyml.dynamic._kernels.lag_step computes it
+            lags = self._b * v + self._a * self._lags
+        total = float(plan["weight"] @ lags)
+        if not math.isfinite(total) or not math.isfinite(time):
+            self._bad_value(time, row, plan)
+        if previous is None and self.relative_to_start:
+            self._start = total
+        self._time = time
+        self._lags = lags
+        if self._start is not None:
+            total -= self._start
+        return self.intercept + total
+
+    def _bad_time(self, time, previous):
+        if not math.isfinite(time):
+            raise ValueError(f"{_PREFIX} time_s is {time!r}; it must be a finite number.")
+        what = "repeats" if time == previous else "goes back"
+        raise ValueError(
+            f"{_PREFIX} time_s {what} from {previous:g} to {time:g} s; rows must come in "
+            "increasing time (or give nominal_step_s= to read a restarting clock as the "
+            "next test of the same recording)."
+        )
+
+    def _bad_value(self, time, row, plan):
+        if not math.isfinite(time):
+            self._bad_time(time, self._time)
+        bad = np.flatnonzero(~np.isfinite(row[1:]))
+        if bad.size:
+            j = int(bad[0])
+            raise ValueError(
+                f"{_PREFIX} input {plan['names'][j]!r} is {float(row[j + 1])!r} at time_s = "
+                f"{time:g} s."
+            )
+        raise ValueError(
+            f"{_PREFIX} the correction overflows at time_s = {time:g} s (a power of an "
+            "input too large); scale the inputs."
+        )
+
+    # -- from a fitted pipeline ---------------------------------------------
+
+    @classmethod
+    def from_pipeline(cls, pipeline):
+        """The compensator of a fitted ``Pipeline(LagFeatures, [StandardScaler], linear model)``.
+
+        The scaler and the model's coefficients are folded into the terms'
+        weights and the intercept, so that streaming a test row by row gives
+        ``pipeline.predict`` on that test (to rounding). With
+        ``LagFeatures(state="carry")``, ``nominal_step_s`` is the lags'
+        ``nominal_step_s_``, so streaming the tests of a recording one after
+        the other gives ``predict`` on all of them.
+
+        Parameters
+        ----------
+        pipeline : Pipeline
+            Fitted; its steps a :class:`greyml.LagFeatures`, optionally a
+            :class:`~sklearn.preprocessing.StandardScaler`, and a linear
+            regressor with ``coef_`` and ``intercept_`` (``Ridge``,
+            ``RidgeCV``, ``ElasticNet``, ``LinearRegression``, …) with one
+            target. ``"passthrough"`` steps are skipped.
+
+        Returns
+        -------
+        Compensator
+        """
+        if not isinstance(pipeline, Pipeline):
+            raise TypeError(
+                "Compensator.from_pipeline takes a fitted scikit-learn Pipeline; got "
+                f"{type(pipeline).__name__}."
+            )
+        steps = [est for _, est in pipeline.steps if est not in (None, "passthrough")]
+        kinds = " → ".join(type(s).__name__ for s in steps)
+        if not (2 <= len(steps) <= 3 and isinstance(steps[0], LagFeatures)) or (
+            len(steps) == 3 and not isinstance(steps[1], StandardScaler)
+        ):
+            raise ValueError(
+                "Compensator.from_pipeline needs the steps LagFeatures, an optional "
+                f"StandardScaler and a linear model; got {kinds}."
+            )
+        lags, model = steps[0], steps[-1]
+        check_is_fitted(lags)
+        check_is_fitted(model)
+        if not (hasattr(model, "coef_") and hasattr(model, "intercept_")):
+            raise ValueError(
+                f"Compensator.from_pipeline: {type(model).__name__} has no coef_ and "
+                "intercept_; the last step must be a linear model."
+            )
+        coef = np.asarray(model.coef_, dtype=float)
+        intercept = np.asarray(model.intercept_, dtype=float)
+        if coef.ndim == 2 and coef.shape[0] == 1:
+            coef = coef[0]
+        if coef.ndim != 1 or intercept.size != 1:
+            raise ValueError(
+                f"Compensator.from_pipeline: {type(model).__name__} predicts "
+                f"{coef.shape[0] if coef.ndim == 2 else intercept.size} targets; a "
+                "compensator gives one correction."
+            )
+        intercept = float(intercept.reshape(-1)[0])
+        names = lags._input_names()
+        raw, sources = lags._layout(names)
+        taus = [float(t) for t in lags.time_constants_]
+        features = [(names[j], p, None) for j, p in raw]
+        features += [(names[j], p, tau) for j, p in sources for tau in taus]
+        if coef.size != len(features):
+            raise ValueError(
+                f"Compensator.from_pipeline: {type(model).__name__} has {coef.size} "
+                f"coefficients for the {len(features)} features of LagFeatures."
+            )
+        weights = coef
+        if len(steps) == 3:
+            scaler = steps[1]
+            check_is_fitted(scaler)
+            if scaler.scale_ is not None:
+                weights = weights / scaler.scale_
+            if scaler.mean_ is not None:
+                intercept -= float(weights @ scaler.mean_)
+        terms = [(c, p, tau, float(w)) for (c, p, tau), w in zip(features, weights)]
+        step = lags.nominal_step_s_ if lags.state == "carry" else None
+        if step is not None and not np.isfinite(step):
+            step = None
+        return cls(list(names), terms, intercept, nominal_step_s=step)

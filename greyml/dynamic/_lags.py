@@ -1,0 +1,561 @@
+"""LagFeatures: first-order thermal lags of temperatures and drivers as features."""
+
+from __future__ import annotations
+
+import numbers
+
+import numpy as np
+import pandas as pd
+from sklearn.base import BaseEstimator, TransformerMixin
+from sklearn.utils.validation import check_is_fitted
+
+from greyml._sequences import TEST_LEVEL, TIME_LEVEL, segment_label
+from greyml._validation import validate_sequences
+from greyml.dynamic._kernels import lag_filter
+
+__all__ = ["LagFeatures"]
+
+_STATES = ("restart", "carry")
+
+
+def format_seconds(seconds):
+    """A time constant as feature names show it: ``"30 s"``, ``"15 min"``, ``"2 h"``.
+
+    Whole hours are written in hours, whole minutes in minutes, anything else
+    in seconds (12 significant digits, so distinct time constants keep
+    distinct names).
+
+    Parameters
+    ----------
+    seconds : float
+
+    Returns
+    -------
+    str
+
+    Examples
+    --------
+    >>> from greyml.dynamic._lags import format_seconds
+    >>> [format_seconds(s) for s in (30, 900, 8100, 7200, 90)]
+    ['30 s', '15 min', '135 min', '2 h', '90 s']
+    """
+    seconds = float(seconds)
+    if seconds % 3600 == 0:
+        return f"{seconds / 3600:.12g} h"
+    if seconds % 60 == 0:
+        return f"{seconds / 60:.12g} min"
+    return f"{seconds:.12g} s"
+
+
+def _power_name(name, power):
+    return name if power == 1 else f"{name}^{power:.12g}"
+
+
+def _is_real(value):
+    return isinstance(value, numbers.Real) and not isinstance(value, bool)
+
+
+def _real_tuple(values):
+    """``values`` as a tuple of floats, or None if it is not a sequence of reals."""
+    if _is_real(values):
+        values = (values,)
+    try:
+        items = tuple(values)
+    except TypeError:
+        return None
+    if not items or not all(_is_real(v) for v in items):
+        return None
+    return tuple(float(v) for v in items)
+
+
+class LagFeatures(TransformerMixin, BaseEstimator):
+    """First-order thermal lags of chosen columns, for a bank of time constants.
+
+    For each chosen column x and each time constant τ (in seconds), the lag
+
+        s_k = a_k · s_{k−1} + (1 − a_k) · x_k,    a_k = exp(−Δt_k / τ),
+
+    with Δt_k the step from the previous row, read from the ``time_s`` level of
+    the row index (greyml's ``(test, time_s)`` layout, see
+    :func:`greyml.make_test_index`). The lag is exact for an input held
+    between samples, and right for uneven sampling. A displacement that
+    follows its heat sources through a few time constants is close to linear
+    in these features, so a linear model behind them is a dynamic thermal
+    model; :class:`greyml.dynamic.Compensator` runs such a model sample by
+    sample in a controller.
+
+    Parameters
+    ----------
+    time_constants : float or sequence of float
+        Time constants τ in seconds, each finite and > 0, no two equal
+        (e.g. ``[300, 900, 2700, 8100]`` for 5, 15, 45 and 135 min).
+    columns : list of str or int, optional
+        Columns to lag, by name (a DataFrame's columns, or ``"x0"``,
+        ``"x1"``, … for an array) or position. ``None``: every column.
+        Columns not chosen pass through unchanged, as with
+        :class:`~sklearn.compose.ColumnTransformer`'s
+        ``remainder="passthrough"``; select columns before this step to drop
+        them.
+    state : {"restart", "carry"}, default="restart"
+        The lags' state at the start of each test. ``"restart"``: at rest at
+        the test's first value (every lag equals the input). ``"carry"``: the
+        tests, in the order given, are consecutive pieces of one recording;
+        the first starts at rest at its first value, each later one from the
+        state the previous test left, stepped into it by the recording's
+        nominal step (``nominal_step_s_``), since each test's clock starts
+        anew.
+    powers : sequence of float, or dict, default=(1,)
+        Powers of a column to lag (and to pass through with
+        ``include_input``): the lag of x**p for each p. A sequence applies to
+        every chosen column. A dict maps a column to its powers, e.g.
+        ``{"spindle_rpm": (1, 2)}`` (friction heat in spindle bearings grows
+        roughly with n^1.5-2); chosen columns it does not name get ``(1,)``.
+        Powers must be finite and > 0; a power that is not a whole number
+        needs the column to be ≥ 0.
+    include_input : bool, default=True
+        Pass the chosen columns (and their powers) through beside their lags.
+    sample_step_s : float, optional
+        Seconds between rows when ``X`` has no ``time_s`` index level (a
+        NumPy array, a DataFrame with a plain index): every step is this long.
+        ``None`` (the default) refuses such ``X``, since the lags need the
+        time. A ``time_s`` level, where present, always wins.
+
+    Attributes
+    ----------
+    time_constants_ : ndarray of shape (n_time_constants,)
+        The time constants in seconds, in the order given.
+    columns_ : list of str
+        The lagged columns, in the order of ``X``.
+    powers_ : dict
+        Each lagged column's powers, as a tuple of floats.
+    nominal_step_s_ : float
+        The median step between rows within the tests seen in ``fit`` (or
+        ``sample_step_s``): the step into each test with ``state="carry"``.
+        NaN when no test seen in ``fit`` has two rows.
+    n_features_in_ : int
+    feature_names_in_ : ndarray of shape (``n_features_in_``,)
+        Column names seen in ``fit`` (DataFrame input only).
+
+    See Also
+    --------
+    greyml.dynamic.Compensator : the lags and a linear model, sample by sample.
+
+    Notes
+    -----
+    **Output.** First the columns without lag, in the order of ``X``: each
+    column not chosen, and each chosen column's powers when
+    ``include_input`` is true (``"T4_C"``, ``"spindle_rpm^2"``); then the
+    lags, column by column, power by power, time constant by time constant
+    (``"T4_C|lag 15 min"``, ``"spindle_rpm^2|lag 45 min"``); see
+    :meth:`get_feature_names_out`. A DataFrame in gives a DataFrame out with
+    the same index (the tests survive a Pipeline), also under
+    ``set_output(transform="pandas")``. The lags are written straight into
+    the output's memory (one Fortran-ordered array, which pandas takes
+    without a copy).
+
+    **Cross-validating with carried state.** The lags use no target, so with
+    ``state="carry"`` they may be computed once over the whole recording,
+    before the split: each held-out test then starts from the state the
+    recording really was in. Inside a Pipeline, the training folds would be
+    stitched together as if consecutive, and a held-out test would start at
+    rest::
+
+        lags = LagFeatures([300, 900, 2700, 8100], state="carry")
+        Z = lags.fit_transform(X)            # the whole recording, in order
+        cross_val_score(make_pipeline(StandardScaler(), RidgeCV()), Z, y,
+                        groups=test_ids(Z), cv=LeaveOneGroupOut())
+
+    With ``state="restart"`` every test stands alone, and LagFeatures goes
+    inside the Pipeline like any transformer.
+
+    **Gaps.** A step longer than the largest time constant inside a test is
+    refused: every lag would forget the test's history in it, and a logging
+    gap that long usually means two recordings were joined.
+
+    Examples
+    --------
+    The spindle starts at 3000 rpm; its lag with τ = 5 min covers 1 − e^−1 of
+    the way in each 5 min step:
+
+    >>> import pandas as pd
+    >>> from greyml import LagFeatures, make_test_index
+    >>> X = pd.DataFrame(
+    ...     {"T1_C": [20.0, 21.0, 21.0, 21.0], "spindle_rpm": [0, 3000, 3000, 3000.0]},
+    ...     index=make_test_index(["I"] * 4, [0, 300, 600, 900]))
+    >>> lags = LagFeatures([300, 3600], columns=["spindle_rpm"]).fit(X)
+    >>> list(lags.get_feature_names_out())
+    ['T1_C', 'spindle_rpm', 'spindle_rpm|lag 5 min', 'spindle_rpm|lag 1 h']
+    >>> lags.transform(X)["spindle_rpm|lag 5 min"].round(1).tolist()
+    [0.0, 1896.4, 2594.0, 2850.6]
+    """
+
+    def __init__(
+        self,
+        time_constants,
+        *,
+        columns=None,
+        state="restart",
+        powers=(1,),
+        include_input=True,
+        sample_step_s=None,
+    ):
+        self.time_constants = time_constants
+        self.columns = columns
+        self.state = state
+        self.powers = powers
+        self.include_input = include_input
+        self.sample_step_s = sample_step_s
+
+    # -- parameters ---------------------------------------------------------
+
+    def _check_params(self):
+        """Check the parameters that do not depend on X; return the time constants."""
+        name = type(self).__name__
+        taus = _real_tuple(self.time_constants)
+        if taus is None:
+            raise ValueError(
+                f"The 'time_constants' parameter of {name} must be a number or a non-empty "
+                f"sequence of numbers of seconds. Got {self.time_constants!r} instead."
+            )
+        for k, tau in enumerate(taus):
+            if not (np.isfinite(tau) and tau > 0):
+                raise ValueError(
+                    f"The 'time_constants' parameter of {name} must hold finite numbers of "
+                    f"seconds > 0; entry {k} is {tau!r}."
+                )
+        labels = [format_seconds(t) for t in taus]
+        if len(set(labels)) != len(labels):
+            dup = next(t for t, lab in zip(taus, labels) if labels.count(lab) > 1)
+            raise ValueError(
+                f"The 'time_constants' parameter of {name} holds {format_seconds(dup)} "
+                "more than once; give each time constant once."
+            )
+        if self.state not in _STATES:
+            raise ValueError(
+                f"The 'state' parameter of {name} must be a str among "
+                f"{{'restart', 'carry'}}. Got {self.state!r} instead."
+            )
+        if not isinstance(self.include_input, (bool, np.bool_)):
+            raise ValueError(
+                f"The 'include_input' parameter of {name} must be a bool. "
+                f"Got {self.include_input!r} instead."
+            )
+        step = self.sample_step_s
+        if step is not None and not (_is_real(step) and np.isfinite(step) and step > 0):
+            raise ValueError(
+                f"The 'sample_step_s' parameter of {name} must be a float in the range "
+                f"(0, inf) or None. Got {step!r} instead."
+            )
+        powers = self.powers
+        items = powers.items() if isinstance(powers, dict) else [(None, powers)]
+        for column, values in items:
+            checked = _real_tuple(values)
+            where = "" if column is None else f" for column {str(column)!r}"
+            if checked is None or not all(np.isfinite(p) and p > 0 for p in checked):
+                raise ValueError(
+                    f"The 'powers' parameter of {name} must be a non-empty sequence of finite "
+                    f"numbers > 0 (or a dict of them by column); got {values!r}{where}."
+                )
+            if len(set(checked)) != len(checked):
+                raise ValueError(
+                    f"The 'powers' parameter of {name} repeats a power{where}: {values!r}."
+                )
+        if self.columns is not None:
+            cols = [self.columns] if isinstance(self.columns, (str, int)) else self.columns
+            try:
+                cols = list(cols)
+            except TypeError:
+                cols = None
+            if not cols or not all(isinstance(c, (str, numbers.Integral)) for c in cols):
+                raise ValueError(
+                    f"The 'columns' parameter of {name} must be None or a non-empty list of "
+                    f"column names or positions. Got {self.columns!r} instead."
+                )
+        return np.array(taus, dtype=float)
+
+    def _input_names(self, input_features=None):
+        n = self.n_features_in_
+        fitted = getattr(self, "feature_names_in_", None)
+        if input_features is None:
+            if fitted is not None:
+                return [str(c) for c in fitted]
+            return [f"x{j}" for j in range(n)]
+        names = [str(c) for c in np.asarray(input_features, dtype=object)]
+        if len(names) != n:
+            raise ValueError(
+                f"input_features should have length equal to number of features "
+                f"({n}), got {len(names)}"
+            )
+        if fitted is not None and names != [str(c) for c in fitted]:
+            raise ValueError("input_features is not equal to feature_names_in_")
+        return names
+
+    def _resolve_columns(self, names):
+        """Positions of the chosen columns, in the order of X."""
+        if self.columns is None:
+            return list(range(len(names)))
+        cols = [self.columns] if isinstance(self.columns, (str, int)) else list(self.columns)
+        chosen = []
+        for c in cols:
+            if isinstance(c, numbers.Integral):
+                if not 0 <= int(c) < len(names):
+                    raise ValueError(
+                        f"LagFeatures: columns= names position {int(c)}, but X has "
+                        f"{len(names)} columns."
+                    )
+                j = int(c)
+            elif c in names:
+                j = names.index(c)
+            else:
+                raise ValueError(
+                    f"LagFeatures: the column {c!r} named in columns= is not a column of X "
+                    f"(its columns: {', '.join(names[:20])}{', …' if len(names) > 20 else ''})."
+                )
+            if j in chosen:
+                raise ValueError(f"LagFeatures: columns= names {names[j]!r} more than once.")
+            chosen.append(j)
+        return sorted(chosen)
+
+    def _resolve_powers(self, names, chosen):
+        chosen_names = [names[j] for j in chosen]
+        if not isinstance(self.powers, dict):
+            powers = _real_tuple(self.powers)
+            return {c: powers for c in chosen_names}
+        out = {c: (1.0,) for c in chosen_names}
+        for column, values in self.powers.items():
+            key = str(column) if not isinstance(column, numbers.Integral) else None
+            if key is None and 0 <= int(column) < len(names):
+                key = names[int(column)]
+            if key not in out:
+                raise ValueError(
+                    f"LagFeatures: powers= names the column {column!r}, which is not among "
+                    f"the lagged columns ({', '.join(chosen_names)})."
+                )
+            out[key] = _real_tuple(values)
+        return out
+
+    def _layout(self, names):
+        """(column position, power) of the pass-through block and of the lagged inputs."""
+        position = {c: j for j, c in enumerate(self._input_names())}
+        lagged = {position[c]: self.powers_[c] for c in self.columns_}
+        raw, sources = [], []
+        for j in range(len(names)):
+            if j not in lagged:
+                raw.append((j, 1.0))
+                continue
+            if self.include_input:
+                raw.extend((j, p) for p in lagged[j])
+            sources.extend((j, p) for p in lagged[j])
+        return raw, sources
+
+    # -- time ---------------------------------------------------------------
+
+    def _steps(self, X, segments, taus, nominal=None):
+        """Step in seconds into every row; checks time and gaps."""
+        n = segments[-1].stop if segments else 0
+        index = X.index if isinstance(X, (pd.DataFrame, pd.Series)) else None
+        starts = np.array([s.start for s in segments], dtype=int)
+        if index is not None and TIME_LEVEL in (index.names or []):
+            time = np.asarray(index.get_level_values(TIME_LEVEL), dtype=float)
+            dt = np.empty(n)
+            dt[1:] = np.diff(time)
+            inner = np.ones(n, dtype=bool)
+            inner[starts] = False
+            if TEST_LEVEL not in index.names:  # test_segments checked time only with tests
+                bad = np.flatnonzero(~np.isfinite(time) | (inner & ~(dt > 0)))
+                if bad.size:
+                    k = int(bad[0])
+                    raise ValueError(
+                        f"LagFeatures: '{TIME_LEVEL}' must be finite and strictly increase "
+                        f"within a test; in {segment_label(segments[0])} it is "
+                        f"{time[k]:g} at row {k}"
+                        + (f" after {time[k - 1]:g}." if k and np.isfinite(time[k]) else ".")
+                    )
+            tau_max = float(taus.max())
+            gap = np.flatnonzero(inner & (dt > tau_max))
+            if gap.size:
+                k = int(gap[0])
+                seg = segments[int(np.searchsorted(starts, k, side="right")) - 1]
+                raise ValueError(
+                    f"LagFeatures: {segment_label(seg)} has a sampling gap of {dt[k]:g} s "
+                    f"before '{TIME_LEVEL}' = {time[k]:g} s (row {k}), longer than the "
+                    f"largest time constant ({format_seconds(tau_max)}); split the test "
+                    "there or add a longer time constant."
+                )
+            if nominal is None:
+                nominal = float(np.median(dt[inner])) if inner.any() else float("nan")
+        else:
+            if self.sample_step_s is None:
+                raise ValueError(
+                    "LagFeatures needs the time of every row: X has no "
+                    f"'{TIME_LEVEL}' index level. Give X greyml's (test, time_s) index "
+                    "(greyml.make_test_index), or set sample_step_s= for rows evenly "
+                    "spaced in time."
+                )
+            dt = np.full(n, float(self.sample_step_s))
+            if nominal is None:
+                nominal = float(self.sample_step_s)
+        if self.state == "carry":
+            if len(segments) > 1 and not np.isfinite(nominal):
+                raise ValueError(
+                    "LagFeatures(state='carry') cannot step from one test into the next: no "
+                    "test seen in fit has two rows, so the recording's step is unknown."
+                )
+            dt[starts] = nominal
+        return dt, nominal
+
+    # -- estimator ----------------------------------------------------------
+
+    def fit(self, X, y=None):
+        """Check the parameters, the columns and the time of every row.
+
+        Parameters
+        ----------
+        X : DataFrame or array-like of shape (n_samples, n_features)
+            Rows of one or more tests (``test``/``time_s`` row index).
+        y : ignored
+
+        Returns
+        -------
+        self : LagFeatures
+        """
+        taus = self._check_params()
+        Xa, _, segments = validate_sequences(self, X, reset=True)
+        names = self._input_names()
+        chosen = self._resolve_columns(names)
+        powers = self._resolve_powers(names, chosen)
+        self.columns_ = [names[j] for j in chosen]
+        self.powers_ = powers
+        self._check_powered(Xa, segments, chosen, names)
+        _, nominal = self._steps(X, segments, taus)
+        self.time_constants_ = taus
+        self.nominal_step_s_ = nominal
+        return self
+
+    def _check_powered(self, Xa, segments, chosen, names):
+        for j in chosen:
+            fractional = [p for p in self.powers_[names[j]] if p != round(p)]
+            if not fractional:
+                continue
+            negative = np.flatnonzero(Xa[:, j] < 0)
+            if negative.size:
+                k = int(negative[0])
+                seg = next(s for s in segments if s.start <= k < s.stop)
+                raise ValueError(
+                    f"LagFeatures: column {names[j]!r} is negative ({Xa[k, j]:g}) in "
+                    f"{segment_label(seg)} at row {k}, so its power {fractional[0]:g} is not "
+                    "a real number; use whole powers or a column that is never negative."
+                )
+
+    def transform(self, X):
+        """The pass-through columns and the lags of every test.
+
+        Parameters
+        ----------
+        X : DataFrame or array-like of shape (n_samples, n_features)
+            The columns seen in ``fit``, tests in order (with
+            ``state="carry"``: the consecutive pieces of one recording).
+
+        Returns
+        -------
+        Z : DataFrame or ndarray of shape (n_samples, n_features_out)
+            A DataFrame with ``X``'s index when ``X`` is one, else an array.
+        """
+        check_is_fitted(self)
+        Xa, _, segments = validate_sequences(self, X, reset=False)
+        names = self._input_names()
+        chosen = [names.index(c) for c in self.columns_]
+        self._check_powered(Xa, segments, chosen, names)
+        taus = self.time_constants_
+        dt, _ = self._steps(X, segments, taus, nominal=self.nominal_step_s_)
+        raw, sources = self._layout(names)
+        n, m = Xa.shape[0], taus.size
+        # one (features, rows) C-ordered block: its transpose is the (rows,
+        # features) output in Fortran order, which pandas takes without a copy
+        block = np.empty((len(raw) + len(sources) * m, n))
+        # one column a contiguous row (a DataFrame's values usually are already)
+        columns = Xa.T if Xa.flags.f_contiguous else np.ascontiguousarray(Xa.T)
+        for i, (j, p) in enumerate(raw):
+            _power_into(columns[j], p, block[i])
+        if [j for j, _ in sources] == list(range(Xa.shape[1])) and all(p == 1 for _, p in sources):
+            inputs = columns  # every column as it is: no copy
+        else:
+            inputs = np.empty((len(sources), n))
+            for i, (j, p) in enumerate(sources):
+                _power_into(columns[j], p, inputs[i])
+        self._check_overflow(block[: len(raw)], raw, inputs, sources, names, segments)
+        lags = block[len(raw) :].reshape(len(sources), m, n)
+        lag_filter(
+            inputs.T,
+            dt,
+            taus,
+            [(s.start, s.stop) for s in segments],
+            carry=self.state == "carry",
+            out=lags,
+        )
+        out = block.T
+        if isinstance(X, pd.DataFrame) and self._pandas_out():
+            return pd.DataFrame(
+                out, index=X.index, columns=self.get_feature_names_out(), copy=False
+            )
+        return out
+
+    def _pandas_out(self):
+        config = getattr(self, "_sklearn_output_config", {}).get("transform", "default")
+        return config in ("default", "pandas")
+
+    def _check_overflow(self, raw_block, raw, inputs, sources, names, segments):
+        for rows, layout in ((raw_block, raw), (inputs, sources)):
+            for i, (j, p) in enumerate(layout):
+                if p == 1:
+                    continue
+                bad = np.flatnonzero(~np.isfinite(rows[i]))
+                if bad.size:
+                    k = int(bad[0])
+                    seg = next(s for s in segments if s.start <= k < s.stop)
+                    raise ValueError(
+                        f"LagFeatures: column {names[j]!r} to the power {p:g} overflows to "
+                        f"infinity in {segment_label(seg)} at row {k}; scale the column "
+                        "(e.g. rpm in thousands) or use a smaller power."
+                    )
+
+    def get_feature_names_out(self, input_features=None):
+        """Names of the output columns, e.g. ``"T4_C|lag 15 min"``.
+
+        Parameters
+        ----------
+        input_features : array-like of str, optional
+            Column names of ``X``; by default those seen in ``fit`` (or
+            ``"x0"``, ``"x1"``, … for an array).
+
+        Returns
+        -------
+        feature_names_out : ndarray of str objects
+        """
+        check_is_fitted(self)
+        names = self._input_names(input_features)
+        raw, sources = self._layout(names)
+        out = [_power_name(names[j], p) for j, p in raw]
+        labels = [format_seconds(t) for t in self.time_constants_]
+        for j, p in sources:
+            base = _power_name(names[j], p)
+            out.extend(f"{base}|lag {label}" for label in labels)
+        return np.asarray(out, dtype=object)
+
+    def __sklearn_tags__(self):
+        tags = super().__sklearn_tags__()
+        tags.requires_fit = True
+        return tags
+
+
+def _power_into(column, power, out):
+    """``column ** power`` written into ``out``."""
+    if power == 1:
+        out[...] = column
+        return
+    # an overflow is reported with the column and test by the caller
+    with np.errstate(over="ignore", invalid="ignore"):
+        if power == 2:
+            np.multiply(column, column, out=out)
+        else:
+            np.power(column, power, out=out)
