@@ -3,17 +3,22 @@
 Build from the repository root (the ``docs`` extra installs what it needs)::
 
     pip install -e ".[docs]"
-    sphinx-build -W --keep-going -b html docs docs/_build/html
+    python -m sphinx -W --keep-going -b html docs docs/_build/html
 
-The build never needs the network: intersphinx links to Python, NumPy,
-SciPy, scikit-learn and pandas are made only when ``GREYML_DOCS_INTERSPHINX=1``.
-The gallery runs every ``examples/plot_*.py``; the figures the examples save
-themselves go to ``docs/_build/example_out``, not into the working tree.
+Intersphinx links to Python, NumPy, SciPy, scikit-learn and pandas are made
+whenever their inventories can be fetched (a short probe first); offline, the
+build goes on without them, with one line on the console and no warning.
+``GREYML_DOCS_INTERSPHINX=0`` turns them off. The gallery runs every
+``examples/**/plot_*.py``; its sections are the sub-folders of ``examples/``.
 """
 
+import argparse
 import os
+import re
 import shutil
 import sys
+import urllib.request
+from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
 import matplotlib
@@ -42,6 +47,7 @@ extensions = [
     "sphinx.ext.mathjax",
     "numpydoc",
     "sphinx_gallery.gen_gallery",
+    "matplotlib.sphinxext.plot_directive",
 ]
 templates_path = ["_templates"]
 exclude_patterns = ["_build", "Thumbs.db", ".DS_Store"]
@@ -62,60 +68,68 @@ numpydoc_attributes_as_param_list = True
 numpydoc_validation_checks = set()
 numpydoc_xref_param_type = False
 
-# -- intersphinx: only on request, so that the build runs offline ----------
-if os.environ.get("GREYML_DOCS_INTERSPHINX", "") == "1":
-    intersphinx_mapping = {
-        "python": ("https://docs.python.org/3", None),
-        "numpy": ("https://numpy.org/doc/stable", None),
-        "scipy": ("https://docs.scipy.org/doc/scipy", None),
-        "sklearn": ("https://scikit-learn.org/stable", None),
-        "pandas": ("https://pandas.pydata.org/docs", None),
-    }
-else:
-    intersphinx_mapping = {}
+# -- intersphinx: on whenever the inventories can be reached -------------
+_INVENTORIES = {
+    "python": "https://docs.python.org/3",
+    "numpy": "https://numpy.org/doc/stable",
+    "scipy": "https://docs.scipy.org/doc/scipy",
+    "sklearn": "https://scikit-learn.org/stable",
+    "pandas": "https://pandas.pydata.org/docs",
+}
+
+
+def _reachable(url, timeout=4.0):
+    """Whether ``url/objects.inv`` answers within ``timeout`` seconds."""
+    try:
+        with urllib.request.urlopen(f"{url}/objects.inv", timeout=timeout) as answer:
+            return answer.status == 200
+    except Exception:  # noqa: BLE001 (offline, refused, timed out: no link)
+        return False
+
+
+def _intersphinx_mapping():
+    """The inventories that answer now; the others are left out.
+
+    Sphinx warns (an error with ``-W``) about an inventory it cannot fetch, so
+    only those that answered a probe a moment ago are given to it: online
+    the API pages link to the five projects, offline the build still passes.
+    """
+    if os.environ.get("GREYML_DOCS_INTERSPHINX", "") == "0":
+        return {}
+    with ThreadPoolExecutor(len(_INVENTORIES)) as pool:
+        up = dict(zip(_INVENTORIES, pool.map(_reachable, _INVENTORIES.values())))
+    missing = sorted(name for name, ok in up.items() if not ok)
+    if missing:
+        print(
+            f"greyml docs: no intersphinx links to {', '.join(missing)} (inventory not reachable)"
+        )
+    return {name: (url, None) for name, url in _INVENTORIES.items() if up[name]}
+
+
+intersphinx_mapping = _intersphinx_mapping()
+intersphinx_timeout = 10
 
 # -- sphinx-gallery ---------------------------------------------------------
-# The examples write their own figures to $GREYML_EXAMPLE_OUT: keep them in
-# the build folder.
-EXAMPLE_OUT = HERE / "_build" / "example_out"
-EXAMPLE_OUT.mkdir(parents=True, exist_ok=True)
-os.environ["GREYML_EXAMPLE_OUT"] = str(EXAMPLE_OUT)
-
-EXAMPLES = ROOT / "examples"
-GALLERY_HEADER = """\
-Examples
-========
-
-Scripts that run greyml end to end on simulated and real heating/cooling
-tests. They run whenever this documentation is built, and each page shows
-the code with the printed output and the figures of that run. The two
-CAIVIAC examples read the real recording from ``../shared/realdata/caiviac``
-(or ``$GREYML_CAIVIAC``); without it they say so and stop.
-"""
-_HEADERS = ("GALLERY_HEADER.rst", "GALLERY_HEADER.txt", "README.rst", "README.txt")
-
-
-def _gallery_source():
-    """The examples folder, or a copy of it with a gallery header added.
-
-    sphinx-gallery needs a header file in the folder it reads; while
-    ``examples/`` has none, the build reads a copy in ``_build``.
-    """
-    if any((EXAMPLES / name).is_file() for name in _HEADERS):
-        return os.path.relpath(EXAMPLES, HERE)
-    staged = HERE / "_build" / "gallery_src"
-    if staged.exists():
-        shutil.rmtree(staged)
-    staged.mkdir(parents=True)
-    for script in sorted(EXAMPLES.glob("*.py")):
-        shutil.copy2(script, staged / script.name)
-    (staged / "README.txt").write_text(GALLERY_HEADER, encoding="utf-8")
-    return os.path.relpath(staged, HERE)
-
+# The examples save their figures only when $GREYML_EXAMPLE_OUT names a folder
+# (tests/test_examples.py sets it); the gallery captures the figures itself,
+# so the build leaves the variable unset and nothing is written or printed.
+os.environ.pop("GREYML_EXAMPLE_OUT", None)
 
 sphinx_gallery_conf = {
-    "examples_dirs": _gallery_source(),
+    # examples/README.txt is the gallery's header; each sub-folder with a
+    # README.txt is a section, in this order (a folder not named here comes
+    # where "*" is)
+    "examples_dirs": "../examples",
     "gallery_dirs": "auto_examples",
+    "subsection_order": [
+        "../examples/models",
+        "../examples/selection",
+        "../examples/dynamic",
+        "../examples/gap",
+        "*",
+        "../examples/real_data",
+    ],
+    "within_subsection_order": "FileNameSortKey",
     "filename_pattern": r"/plot_",
     "ignore_pattern": r"__init__\.py",
     "plot_gallery": "True",
@@ -127,7 +141,19 @@ sphinx_gallery_conf = {
     "reset_modules": ("matplotlib",),
     "abort_on_example_error": False,
     "only_warn_on_example_error": False,
+    # "Gallery examples" on every API page: which examples use which greyml
+    # name (docs/_templates/autosummary/*.rst holds the minigallery)
+    "doc_module": ("greyml",),
+    "backreferences_dir": "generated/backreferences",
+    "inspect_global_variables": True,
 }
+
+# -- the landing page's figure (matplotlib's plot directive) ---------------
+plot_include_source = False
+plot_html_show_source_link = False
+plot_html_show_formats = False
+plot_formats = [("png", 100)]
+plot_rcparams = {"figure.autolayout": False}
 
 # -- HTML -------------------------------------------------------------------
 html_theme = "pydata_sphinx_theme"
@@ -135,7 +161,14 @@ html_title = f"greyml {release}"
 html_theme_options = {
     "navigation_with_keys": False,
     "show_toc_level": 2,
+    # the header holds the root toctree's pages: User guide, API, Examples,
+    # Contributing; none hidden under "More"
+    "header_links_before_dropdown": 6,
+    "navbar_align": "left",
+    # the landing page needs its width, not an empty "On this page"
+    "secondary_sidebar_items": {"**": ["page-toc", "sourcelink"], "index": []},
 }
+html_sidebars = {"index": []}
 html_static_path = []
 
 
@@ -170,6 +203,122 @@ def _constant_doc(app, what, name, obj, options, lines):
         lines[:] = []
 
 
+# -- private base classes ---------------------------------------------------
+def _public_bases(app, name, obj, options, bases):
+    """Show a class's public bases: a private one is replaced by its own.
+
+    ``GMC`` derives from ``_GreyConvolutionModel``, ``ANFISGrid`` from
+    ``_ANFISBase``; the "Bases:" line names what a user can look up.
+    """
+    public = []
+
+    def add(base):
+        if base.__name__.startswith("_"):
+            for parent in base.__bases__:
+                add(parent)
+        elif base not in public and base is not object:
+            public.append(base)
+
+    for base in list(bases):
+        add(base)
+    bases[:] = public or [object]
+
+
+# -- the README, read where it lies ------------------------------------------
+# The landing page shows the README's purpose, quick start (which
+# tests/test_readme.py runs) and command-line table, read from README.md at
+# build time so that the two never drift apart.
+from docutils import nodes  # noqa: E402
+from docutils.parsers.rst import Directive, directives  # noqa: E402
+from docutils.statemachine import StringList  # noqa: E402
+
+README = ROOT / "README.md"
+
+
+def _readme_section(title):
+    """The text of the README's ``## title`` section, or its opening."""
+    text = README.read_text(encoding="utf-8")
+    if title == "opening":
+        body = text.split("\n", 1)[1]  # below "# greyml"
+    else:
+        body = text.split(f"\n## {title}\n", 1)[1]
+    return body.split("\n## ", 1)[0]
+
+
+def _inline(markdown):
+    """Markdown inline markup as reStructuredText: code and links."""
+    text = re.sub(r"(?<!`)`([^`]+)`(?!`)", r"``\1``", markdown)
+    return re.sub(r"\[([^\]]+)\]\(([^)]+)\)", r"`\1 <\2>`__", text)
+
+
+class ReadmeDirective(Directive):
+    """``.. readme:: Section title`` with ``:part:`` python, paragraphs or table."""
+
+    required_arguments = 1
+    final_argument_whitespace = True
+    option_spec = {"part": lambda arg: directives.choice(arg, ("python", "paragraphs", "table"))}
+
+    def run(self):
+        self.state.document.settings.record_dependencies.add(str(README))
+        section = _readme_section(self.arguments[0])
+        part = self.options.get("part", "paragraphs")
+        if part == "python":
+            (code,) = re.findall(r"```python\n(.*?)```", section, re.S)
+            block = nodes.literal_block(code, code)
+            block["language"] = "python"
+            return [block]
+        if part == "table":
+            rows = [line for line in section.splitlines() if line.startswith("|")]
+            cells = [[_inline(c.strip()) for c in row.strip("|").split(" | ")] for row in rows]
+            header, body = cells[0], cells[2:]  # cells[1] is the --- line
+            lines = [".. list-table::", "   :header-rows: 1", ""]
+            for row in [header, *body]:
+                lines.append(f"   * - {row[0]}")
+                lines.extend(f"     - {cell}" for cell in row[1:])
+        else:
+            prose = re.sub(r"```.*?```", "", section, flags=re.S)
+            lines = [_inline(line) for line in prose.strip().splitlines()]
+        container = nodes.container()
+        self.state.nested_parse(StringList(lines, str(README)), self.content_offset, container)
+        return container.children
+
+
+class CommandHelpDirective(Directive):
+    """``.. greyml-help:: gap``: the ``--help`` text of a command, as of this build.
+
+    Taken from :func:`greyml.cli.build_parser` when the page is built (80
+    columns), so the command-line page always shows the options the code has.
+    Without an argument: ``greyml --help``.
+    """
+
+    optional_arguments = 1
+
+    def run(self):
+        from greyml.cli import build_parser
+
+        kept = os.environ.get("COLUMNS")
+        os.environ["COLUMNS"] = "80"
+        try:
+            parser = build_parser()
+            if self.arguments:
+                (commands,) = [
+                    a for a in parser._actions if isinstance(a, argparse._SubParsersAction)
+                ]
+                parser = commands.choices[self.arguments[0]]
+            text = parser.format_help()
+        finally:
+            if kept is None:
+                os.environ.pop("COLUMNS")
+            else:
+                os.environ["COLUMNS"] = kept
+        block = nodes.literal_block(text, text)
+        block["language"] = "none"
+        return [block]
+
+
 def setup(app):
     # before numpydoc (priority 500) rewrites the docstring
     app.connect("autodoc-process-docstring", _constant_doc, priority=100)
+    app.connect("autodoc-process-bases", _public_bases)
+    app.add_directive("readme", ReadmeDirective)
+    app.add_directive("greyml-help", CommandHelpDirective)

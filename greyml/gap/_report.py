@@ -10,6 +10,9 @@ import pandas as pd
 
 __all__ = ["GapReport"]
 
+#: Units of greyml's column suffixes, for axis labels.
+_UNITS = {"um": "µm", "mm": "mm", "C": "°C", "ue": "µε"}
+
 
 def _plain(value):
     """JSON-ready copy: NaN to None, numpy scalars to Python."""
@@ -208,16 +211,15 @@ class GapReport:
                 fontsize=8,
             )
             offset += t[-1] + 0.5
-        ax_time.set(
-            xlabel="time, tests end to end (h)",
-            ylabel=f"gap of {self.target}",
-            title="gap (grey) and after the named effects (red), held out",
-        )
+        unit = _UNITS.get(self.target.rpartition("_")[2], "target's unit")
+        ax_time.set(xlabel="time, tests end to end (h)", ylabel=f"gap of {self.target} ({unit})")
+        ax_time.set_title("held-out gap (grey), after the effects (red)", fontsize=10)
         parts = self.where[self.where["by"].isin(["phase", "band"])]
         ax_where.barh(
             [f"{b}: {s}" for b, s in zip(parts["by"], parts["segment"])], parts["share"].to_numpy()
         )
-        ax_where.set(xlabel="share of the squared gap", title="where the gap lies")
+        ax_where.set(xlabel="share of the squared gap (fraction)")
+        ax_where.set_title("where the gap lies", fontsize=10)
         ranked = self.causes.dropna(subset=["shrinkage"])
         colors = ["C3" if s else "0.6" for s in ranked["significant"]]
         ax_rank.barh(
@@ -225,5 +227,6 @@ class GapReport:
             ranked["shrinkage"].to_numpy()[::-1],
             color=colors[::-1],
         )
-        ax_rank.set(xlabel="held-out shrinkage", title="effects (red: significant)")
+        ax_rank.set(xlabel="held-out shrinkage (fraction of the RMSE)")
+        ax_rank.set_title("effects (red: significant)", fontsize=10)
         return fig

@@ -37,7 +37,15 @@ from greyml.datasets import make_tests
 from greyml.gap import diagnose_gap
 from greyml.simulation import Effects, HeatingTest, Programme, diurnal
 
-OUT = os.environ.get("GREYML_EXAMPLE_OUT", ".")
+#: run as a script with GREYML_EXAMPLE_OUT set, the figures are also saved there
+OUT = os.environ.get("GREYML_EXAMPLE_OUT")
+
+
+def save(fig, name):
+    if OUT:
+        fig.savefig(os.path.join(OUT, name), dpi=100)
+
+
 TARGET = "dy_um"
 DRIVERS = ["spindle_rpm", "feed_mm_min"]
 #: five sensors from five groups of the VMC: column, spindle carrier strips 1
@@ -178,7 +186,7 @@ labels = list(dict.fromkeys(report.gap.index.get_level_values("test")))
 air_rise = real["ambient_C"] - real["ambient_C"].groupby(level="test").transform("first")
 air_lim = 1.1 * np.abs(air_rise).max()
 fig_a, axes = plt.subplots(2, 3, figsize=(11, 5.5), sharey=True, layout="constrained")
-for ax, label in zip(axes.flat, labels):
+for i, (ax, label) in enumerate(zip(axes.flat, labels)):
     gap = report.gap.xs(label, level="test")
     hours = gap.index.to_numpy() / 3600.0
     heating = (real.xs(label, level="test")[DRIVERS] != 0).any(axis=1).to_numpy()
@@ -191,6 +199,8 @@ for ax, label in zip(axes.flat, labels):
     ax_air.plot(hours, air_rise.xs(label, level="test").to_numpy(), color="C0", lw=1)
     ax_air.set_ylim(-air_lim, air_lim)
     ax_air.tick_params(colors="C0", labelsize=8)
+    if i % 3 == 2:  # the right-hand column
+        ax_air.set_ylabel("air change (°C)", color="C0")
 for ax in axes[1]:
     ax.set_xlabel("time since the test start (h)")
 for ax in axes[:, 0]:
@@ -199,7 +209,7 @@ fig_a.suptitle(
     "Gap, measured minus simulated (black, left); air change since the start (blue, °C); "
     "shaded: heating"
 )
-fig_a.savefig(os.path.join(OUT, "gap_diagnosis_where.png"), dpi=100)
+save(fig_a, "gap_diagnosis_where.png")
 
 # %%
 # Which effect
@@ -276,7 +286,7 @@ ax.set(
     xlabel="held-out shrinkage of the gap (1 − RMSE after / before)",
     title="Held-out shrinkage by effect (red: significant)",
 )
-fig_b.savefig(os.path.join(OUT, "gap_diagnosis_effects.png"), dpi=100)
+save(fig_b, "gap_diagnosis_effects.png")
 
 # %%
 # Before and after
@@ -337,7 +347,7 @@ ax_t.set(
     title=f"Test {worst}, held out",
 )
 ax_t.legend(fontsize=8)
-fig_c.savefig(os.path.join(OUT, "gap_diagnosis_before_after.png"), dpi=100)
+save(fig_c, "gap_diagnosis_before_after.png")
 
 # %%
 # What next
@@ -367,6 +377,7 @@ print(again)
 # end before and after, where it lies by phase and band, and the ranking.
 
 fig_d = report.plot()
-fig_d.savefig(os.path.join(OUT, "gap_diagnosis_summary.png"), dpi=100)
-print(f"\nplots written to {os.path.abspath(OUT)}")
+save(fig_d, "gap_diagnosis_summary.png")
+if OUT:
+    print(f"\nplots written to {OUT}")
 plt.show()

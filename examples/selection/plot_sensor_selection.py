@@ -2,7 +2,7 @@
 Choosing five of 76 temperature sensors
 =======================================
 
-Seed 001 fitted 76 temperature sensors to a small vertical milling centre
+Abdulshahed et al. (2015) fitted 76 temperature sensors to a small vertical milling centre
 (VMC) and then asked which few of them a compensation model needs.
 ``greyml.GreyInfluenceSelector`` answers it in three steps:
 
@@ -11,16 +11,16 @@ Seed 001 fitted 76 temperature sensors to a small vertical milling centre
    (``influence_``). A large weight, positive or negative, means a large
    influence.
 2. **Groups.** Fuzzy c-means sorts the sensors into ``n_clusters`` groups.
-   With ``cluster_on="influence"`` (seed 001's way) it groups the weights
+   With ``cluster_on="influence"`` (the paper's way) it groups the weights
    themselves, so sensors with similar weights go together. With
    ``cluster_on="series"`` it groups the scaled series, so sensors that
    move together go together.
 3. **Pick.** The sensor with the largest weight in each group is kept.
 
-The data is greyml's simulation of seed 001's six tests
+The data is greyml's simulation of the paper's six tests
 (``greyml.datasets.load_vmc_tests``), as temperature rises from each test's
 start; the target is the Y displacement ``dy_um``; the selector is fitted on
-Test IV, as in seed 001. ``sensor_groups`` names the machine part of every
+Test IV, as in the paper. ``sensor_groups`` names the machine part of every
 sensor: the base, the column, the two spindle carrier strips, the spindle
 boss, the motors, the ballscrews and the air near the column and the base.
 
@@ -156,7 +156,7 @@ for on, selector in selectors.items():
 # %%
 # How much the pick depends on the training test
 # ----------------------------------------------
-# Seed 001 chose its sensors on Test IV. Fitted on each of the other tests
+# The paper chose its sensors on Test IV. Fitted on each of the other tests
 # in turn (``cluster_on="series"``), the selector keeps:
 print('\nKept sensors (cluster_on="series") by training test')
 for t in vmc.tests:
@@ -254,9 +254,11 @@ for k, ax in enumerate(axes2):
         ax.legend(fontsize=7, loc="lower right")
 axes2[0].set_ylabel(f"rise on Test {TRAIN}, scaled")
 
-out = os.environ.get("GREYML_EXAMPLE_OUT", ".")
+# run as a script with GREYML_EXAMPLE_OUT set, the figures are also saved there
+out = os.environ.get("GREYML_EXAMPLE_OUT")
 for name, figure in (("sensor_selection.png", fig), ("sensor_groups.png", fig2)):
-    path = os.path.join(out, name)
-    figure.savefig(path, dpi=100)
-    print(f"plot written to {path}")
+    if out:
+        path = os.path.join(out, name)
+        figure.savefig(path, dpi=100)
+        print(f"plot written to {path}")
 plt.show()

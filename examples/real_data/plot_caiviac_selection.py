@@ -6,10 +6,10 @@ A real recording: CAIVIAC/FL_THERMAL ("Learning Thermal Displacement
 Compensation from Structured Sequence Data", MIT licence): five heating and
 cooling cycles of one machine tool, each 4 h with the spindle on and 4 h off,
 at 1250, 2500, 3750, 5000 and 3500 rpm; sixteen temperature sensors and five
-displacement probes sampled every 15 s. greyml reads it where it lies
-(``greyml.datasets.load_caiviac``: ``../shared/realdata/caiviac`` or
-``$GREYML_CAIVIAC``); it is not part of greyml. Without it, this example
-prints a message and stops.
+displacement probes sampled every 15 s. The data is not part of greyml:
+:doc:`/installation` says how to get it and where
+``greyml.datasets.load_caiviac`` looks for it. Without it, this example says
+so and stops.
 
 The target is probe ch1 (ch1 and ch2 move together and follow the spindle),
 measured from each cycle's first reading. The inputs are the sixteen
@@ -20,7 +20,8 @@ and predicted by two models fitted on the other four:
   training cycles);
 * **five sensors and GMC(1,N)**: ``GreyInfluenceSelector(5,
   cluster_on="series")`` keeps one sensor from each of five groups of
-  sensors that move together (seed 001's recipe, with c-means on the series),
+  sensors that move together (the recipe of Abdulshahed et al. (2015), with
+  c-means on the series),
   and ``GMC(solver="pso")`` with b₁ ≥ 0 maps them to ch1. The selection is
   refitted in every fold, so the held-out cycle plays no part in it.
 
@@ -30,8 +31,8 @@ with a search on the other four cycles only. This one was its most frequent
 choice (2 of 5 folds; no other was chosen twice). The RMSEs printed here are
 therefore **not** a validation result: they show one pipeline that the
 search favoured, after the fact. The honest figure is the nested search's:
-a median RMSE of 4.37 µm against ridge's 4.72 µm, 7 % lower, short of the
-30 % that issue #5 hoped for (see ``benchmarks/README.md``). On these five
+a median RMSE of 4.37 µm against ridge's 4.72 µm, 7 % lower
+(``benchmarks/README.md`` in the repository). On these five
 cycles, the choice among pipelines is as uncertain as the differences
 between them.
 """
@@ -48,7 +49,7 @@ from sklearn.preprocessing import StandardScaler
 from threadpoolctl import threadpool_limits
 
 from greyml import GMC, GreyConditioningWarning, GreyInfluenceSelector, test_ids
-from greyml.datasets import caiviac_candidates, load_caiviac
+from greyml.datasets import load_caiviac
 from greyml.metrics import rmse
 
 TARGET = "ch1_um"
@@ -162,8 +163,10 @@ def plot(results):
 # ---
 loaded = load()
 if loaded is None:
-    places = ", ".join(str(p) for p in caiviac_candidates())
-    print(f"CAIVIAC data not found (looked in {places}); skipping this example.")
+    print(
+        "CAIVIAC data not found (see the installation page, or set GREYML_CAIVIAC);"
+        " skipping this example."
+    )
 else:
     # one BLAS thread: the products are small, and on busy cores more threads only wait
     with threadpool_limits(limits=1):

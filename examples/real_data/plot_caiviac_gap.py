@@ -6,10 +6,10 @@ A real recording: CAIVIAC/FL_THERMAL ("Learning Thermal Displacement
 Compensation from Structured Sequence Data", MIT licence): five heating and
 cooling cycles of one machine tool, each 4 h with the spindle on and 4 h off,
 at 1250, 2500, 3750, 5000 and 3500 rpm; sixteen temperature sensors and five
-displacement probes sampled every 15 s. greyml reads it where it lies
-(``greyml.datasets.load_caiviac``: ``../shared/realdata/caiviac`` or
-``$GREYML_CAIVIAC``); it is not part of greyml. Without it, this example
-prints a message and stops.
+displacement probes sampled every 15 s. The data is not part of greyml:
+:doc:`/installation` says how to get it and where
+``greyml.datasets.load_caiviac`` looks for it. Without it, this example says
+so and stops.
 
 **The simulation.** The target is probe ch3, measured from each cycle's first
 reading. The simulation is driven by the spindle alone: a lumped model with
@@ -34,13 +34,12 @@ cycle, phase and frequency band) and which candidate effect, fitted on four
 cycles and scored on the fifth, shrinks it by more than random-walk placebos
 do. **No sensor of this recording is documented as the ambient air**, so the
 diagnosis first runs with ``ambient=None``: the ``ambient`` and
-``initial_state`` effects cannot be tried. ``SOURCE.md`` notes that T4 swings
+``initial_state`` effects cannot be tried. The data's description notes that T4 swings
 with a period of about an hour, like air under a cycling HVAC, so a second run
 lets T4 stand in for the air. Finally every sensor in turn plays the air, to
 see whether the answer is about the air at all.
 
-**What we found** (on this data, when the example was written; the printed
-numbers are the ones to trust, and ``greyml.gap`` was still changing):
+**What we found** (the output below gives the numbers of this run):
 
 * *Where*: the model misses ch3 by about 16 µm RMS. Most of the squared gap
   lies in the cooling halves, in periods longer than 4 h, and in cycle 3. The
@@ -54,16 +53,14 @@ numbers are the ones to trust, and ``greyml.gap`` was still changing):
   and sign that change from cycle to cycle, so a spindle-driven heat source
   fitted on four cycles does not carry over to the fifth.
 * *What is named*: without an air column, nothing beats the placebos. (In
-  the variants we tried, a weak effect was sometimes named: with the heat
+  variants of this example a weak effect was sometimes named: with the heat
   input ∝ n² and cycle 1, ``heat_source``, i.e. the speed law is wrong, which
-  is indeed what the simulation lacks; with other calibration cycles and an
-  earlier ``greyml.gap``, a ``sensor_lag`` that beat the placebos with one
-  seed and not with most others.) With T4 as the air, ``ambient`` is named
-  or not depending on the calibration cycle, the speed exponent, the seed of
-  the placebos and the version of ``greyml.gap``, so we do not believe it.
-  (When this was last run it was named, together with ``heat_source`` and
-  ``nonlinear_expansion``, but its own shrinkage only just beat the best
-  placebo's.)
+  is indeed what the simulation lacks; with other calibration cycles, a
+  ``sensor_lag`` that beat the placebos with one placebo seed and not with
+  most others.) With T4 as the air, ``ambient`` is named or not depending on
+  the calibration cycle, the speed exponent and the seed of the placebos, so
+  we do not believe it: where it is named, its own shrinkage only just beats
+  the best placebo's.
   T4 also rises with the spindle, by 2 to 5 °C at 2500 rpm and above: it is
   no clean air sensor. ``initial_state`` is not named.
 * *What we believe*: the sensors that do best as the "air" in the scan are
@@ -93,7 +90,7 @@ import pandas as pd
 from scipy.optimize import least_squares
 from scipy.signal import lfilter
 
-from greyml.datasets import caiviac_candidates, load_caiviac
+from greyml.datasets import load_caiviac
 from greyml.gap import diagnose_gap
 
 TARGET = "ch3_um"
@@ -105,7 +102,7 @@ N_REF = 5000.0
 #: the range of both time constants (s), and the smallest ratio τ₂/τ₁
 TAU_RANGE_S = (120.0, 12 * 3600.0)
 MIN_TAU_RATIO = 3.0
-#: SOURCE.md: "t4 swings with a period of about an hour, like air under a cycling HVAC"
+#: the data's description: "t4 swings ... like air under a cycling HVAC"
 AIR_STAND_IN = "T4_C"
 #: sensors whose rise is shown next to ch3
 SHOWN = ("T1_C", "T4_C", "T5_C")
@@ -327,9 +324,12 @@ def plot_reports(reports):
 
 
 def save(fig, name):
-    path = os.path.join(os.environ.get("GREYML_EXAMPLE_OUT", "."), name)
-    fig.savefig(path, dpi=100)
-    print(f"plot written to {path}")
+    """Save a figure in $GREYML_EXAMPLE_OUT when it names a folder (run as a script)."""
+    out = os.environ.get("GREYML_EXAMPLE_OUT")
+    if out:
+        path = os.path.join(out, name)
+        fig.savefig(path, dpi=100)
+        print(f"plot written to {path}")
 
 
 # %%
@@ -337,8 +337,10 @@ def save(fig, name):
 # ---
 loaded = load()
 if loaded is None:
-    places = ", ".join(str(p) for p in caiviac_candidates())
-    print(f"CAIVIAC data not found (looked in {places}); skipping this example.")
+    print(
+        "CAIVIAC data not found (see the installation page, or set GREYML_CAIVIAC);"
+        " skipping this example."
+    )
 else:
     frame, sensors = loaded
     cal = frame.xs(CALIBRATION_CYCLE, level="test")

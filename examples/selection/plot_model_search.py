@@ -11,7 +11,7 @@ so ``GridSearchCV`` can try them together. Each candidate is scored the
 way a thermal model is used: trained on some heating/cooling tests and
 asked to predict a test it has never seen. Here that is leave-one-test-out
 (``LeaveOneGroupOut`` with the test labels as groups) on greyml's six
-simulated tests of seed 001's VMC (``greyml.datasets.load_vmc_tests``):
+simulated tests of the VMC of Abdulshahed et al. (2015) (``greyml.datasets.load_vmc_tests``):
 76 temperature sensors as rises from each test's start, target ``dy_um``.
 The selector is refitted inside every fold, so the held-out test plays no
 part in choosing the sensors.
@@ -38,9 +38,9 @@ temperature field that 76 sensors sample almost completely (see
 
 Five sensors can pay off when the training tests do not cover the
 conditions to be predicted, but the search's winner is not the model for
-that case. The last section trains on Test IV alone (4000 rpm, seed 001's
+that case. The last section trains on Test IV alone (4000 rpm, the paper's
 protocol). There the 76-sensor ridge extrapolates badly to 8000 rpm; the
-five-sensor ANFISFCM pipeline of ``docs/selection.rst`` (seed 001's
+five-sensor ANFISFCM pipeline of :doc:`/selection` (the paper's
 recipe) beats it on the other tests together, and the search's winner
 does worst of the three. A leave-one-test-out search over tests at both
 speeds tells which model to use when the training tests include both
@@ -208,7 +208,7 @@ print(
 # %%
 # Trained on Test IV alone
 # ------------------------
-# Seed 001's protocol: calibrate on Test IV (4000 rpm) and validate on the
+# The protocol of Abdulshahed et al. (2015): calibrate on Test IV (4000 rpm) and validate on the
 # others, which include two tests at 8000 rpm. Beside the search's winner
 # and the ridge: the pipeline of ``docs/selection.rst``, five groups of
 # series and ANFISFCM(3) (rank 5 in the search above).
@@ -275,8 +275,10 @@ for ax_t in axes[-1]:
 for ax_t in axes[:, 0]:
     ax_t.set_ylabel("dy (µm)", fontsize=8)
 
-out = os.environ.get("GREYML_EXAMPLE_OUT", ".")
-path = os.path.join(out, "model_search.png")
-fig.savefig(path, dpi=100)
-print(f"\nplot written to {path}")
+# run as a script with GREYML_EXAMPLE_OUT set, the figure is also saved there
+out = os.environ.get("GREYML_EXAMPLE_OUT")
+if out:
+    path = os.path.join(out, "model_search.png")
+    fig.savefig(path, dpi=100)
+    print(f"\nplot written to {path}")
 plt.show()
