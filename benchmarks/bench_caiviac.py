@@ -37,8 +37,8 @@ Protocol
   selector with ``n_clusters`` 3, 4, 5 and ``cluster_on`` "influence",
   "series" (range normalisation, ``random_state=0``), times five models on the
   selected sensors: ridge (the baseline's model), ``GMC(solver="pso")`` with b1 in
-  [0, 100] (a stable response), ``ANFISFCM(3)`` (seed 001's 3 rules),
-  ``MLPBaseline()`` (seed 000's 10 hidden units) and
+  [0, 100] (a stable response), ``ANFISFCM(3)`` (Abdulshahed et al.'s (2015) 3 rules),
+  ``MLPBaseline()`` (Abdulshahed et al.'s (2016) 10 hidden units) and
   ``AGO() -> AccumulatedTargetRegressor(RidgeCV)`` (the grey recipe for a
   static regressor): 30 configurations. GNNMCI is left out: with its default
   separable search it fits the same GMC response as ``GMC(solver="pso")`` (on

@@ -62,8 +62,8 @@ FRIEDMAN_EPOCHS = 200  # given to every ANFIS
 # seed (test RMSE 0.99-1.38 over random_state 0-5); m = 1.7 gives distinct
 # clusters and 1.010-1.015 for every seed. The default-m row is kept for reference.
 FCM_M = 1.7
-MLP_HIDDEN = 10  # seed 000's network, the MLPBaseline default
-# seed 000 chose its hidden size by trial over 1..15; a 5-fold GridSearchCV over
+MLP_HIDDEN = 10  # Abdulshahed et al.'s (2016) network, the MLPBaseline default
+# Abdulshahed et al. (2016) chose its hidden size by trial over 1..15; a 5-fold GridSearchCV over
 # 1..15 on this training split (random_state=0) picks 6 (CV RMSE 1.007; 10 units: 1.028)
 MLP_HIDDEN_SELECTED = 6
 
@@ -402,7 +402,7 @@ def candidates():
             "greyml-mlp",
             "friedman1",
             "greyml MLPBaseline",
-            f"{MLP_HIDDEN_SELECTED} logistic hidden neurons (seed 000's size search, see "
+            f"{MLP_HIDDEN_SELECTED} logistic hidden neurons (Abdulshahed et al.'s (2016) size search, see "
             "MLP_HIDDEN_SELECTED), Levenberg-Marquardt; defaults otherwise "
             "(5 restarts, 15 % validation stop, max_iter=5000)",
             greyml_mlp,

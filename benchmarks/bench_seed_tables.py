@@ -1,21 +1,21 @@
-"""Seed 001's and seed 000's validation tables, reproduced on greyml's simulated data.
+"""Abdulshahed et al.'s (2015) and Abdulshahed et al.'s (2016) validation tables, reproduced on greyml's simulated data.
 
 Two parts, both printed by one run:
 
-* **(a) seed 001, the VMC** (``greyml.datasets.load_vmc_tests``): models trained
+* **(a) Abdulshahed et al. (2015), the VMC** (``greyml.datasets.load_vmc_tests``): models trained
   on Test IV (4000 rpm, 120 min, 60 min pause, 120 min, 180 min stopped) and
   validated on Tests I, II, III (4000 rpm) and V, VI (8000 rpm), predicting the
-  Y error ``dy_um`` (seed 001 Sec. 4.3: "the thermal displacement in the
+  Y error ``dy_um`` (Abdulshahed et al. (2015) Sec. 4.3: "the thermal displacement in the
   Y-direction was chosen as a target variable"). Models: ``ANFISGrid`` with
   3 MFs per input (243 rules), ``ANFISFCM`` with 3 clusters (3 rules), both with
-  the last 15 % of Test IV as checking data (seed 001 splits Test IV into
+  the last 15 % of Test IV as checking data (Abdulshahed et al. (2015) splits Test IV into
   training, checking and testing parts; here the validation tests are the
   testing data), and a ridge regression on the same inputs as a reference.
   Per validation test: RMSE, residual band ±max|y - ŷ|, R, E (Nash-Sutcliffe),
   improvement 1 - max|y - ŷ| / max|y|, and the share of rows with an input
   outside its Test IV range. Three configurations:
 
-  1. ``seed001`` (the headline): seed 001's five sensors T18, T55, T63, T68,
+  1. ``seed001`` (the headline): Abdulshahed et al.'s (2015) five sensors T18, T55, T63, T68,
      T71 as temperature *rises* from each test's first reading. The seed models
      "the relationship between the thermal errors and the temperature changes",
      and the simulated displacement is measured from each test's start.
@@ -23,7 +23,7 @@ Two parts, both printed by one run:
      temperatures. A map from absolute temperature to a displacement that is
      zeroed at each test's start cannot hold across tests that start at other
      ambient temperatures or warm from an earlier run (Tests III and V).
-  3. ``physics-groups`` (diagnostic, *not* seed 001's method): five inputs that
+  3. ``physics-groups`` (diagnostic, *not* Abdulshahed et al.'s (2015) method): five inputs that
      observe what bends the spindle in Y in the simulator: means of the
      carrier-front (T20-T23), carrier-rear (T43-T46), column-front (T5, T6),
      column-rear (T9, T10) and column-air (T68-T70) sensors, as rises from the
@@ -32,16 +32,16 @@ Two parts, both printed by one run:
      configuration and its extra model (ANFISFCM, 2 rules, 10 epochs) were
      chosen after looking at the validation tests, so its numbers are an
      optimistic bound, not a validation result. It shows what it takes to
-     reach ±5 µm on all five tests, and why seed 001's sensors cannot.
+     reach ±5 µm on all five tests, and why Abdulshahed et al.'s (2015) sensors cannot.
 
-* **(b) seed 000, the gantry** (``greyml.datasets.load_gantry_tests``): models
+* **(b) Abdulshahed et al. (2016), the gantry** (``greyml.datasets.load_gantry_tests``): models
   trained on the Z-axis and C-axis tests and validated on the helical test,
-  predicting the Z error ``dz_um`` from seed 000's five inputs FBG-1..4 and the
-  ram-rear temperature T2 (seed 000 Sec. 3.2), all as rises from each test's
-  first reading (seed 000's Table 1 starts every input at 0). Printed as seed
+  predicting the Z error ``dz_um`` from Abdulshahed et al.'s (2016) five inputs FBG-1..4 and the
+  ram-rear temperature T2 (Abdulshahed et al. (2016) Sec. 3.2), all as rises from each test's
+  first reading (Abdulshahed et al.'s (2016) Table 1 starts every input at 0). Printed as seed
   000's Table 4 (R, RMSE, E, ±residual) beside the paper's numbers:
 
-  - ``GNNMCI(1,N)``: seed 000's swarm (90 particles, c1 = 1.5, c2 = 2,
+  - ``GNNMCI(1,N)``: Abdulshahed et al.'s (2016) swarm (90 particles, c1 = 1.5, c2 = 2,
     inertia 0.9 -> 0.4, 100 epochs), with the development coefficient b1 kept
     in [0, 100] (a stable first-order response). greyml's default box
     [-100, 100] lets the swarm pick b1 < 0 on these data: it fits the two
@@ -52,9 +52,9 @@ Two parts, both printed by one run:
     training rows, as MATLAB's default ``dividerand`` (rows shuffled with a
     fixed seed and passed without test labels, so the checking rows are the
     last 15 % of the shuffled order).
-  - ``GMC(1,N) LS``: ``GMC(solver="ls", bounds="papers")``, seed 000's "GMC-LS"
+  - ``GMC(1,N) LS``: ``GMC(solver="ls", bounds="papers")``, Abdulshahed et al.'s (2016) "GMC-LS"
     baseline in the papers' box (b1 may end < 0).
-  - ``ridge`` (reference, not in seed 000): a static linear map of the inputs.
+  - ``ridge`` (reference, not in Abdulshahed et al. (2016)): a static linear map of the inputs.
 
   The spread of GNNMCI and the MLP over ``--seeds`` random states is printed
   under the table.
@@ -66,7 +66,7 @@ machine the 243-rule ANFISGrid fit took 12-38 s with two OpenBLAS threads and
 Run ``python benchmarks/bench_seed_tables.py --help`` for the options;
 ``--json PATH`` also writes every number. ``--ablation`` adds two diagnostic
 tables: the seed001 configuration with the simulator's effects switched off one
-at a time (``greyml.simulation.Effects``), and least squares on seed 001's
+at a time (``greyml.simulation.Effects``), and least squares on Abdulshahed et al.'s (2015)
 inputs, trained on Test IV, applied to extra programmes at 4000, 6000 and
 8000 rpm at a constant 20 °C (is it the temperature range or the spindle speed
 that the five sensors cannot extrapolate to?).
@@ -93,7 +93,7 @@ from _common import write_json
 
 from greyml._commands import scores  # the seeds' figures, shared with `greyml demo`
 
-# -- (a) seed 001 on the VMC -----------------------------------------------------
+# -- (a) Abdulshahed et al. (2015) on the VMC -----------------------------------------------------
 VMC_TARGET = "dy_um"
 TRAIN_TEST = "IV"
 VALIDATION_TESTS = ("I", "II", "III", "V", "VI")
@@ -111,24 +111,24 @@ PHYSICS_GROUPS = {
 PHYSICS_REFERENCE_ROWS = 3  # rises from the mean of each test's first 3 readings
 CHECKING_FRACTION = 0.15  # tail of Test IV held out as ANFIS checking data
 ANFIS_EPOCHS = 100
-GRID_MFS = 3  # 3 MFs x 5 inputs = 243 rules (seed 001's best)
-FCM_RULES = 3  # seed 001's best
+GRID_MFS = 3  # 3 MFs x 5 inputs = 243 rules (Abdulshahed et al.'s (2015) best)
+FCM_RULES = 3  # Abdulshahed et al.'s (2015) best
 RIDGE_ALPHA = 1e-3  # on standardised inputs
-BAND_GOAL = 5.0  # µm: seed 001 "less than ±5 µm for each test"
+BAND_GOAL = 5.0  # µm: Abdulshahed et al. (2015) "less than ±5 µm for each test"
 RANDOM_STATE = 0
 
-# -- (b) seed 000 on the gantry ----------------------------------------------------
+# -- (b) Abdulshahed et al. (2016) on the gantry ----------------------------------------------------
 GANTRY_TARGET = "dz_um"
 GANTRY_TRAIN = ("Z-axis", "C-axis")
 GANTRY_VALIDATION = "helical"
 GANTRY_INPUTS = ("FBG1_ue", "FBG2_ue", "FBG3_ue", "FBG4_ue", "T2_C")
 STABLE_B1 = "stable"  # GNNMCI's default: b1 in [0, 100], the other weights in [-100, 100]
-FREE_B1 = (-100.0, 100.0)  # seed 000's unconstrained search
+FREE_B1 = (-100.0, 100.0)  # Abdulshahed et al.'s (2016) unconstrained search
 MLP_HIDDEN = 10
 MLP_CHECKING = 0.15
 N_SEEDS = 5
 
-#: Seed 000, Table 4: the three models on the unseen helical test.
+#: Abdulshahed et al. (2016), Table 4: the three models on the unseen helical test.
 SEED000_TABLE4 = {
     "GNNMCI": {"R": 0.98, "RMSE": 4.60, "E": 0.94, "band": 9.0},
     "MLP": {"R": 0.95, "RMSE": 6.82, "E": 0.92, "band": 15.0},
@@ -265,7 +265,7 @@ VMC_MODELS = (
 VMC_CONFIGS = {
     "seed001": VMCConfig(
         "seed001",
-        "seed 001 (headline): T18, T55, T63, T68, T71 as rises from each test's first reading",
+        "Abdulshahed et al. (2015) (headline): T18, T55, T63, T68, T71 as rises from each test's first reading",
         seed001_rises,
         VMC_MODELS,
     ),
@@ -460,7 +460,7 @@ EXTRAPOLATION_PROGRAMMES = {
 
 
 def extrapolation():
-    """Least squares on seed 001's five rises, trained on Test IV, on other speeds."""
+    """Least squares on Abdulshahed et al.'s (2015) five rises, trained on Test IV, on other speeds."""
     from greyml import metrics
     from greyml.datasets import make_tests
     from greyml.simulation import Effects, Programme, vmc_tests
@@ -546,12 +546,12 @@ def print_vmc(records, config):
 
 def print_gantry(records, spread):
     print(
-        "\n(b) Seed 000, Table 4: trained on the Z-axis and C-axis tests, validated on the "
+        "\n(b) Abdulshahed et al. (2016), Table 4: trained on the Z-axis and C-axis tests, validated on the "
         "helical test\n    inputs FBG1-4 and T2 as rises from each test's first reading; "
         "target dz_um"
     )
     header = (
-        f"  {'model':40s} | {'seed 000':^29s} | {'greyml (simulated)':^44s}\n"
+        f"  {'model':40s} | {'Abdulshahed et al. (2016)':^29s} | {'greyml (simulated)':^44s}\n"
         f"  {'':40s} | {'R':>6s} {'RMSE':>7s} {'E':>6s} {'±res':>6s} | "
         f"{'R':>6s} {'RMSE':>7s} {'E':>7s} {'±res':>7s} {'impr%':>6s} {'fit s':>6s}"
     )
@@ -565,7 +565,7 @@ def print_gantry(records, spread):
                 f"{'±' + format(seed['band'], 'g'):>6s}"
             )
         else:
-            left = f"{'(not in seed 000)':>28s}"
+            left = f"{'(not in Abdulshahed et al. (2016))':>28s}"
         if "error" in r:
             right = r["error"]
         else:
@@ -684,7 +684,7 @@ def main(argv=None):
     elapsed = time.perf_counter() - start
 
     print(
-        "(a) Seed 001, Tables 6-7: trained on Test IV (last "
+        "(a) Abdulshahed et al. (2015), Tables 6-7: trained on Test IV (last "
         f"{CHECKING_FRACTION:.0%} as ANFIS checking data), validated on Tests "
         f"{', '.join(VALIDATION_TESTS)}; target {VMC_TARGET}; "
         f"residual goal ±{BAND_GOAL:g} µm"

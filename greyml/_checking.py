@@ -1,11 +1,11 @@
 """Checking (validation) data for the learning models, taken the seeds' way.
 
-ANFIS (seed 001, after MATLAB's ``anfis``) and the MLP (seed 000, after
+ANFIS (Abdulshahed et al. (2015), after MATLAB's ``anfis``) and the MLP (Abdulshahed et al. (2016), after
 MATLAB's ``trainlm``) keep the parameters of the epoch with the lowest error on
 *checking* data. With several tests, checking data must be whole tests: rows of
 a test are strongly autocorrelated, so rows held out from a test that is also
 trained on measure interpolation, not generalisation. With a single test the
-checking part is the end of that test (seed 001 splits Test IV into training,
+checking part is the end of that test (Abdulshahed et al. (2015) splits Test IV into training,
 checking and testing parts in time order).
 """
 

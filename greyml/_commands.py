@@ -48,11 +48,11 @@ __all__ = [
 OPERATING_COLUMNS = ("spindle_rpm", "feed_mm_min", "c_rpm", "ambient_C")
 
 
-#: Share of the training data held out as checking data by ANFIS (seed 001
+#: Share of the training data held out as checking data by ANFIS (Abdulshahed et al. (2015)
 #: splits its training test into training and checking parts).
 CHECKING_FRACTION = 0.15
 
-#: Sensors kept by the selector in ``greyml demo`` (seed 001 keeps five).
+#: Sensors kept by the selector in ``greyml demo`` (Abdulshahed et al. (2015) keeps five).
 DEMO_SENSORS = 5
 
 
@@ -66,7 +66,7 @@ DEMO_SENSORS = 5
 #: number is a float; a bound stated in a paper's text is a string.
 SEED_RESULTS = {
     "vmc": {
-        "paper": "seed 001",
+        "paper": "Abdulshahed et al. (2015)",
         "citation": (
             "Abdulshahed, A. M., Longstaff, A. P. and Fletcher, S. (2015). The application "
             "of ANFIS prediction models for thermal error compensation on CNC machine "
@@ -77,17 +77,17 @@ SEED_RESULTS = {
             "anfis-fcm": {"RMSE": "1.7 (a)", "band": "<=4", "improvement": "80-94"},
         },
         "notes": (
-            "Seed 001 gives per-test values in its Tables 6 and 7; the text that greyml "
+            "Abdulshahed et al. (2015) gives per-test values in its Tables 6 and 7; the text that greyml "
             "holds states only the bounds quoted here: both ANFIS models keep the residual "
             "within ±5 µm on every validation test and improve accuracy by over 80 %; "
             "ANFIS-FCM keeps it within ±4 µm, with up to 94 % improvement.",
-            "(a) ANFIS-FCM's RMSE is on the testing part of Test IV (seed 001, Table 4), "
+            "(a) ANFIS-FCM's RMSE is on the testing part of Test IV (Abdulshahed et al. (2015), Table 4), "
             "not on the other tests.",
-            "Seed 001 reports no GMC, GNNMCI or MLP on this machine.",
+            "Abdulshahed et al. (2015) reports no GMC, GNNMCI or MLP on this machine.",
         ),
     },
     "gantry": {
-        "paper": "seed 000",
+        "paper": "Abdulshahed et al. (2016)",
         "citation": (
             "Abdulshahed, A. M., Longstaff, A. P., Fletcher, S. and Potdar, A. (2016). "
             "Thermal error modelling of a gantry-type 5-axis machine tool using a Grey "
@@ -99,7 +99,7 @@ SEED_RESULTS = {
             "gmc": {"R": 0.83, "RMSE": 15.26, "E": 0.60, "band": 26.0},
         },
         "notes": (
-            "Seed 000's models use its five inputs FBG-1..4 and one temperature; its MLP "
+            "Abdulshahed et al.'s (2016) models use its five inputs FBG-1..4 and one temperature; its MLP "
             "is a 5-10-1 network, its GMC is calibrated by least squares (GMC-LS). It "
             "reports no improvement on the helical test and no ANFIS.",
         ),
@@ -413,7 +413,7 @@ _DEMO_MACHINES = (
         "load_vmc_tests",
         "dy_um",
         ("IV",),
-        "seed 001's small vertical milling centre, 76 temperature sensors",
+        "Abdulshahed et al.'s (2015) small vertical milling centre, 76 temperature sensors",
     ),
     _Machine(
         "gantry",
@@ -421,7 +421,7 @@ _DEMO_MACHINES = (
         "load_gantry_tests",
         "dz_um",
         ("Z-axis", "C-axis"),
-        "seed 000's 5-axis gantry, 12 temperature and 7 FBG strain sensors",
+        "Abdulshahed et al.'s (2016) 5-axis gantry, 12 temperature and 7 FBG strain sensors",
     ),
 )
 
@@ -430,7 +430,7 @@ def _split(X, train_tests):
     """Row positions to train on (``train_tests``) and to validate on (the others).
 
     One training test is the seeds' protocol as :class:`greyml.TrainOnOneTest`
-    splits it; seed 000 trains on two tests of the gantry.
+    splits it; Abdulshahed et al. (2016) trains on two tests of the gantry.
     """
     from greyml import TrainOnOneTest, test_ids
 
@@ -665,7 +665,7 @@ def _plot(path, run, result):
 def run_demo(out="greyml-demo", *, force=False, quick=False, quiet=False):
     """``greyml demo``: the five models on the seeds' simulated tests, beside the papers.
 
-    Simulates seed 001's VMC tests and seed 000's gantry tests
+    Simulates Abdulshahed et al.'s (2015) VMC tests and Abdulshahed et al.'s (2016) gantry tests
     (:func:`greyml.datasets.load_vmc_tests`, :func:`~greyml.datasets.load_gantry_tests`),
     fits GMC, GNNMCI, ANFISGrid, ANFISFCM and MLPBaseline, each in a Pipeline
     after :class:`greyml.GreyInfluenceSelector`, on the seeds' training tests,

@@ -278,7 +278,7 @@ Exit codes:
 _DEMO_EPILOG = (
     """\
 What it does:
-  1. simulates seed 001's six VMC tests and seed 000's three gantry tests
+  1. simulates Abdulshahed et al.'s (2015) six VMC tests and Abdulshahed et al.'s (2016) three gantry tests
      (greyml.datasets.load_vmc_tests, load_gantry_tests);
   2. on each machine, fits GMC, GNNMCI, ANFISGrid, ANFISFCM and MLPBaseline, each
      after GreyInfluenceSelector (5 sensors) in one Pipeline, on the seeds'
@@ -344,9 +344,9 @@ The CSV has the columns test and time_s, then the operating inputs, the sensors
 greyml.io.read_tests_csv.
 
 Tests (default: all the seeds' tests of the machine):
-  vmc        seed 001's Tests I-VI (76 temperature sensors, every minute)
-  vmc-probe  seeds 002/004's 200-min probing test (9 sensors, every 10 s)
-  gantry     seed 000's Z-axis, C-axis and helical tests (12 temperatures and
+  vmc        Abdulshahed et al.'s (2015) Tests I-VI (76 temperature sensors, every minute)
+  vmc-probe  Abdulshahed et al.'s (2017) 200-min probing test (9 sensors, every 10 s)
+  gantry     Abdulshahed et al.'s (2016) Z-axis, C-axis and helical tests (12 temperatures and
              7 FBGs, every 20 s)
 --tests A,B keeps only these of the seeds' tests.
 
@@ -557,11 +557,11 @@ _FIT_EPILOG = (
     """\
 Models (the seeds' settings):
   gmc         GMC(1,N) by least squares, b1 >= 0 (GMC-LS)
-  gnnmci      GNNMCI(1,N), particle swarm of 90 x 100 iterations (seed 000)
-  anfis-grid  ANFIS with 3 Gaussian MFs per input, 100 epochs (seed 001;
+  gnnmci      GNNMCI(1,N), particle swarm of 90 x 100 iterations (Abdulshahed et al. (2016))
+  anfis-grid  ANFIS with 3 Gaussian MFs per input, 100 epochs (Abdulshahed et al. (2015);
               3^5 = 243 rules on 5 inputs, so give few inputs)
-  anfis-fcm   ANFIS with 3 fuzzy c-means rules, 100 epochs (seed 001)
-  mlp         one hidden layer of 10, Levenberg-Marquardt (seed 000's baseline)
+  anfis-fcm   ANFIS with 3 fuzzy c-means rules, 100 epochs (Abdulshahed et al. (2015))
+  mlp         one hidden layer of 10, Levenberg-Marquardt (Abdulshahed et al.'s (2016) baseline)
 
 --n-sensors N puts GreyInfluenceSelector before the model in one Pipeline, so the
 saved model chooses its own sensors. The model is saved with

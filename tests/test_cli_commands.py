@@ -476,11 +476,11 @@ def test_progress_shows_steps_on_a_terminal_only():
 def _check_demo_output(out, folder):
     for machine in ("VMC:", "Gantry:"):
         assert machine in out
-    assert "PAPER: seed 001" in out and "PAPER: seed 000" in out
+    assert "PAPER: Abdulshahed et al. (2015)" in out and "PAPER: Abdulshahed et al. (2016)" in out
     assert out.count("OURS: greyml, simulated") == 2
     for label in MODELS:
         assert out.count(f"  {label} ") >= 2, label
-    # seed 000's Table 4, beside ours
+    # Abdulshahed et al.'s (2016) Table 4, beside ours
     assert "4.60" in out and "15.26" in out and "Journal of Manufacturing Systems" in out
     pngs = sorted(p.name for p in folder.glob("*.png"))
     assert len(pngs) == 10, pngs

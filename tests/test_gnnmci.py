@@ -1,4 +1,4 @@
-"""GNNMCI(1,N): the layers of seed 000's network, training and integration."""
+"""GNNMCI(1,N): the layers of Abdulshahed et al.'s (2016) network, training and integration."""
 
 import pickle
 

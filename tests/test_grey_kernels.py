@@ -33,7 +33,7 @@ def literal_trapezoid(f, b1, x0):
 
 
 def literal_midpoint(f, b1, x0):
-    """Seed 000's midpoint variant, summed term by term."""
+    """Abdulshahed et al.'s (2016) midpoint variant, summed term by term."""
     n = len(f)
     out = [x0]
     for k in range(2, n + 1):

@@ -1,4 +1,4 @@
-"""Regression guards for benchmarks/bench_seed_tables.py (seed 001's and seed 000's tables).
+"""Regression guards for benchmarks/bench_seed_tables.py (Abdulshahed et al.'s (2015) and Abdulshahed et al.'s (2016) tables).
 
 The figures asserted here are the ones the benchmark reaches on greyml's simulated
 data (deterministic: the data sets and every model have fixed seeds), with a modest
@@ -71,7 +71,7 @@ GRID = "ANFISGrid 3 MFs (243 rules)"
 RIDGE = "ridge (reference)"
 
 
-# -- (a) seed 001 on the VMC ---------------------------------------------------
+# -- (a) Abdulshahed et al. (2015) on the VMC ---------------------------------------------------
 
 
 def test_seed001_fcm_within_6um_on_the_4000rpm_tests(seed001):
@@ -97,7 +97,7 @@ def test_seed001_fcm_beats_grid_on_every_validation_test(seed001):
 
 
 def test_seed001_sensors_cannot_extrapolate_to_8000rpm_even_linearly(seed001):
-    # the diagnosis printed by the benchmark: a linear map of seed 001's five
+    # the diagnosis printed by the benchmark: a linear map of Abdulshahed et al.'s (2015) five
     # rises misses the 8000 rpm tests by more than 10 µm
     rows = _by(seed001, RIDGE)
     assert min(rows["V"]["band"], rows["VI"]["band"]) > 10.0  # 14.0, 12.3
@@ -120,7 +120,7 @@ def test_physics_groups_reach_5um_on_all_five_tests(physics):
     assert max(r["band"] for r in fcm3.values()) < 9.0  # 7.4
 
 
-# -- (b) seed 000 on the gantry ----------------------------------------------
+# -- (b) Abdulshahed et al. (2016) on the gantry ----------------------------------------------
 
 
 def test_gnnmci_with_stable_b1_on_helical(gantry):

@@ -284,7 +284,7 @@ def test_same_programme_other_ambient_other_error(vmc_data):
 
 
 def test_surface_sensors_lag_the_displacement():
-    """Seed 000 Sec. 3.1: T2 (ram rear) follows the displacement ~10 min late."""
+    """Abdulshahed et al. (2016) Sec. 3.1: T2 (ram rear) follows the displacement ~10 min late."""
     g = gantry()
     eff = Effects().without("noise", "probe_drift")
     for spec in gantry_tests()[1:]:  # C-axis and helical

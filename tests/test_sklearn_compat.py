@@ -33,7 +33,7 @@ ESTIMATORS = [
     AGO(),
     GMC(solver="ls"),
     # the swarms and nests are cut for time (the cuckoo search's 25 × 100 cost
-    # the most of any estimator over these checks, seed 000's 90 × 100 swarm
+    # the most of any estimator over these checks, Abdulshahed et al.'s (2016) 90 × 100 swarm
     # ~40 s), as scikit-learn does for its own iterative estimators; the
     # default budgets are exercised in tests/test_gmc.py and tests/test_gnnmci.py
     GMC(solver="pso", n_population=10, max_iter=20),

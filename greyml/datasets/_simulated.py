@@ -117,7 +117,7 @@ def bunch_from_frame(frame, *, sensors, targets, sensor_groups, description, inp
 
 
 def main_target(machine) -> str:
-    """The machine's main displacement: ``dy_um`` for the VMC of seed 001, else ``dz_um``."""
+    """The machine's main displacement: ``dy_um`` for the VMC of Abdulshahed et al. (2015), else ``dz_um``."""
     return "dy_um" if _machine(machine).name == "vmc" else "dz_um"
 
 
@@ -208,7 +208,7 @@ def make_tests(
         Return ``(X, y)``, the sensor columns and one target, instead.
     target : str, optional
         Target for ``return_X_y``; the machine's main one by default
-        (``dy_um`` for the VMC of seed 001, ``dz_um`` otherwise).
+        (``dy_um`` for the VMC of Abdulshahed et al. (2015), ``dz_um`` otherwise).
 
     Returns
     -------
@@ -293,7 +293,7 @@ def _default_tests(m):
 
 
 def load_vmc_tests(*, effects=None, return_X_y=False, target="dy_um"):
-    """Seed 001's Tests I–VI on the small VMC, simulated (76 sensors).
+    """Abdulshahed et al.'s (2015) Tests I–VI on the small VMC, simulated (76 sensors).
 
     Six heating/cooling tests at 4000 and 8000 rpm in different ambient
     conditions and thermal histories (see
@@ -309,13 +309,13 @@ def load_vmc_tests(*, effects=None, return_X_y=False, target="dy_um"):
     return_X_y : bool, default=False
         Return the 76 sensor columns and one target.
     target : str, default="dy_um"
-        Target for ``return_X_y`` (seed 001 models the Y error).
+        Target for ``return_X_y`` (Abdulshahed et al. (2015) models the Y error).
 
     Returns
     -------
     data : Bunch or (X, y)
         See :func:`make_tests`. ``sensor_groups`` maps every sensor to one of
-        seed 001's categories ("spindle carrier strip 1", "spindle boss",
+        Abdulshahed et al.'s (2015) categories ("spindle carrier strip 1", "spindle boss",
         "ambient near the column", …).
 
     Examples
@@ -331,7 +331,7 @@ def load_vmc_tests(*, effects=None, return_X_y=False, target="dy_um"):
 
 
 def load_probe_test(*, effects=None, return_X_y=False, target="dz_um"):
-    """Seeds 002/004's 200-min probing test at 9000 rpm, simulated (9 sensors).
+    """Abdulshahed et al.'s (2017) 200-min probing test at 9000 rpm, simulated (9 sensors).
 
     Sampled every 10 s like the seeds: ``spindle_rpm``, ``feed_mm_min``,
     ``ambient_C``, ``T1_C`` … ``T9_C`` (carrier, spindle boss, X/Y/Z motors,
@@ -343,7 +343,7 @@ def load_probe_test(*, effects=None, return_X_y=False, target="dz_um"):
     effects : Effects, optional
     return_X_y : bool, default=False
     target : str, default="dz_um"
-        Seeds 002/004 model the Z error.
+        Abdulshahed et al. (2017) model the Z error.
 
     Returns
     -------
@@ -360,7 +360,7 @@ def load_probe_test(*, effects=None, return_X_y=False, target="dz_um"):
 
 
 def load_gantry_tests(*, effects=None, return_X_y=False, target="dz_um"):
-    """Seed 000's Z-axis, C-axis and helical tests on the gantry, simulated.
+    """Abdulshahed et al.'s (2016) Z-axis, C-axis and helical tests on the gantry, simulated.
 
     Sampled every 20 s: ``feed_mm_min``, ``c_rpm``, ``ambient_C``,
     ``T1_C`` … ``T12_C``, ``FBG1_ue`` … ``FBG7_ue`` and ``dy_um``, ``dz_um``.
@@ -371,7 +371,7 @@ def load_gantry_tests(*, effects=None, return_X_y=False, target="dz_um"):
     effects : Effects, optional
     return_X_y : bool, default=False
     target : str, default="dz_um"
-        Seed 000 models the Z growth of the ram.
+        Abdulshahed et al. (2016) models the Z growth of the ram.
 
     Returns
     -------

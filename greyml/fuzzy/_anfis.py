@@ -272,7 +272,7 @@ class ANFISGrid(_ANFISBase):
     Parameters
     ----------
     n_mfs : int or sequence of int, default=2
-        MFs per input (one number for all inputs, or one per input). Seed 001's
+        MFs per input (one number for all inputs, or one per input). Abdulshahed et al.'s (2015)
         best: 3 MFs × 5 inputs = 243 rules.
     mf_overlap : float in (0, 1), default=0.4
         Membership at which neighbouring initial MFs cross. The initial MFs of
@@ -359,7 +359,7 @@ class ANFISGrid(_ANFISBase):
     system. IEEE Transactions on Systems, Man, and Cybernetics 23(3), 665-685.
     Abdulshahed, A. M., Longstaff, A. P. and Fletcher, S. (2015). The
     application of ANFIS prediction models for thermal error compensation on
-    CNC machine tools. Applied Soft Computing 27, 158-168. (Seed 001: ANFIS-Grid
+    CNC machine tools. Applied Soft Computing 27, 158-168. (Abdulshahed et al. (2015): ANFIS-Grid
     and ANFIS-FCM, GM(1,N) sensor selection.)
     Abdulshahed, A. M., Longstaff, A. P., Fletcher, S. and Myers, A. (2015).
     Thermal error modelling of machine tools based on ANFIS with fuzzy c-means
@@ -490,7 +490,7 @@ class ANFISFCM(_ANFISBase):
     Parameters
     ----------
     n_clusters : int, default=3
-        Rules (seed 001's best: 3).
+        Rules (Abdulshahed et al.'s (2015) best: 3).
     m : float, default=2.0
         Fuzziness exponent of c-means (> 1).
     fcm_max_iter : int, default=300
@@ -534,7 +534,7 @@ feature_names_in_
     ----------
     Abdulshahed, A. M., Longstaff, A. P. and Fletcher, S. (2015). The
     application of ANFIS prediction models for thermal error compensation on
-    CNC machine tools. Applied Soft Computing 27, 158-168. (Seed 001: ANFIS-Grid
+    CNC machine tools. Applied Soft Computing 27, 158-168. (Abdulshahed et al. (2015): ANFIS-Grid
     and ANFIS-FCM, GM(1,N) sensor selection.)
     Abdulshahed, A. M., Longstaff, A. P., Fletcher, S. and Myers, A. (2015).
     Thermal error modelling of machine tools based on ANFIS with fuzzy c-means

@@ -35,7 +35,7 @@ def fit_gm1n(X, y):
     Solves x₁⁽⁰⁾(k) + a·z₁⁽¹⁾(k) = Σⱼ bⱼxⱼ⁽¹⁾(k), k = 2..n of every test, for the
     development coefficient ``a`` and the driving (influence) coefficients
     ``b``, with B = [−z₁⁽¹⁾, x₂⁽¹⁾, …, x_N⁽¹⁾] (DOMAIN.md corrects the sign that
-    seed 001 drops).
+    Abdulshahed et al. (2015) drops).
 
     Parameters
     ----------

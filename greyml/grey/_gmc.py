@@ -407,9 +407,9 @@ class GMC(_GreyConvolutionModel):
     ----------
     solver : {"ls", "pso", "cs"} or PopulationOptimizer, default="ls"
         ``"ls"``: least squares on the grey equation with background values
-        (the "GMC-LS" baseline of seed 000). ``"pso"`` / ``"cs"``: particle swarm
+        (the "GMC-LS" baseline of Abdulshahed et al. (2016)). ``"pso"`` / ``"cs"``: particle swarm
         or cuckoo search minimising Σ(x̂₁⁽⁰⁾ − x₁⁽⁰⁾)² of the time response
-        (seeds 002/004), with ``n_population`` and ``max_iter``; or pass a
+        (Abdulshahed et al. (2017)), with ``n_population`` and ``max_iter``; or pass a
         configured :class:`~greyml.optimize.ParticleSwarm` /
         :class:`~greyml.optimize.CuckooSearch` to set every optimiser option.
     search : {"separable", "full"}, default="separable"
@@ -417,7 +417,7 @@ class GMC(_GreyConvolutionModel):
         candidate b₁ the other coefficients solve the trajectory least-squares
         problem exactly, because the response is linear in (b₂…b_N, u) once b₁
         is fixed (variable projection). ``"full"``: every coefficient, as in
-        seeds 002/004. The separable search reaches the trajectory optimum in a
+        Abdulshahed et al. (2017). The separable search reaches the trajectory optimum in a
         budget where the full search does not (see Notes).
     bounds : {"stable", "papers"} or (float, float) or (array, array), \
             default="stable"
@@ -435,12 +435,12 @@ class GMC(_GreyConvolutionModel):
         coefficients are solved again (the least-squares optimum within the
         range).
     n_population : int, default=25
-        Particles or nests (seed 004: 25).
+        Particles or nests (Abdulshahed et al. (2017): 25).
     max_iter : int, default=100
-        Optimiser iterations (seed 004: 100).
+        Optimiser iterations (Abdulshahed et al. (2017): 100).
     response : {"trapezoid", "midpoint"}, default="trapezoid"
         Discretisation of the convolution: the trapezoid form of Tien (2012) and
-        seeds 002/004, or the midpoint form printed in seed 000.
+        Abdulshahed et al. (2017), or the midpoint form printed in Abdulshahed et al. (2016).
     initial : {"model", "zero"}, default="model"
         How each test's response starts, in ``fit`` and in ``predict`` alike (the
         target of a new test is unknown when it is predicted). ``"model"``: the

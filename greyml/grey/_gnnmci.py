@@ -1,4 +1,4 @@
-"""GNNMCI(1,N): seed 000's grey neural network, trained by particle swarm."""
+"""GNNMCI(1,N): Abdulshahed et al.'s (2016) grey neural network, trained by particle swarm."""
 
 from __future__ import annotations
 
@@ -17,26 +17,26 @@ __all__ = ["GNNMCI"]
 class GNNMCI(_GreyConvolutionModel):
     """Grey neural network model with convolution integral, GNNMCI(1,N).
 
-    Seed 000 writes the GMC(1,N) time response (midpoint form) as a four-layer
+    Abdulshahed et al. (2016) writes the GMC(1,N) time response (midpoint form) as a four-layer
     network: A, w₁₁k; B, a sigmoid; C, products with the (convolved)
     accumulated inputs; D, a weighted sum minus a bias θ. Inputs are
     accumulated (AGO) per test on the way in and the output is differenced
     (IAGO) on the way out. The weights (w₁₁ = b₁, the driving weights and u)
     are trained by particle swarm optimisation minimising Σ(x̂⁽⁰⁾ − x⁽⁰⁾)² over
-    the training tests, with seed 000's swarm: 90 particles, c₁ = 1.5,
+    the training tests, with Abdulshahed et al.'s (2016) swarm: 90 particles, c₁ = 1.5,
     c₂ = 2, inertia 0.9 → 0.4, 100 epochs.
 
     Parameters
     ----------
     n_particles : int, default=90
     max_iter : int, default=100
-        Swarm size and epochs (seed 000).
+        Swarm size and epochs (Abdulshahed et al. (2016)).
     c1, c2 : float, default=1.5, 2.0
-        Cognitive and social coefficients (seed 000).
+        Cognitive and social coefficients (Abdulshahed et al. (2016)).
     inertia : (float, float), default=(0.9, 0.4)
-        Inertia weight, decreased linearly over the epochs (seed 000).
+        Inertia weight, decreased linearly over the epochs (Abdulshahed et al. (2016)).
     search : {"separable", "full"}, default="separable"
-        ``"full"``: the swarm searches every weight, as in seed 000.
+        ``"full"``: the swarm searches every weight, as in Abdulshahed et al. (2016).
         ``"separable"``: it searches w₁₁ = b₁ only, and for each particle the
         remaining weights, on which the output depends linearly, are solved
         exactly by least squares; see :class:`GMC` for why this is the default.
@@ -75,7 +75,7 @@ class GNNMCI(_GreyConvolutionModel):
     See Also
     --------
     GMC : the same time response calibrated by least squares, PSO or cuckoo
-        search with seed 004's settings.
+        search with Abdulshahed et al.'s (2017) settings.
 
     Notes
     -----

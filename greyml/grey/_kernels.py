@@ -347,11 +347,11 @@ def gmc_response(f, b1, x0, form="trapezoid"):
     x0 : float
         Starting value x̂₁⁽¹⁾(1).
     form : {"trapezoid", "midpoint"}
-        ``"trapezoid"`` (Tien 2012, seeds 002/004)::
+        ``"trapezoid"`` (Tien 2012, Abdulshahed et al. (2017))::
 
             x̂(k) = x0·e^{−b₁(k−1)} + ½e^{−b₁(k−1)}f(1) + Σ_{τ=2}^{k−1} e^{−b₁(k−τ)}f(τ) + ½f(k)
 
-        ``"midpoint"`` (seed 000)::
+        ``"midpoint"`` (Abdulshahed et al. (2016))::
 
             x̂(k) = x0·e^{−b₁(k−1)} + Σ_{τ=2}^{k} ½e^{−b₁(k−τ+½)}[f(τ) + f(τ−1)]
 
@@ -653,7 +653,7 @@ def gmc_separable(X1, y, b1, bounds=None, form="trapezoid", initial="model"):
 
 
 def gnnmci_layers(X1, b1, coef, control, x0):
-    """Layer outputs of seed 000's grey neural network GNNMCI(1,N) for one test.
+    """Layer outputs of Abdulshahed et al.'s (2016) grey neural network GNNMCI(1,N) for one test.
 
     The network maps the midpoint time response of GMC(1,N) onto four layers,
     evaluated for k = 1..n−1 (the output is x̂₁⁽¹⁾(k+1)):

@@ -1,4 +1,4 @@
-"""Neural models: the multilayer-perceptron baseline of seed 000."""
+"""Neural models: the multilayer-perceptron baseline of Abdulshahed et al. (2016)."""
 
 from greyml.neural._kernels import (
     ACTIVATIONS,

@@ -1,4 +1,4 @@
-"""The multilayer-perceptron baseline of seed 000, as a regressor."""
+"""The multilayer-perceptron baseline of Abdulshahed et al. (2016), as a regressor."""
 
 from __future__ import annotations
 
@@ -60,7 +60,7 @@ class UnderdeterminedWarning(UserWarning):
 
 
 class MLPBaseline(RegressorMixin, BaseEstimator):
-    """One-hidden-layer perceptron trained by Levenberg–Marquardt (seed 000).
+    """One-hidden-layer perceptron trained by Levenberg–Marquardt (Abdulshahed et al. (2016)).
 
     The comparison network of Abdulshahed et al. (2016): inputs, one hidden
     layer of log-sigmoid units, one linear output, trained by Levenberg–Marquardt
@@ -72,7 +72,7 @@ class MLPBaseline(RegressorMixin, BaseEstimator):
     Parameters
     ----------
     hidden_layer_sizes : int or tuple of one int, default=10
-        Hidden units (seed 000: 10, chosen from 1…15). A tuple is accepted for
+        Hidden units (Abdulshahed et al. (2016): 10, chosen from 1…15). A tuple is accepted for
         symmetry with :class:`sklearn.neural_network.MLPRegressor`, but only one
         hidden layer is supported. ``fit`` needs at least as many rows as the
         network has weights, h·(p + 2) + 1 for p inputs and h hidden units (61
@@ -86,7 +86,7 @@ class MLPBaseline(RegressorMixin, BaseEstimator):
         000: 5000).
     goal : float, default=1e-4
         Training stops when the training MSE of the *standardised* target
-        reaches ``goal`` (seed 000: 1e-4, i.e. R² ≥ 0.9999 on the training rows).
+        reaches ``goal`` (Abdulshahed et al. (2016): 1e-4, i.e. R² ≥ 0.9999 on the training rows).
     n_restarts : int, default=5
         Number of random initialisations; the network with the lowest checking
         MSE (the lowest training MSE when ``validation_fraction=0``) is kept.
@@ -169,7 +169,7 @@ class MLPBaseline(RegressorMixin, BaseEstimator):
     validation stop ends training. ``fit`` then warns
     (:class:`UnderdeterminedWarning`), since such a network can interpolate
     its training rows; it needs at least two rows. Size the network by
-    cross-validation (seed 000 tried 1 to 15 hidden units), e.g.
+    cross-validation (Abdulshahed et al. (2016) tried 1 to 15 hidden units), e.g.
     ``GridSearchCV`` over ``hidden_layer_sizes`` with
     ``LeaveOneGroupOut`` on the tests; refusing large networks on small folds
     would make such a search fail part-way.

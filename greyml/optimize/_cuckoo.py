@@ -81,11 +81,11 @@ class CuckooSearch(PopulationOptimizer):
     Parameters
     ----------
     n_nests : int, default=25
-        Number of nests (seed 004: 25).
+        Number of nests (Abdulshahed et al. (2017): 25).
     max_iter : int, default=100
-        Iterations (seed 004: 100).
+        Iterations (Abdulshahed et al. (2017): 100).
     pa : float, default=0.25
-        Discovery rate of alien eggs (seed 004, after Yang 2010).
+        Discovery rate of alien eggs (Abdulshahed et al. (2017), after Yang 2010).
     alpha : float, default=0.01
         Step-size scale of the Lévy flights (Yang 2010).
     beta : float, default=1.5

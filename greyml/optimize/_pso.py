@@ -32,12 +32,12 @@ class ParticleSwarm(PopulationOptimizer):
     Parameters
     ----------
     n_particles : int, default=25
-        Swarm size (seed 004: 25; seed 000's GNNMCI: 90).
+        Swarm size (Abdulshahed et al. (2017): 25; Abdulshahed et al.'s (2016) GNNMCI: 90).
     max_iter : int, default=100
         Iterations after the initial evaluation.
     c1, c2 : float, default=2.0
-        Cognitive and social acceleration coefficients (seed 004: 2 and 2;
-        seed 000: 1.5 and 2).
+        Cognitive and social acceleration coefficients (Abdulshahed et al. (2017): 2 and 2;
+        Abdulshahed et al. (2016): 1.5 and 2).
     inertia : (float, float), default=(0.9, 0.4)
         Inertia weight at the first and the last iteration.
     velocity_clamp : float, default=0.2

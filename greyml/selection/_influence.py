@@ -1,4 +1,4 @@
-"""Sensor selection by grey influence and fuzzy c-means (seed 001)."""
+"""Sensor selection by grey influence and fuzzy c-means (Abdulshahed et al. (2015))."""
 
 from __future__ import annotations
 
@@ -32,7 +32,7 @@ _CLUSTER_ON = ("influence", "series")
 class GreyInfluenceSelector(SelectorMixin, BaseEstimator):
     """Keep one sensor per group: GM(1,N) influence plus fuzzy c-means.
 
-    Seed 001's selection of temperature sensors: the GM(1,N) model of the target
+    Abdulshahed et al.'s (2015) selection of temperature sensors: the GM(1,N) model of the target
     (e.g. a displacement) against every candidate sensor gives each sensor an
     influence weight bⱼ; fuzzy c-means groups the sensors into ``n_clusters``
     clusters; from each cluster the sensor with the largest influence ``|bⱼ|`` is
@@ -42,13 +42,13 @@ class GreyInfluenceSelector(SelectorMixin, BaseEstimator):
     Parameters
     ----------
     n_clusters : int, default=5
-        Groups of sensors, hence the number of sensors kept (seed 001: 5). A
+        Groups of sensors, hence the number of sensors kept (Abdulshahed et al. (2015): 5). A
         cluster that no sensor belongs to most keeps nothing.
     m : float, default=2.0
         Fuzziness exponent of c-means (> 1).
     cluster_on : {"influence", "series"}, default="influence"
         What c-means groups. ``"influence"``: the sensors' influence weights, as
-        seed 001 does (sensors with similar weights form a group).
+        Abdulshahed et al. (2015) does (sensors with similar weights form a group).
         ``"series"``: the sensors' series, normalised as ``normalisation``
         says, so sensors that move together form a group whatever their
         weights.

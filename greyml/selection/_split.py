@@ -34,7 +34,7 @@ class TrainOnOneTest(BaseCrossValidator):
     Parameters
     ----------
     train_tests : sequence or None, default=None
-        Only these tests are calibrated on (e.g. ``["IV"]`` for seed 001's
+        Only these tests are calibrated on (e.g. ``["IV"]`` for Abdulshahed et al.'s (2015)
         protocol); ``None`` calibrates on each test in turn.
 
     Examples

@@ -15,9 +15,9 @@ __all__ = ["vmc_tests", "probe_test", "gantry_tests"]
 
 
 def vmc_tests():
-    """Seed 001's Tests I–VI on the VMC (spindle only, axes stationary).
+    """Abdulshahed et al.'s (2015) Tests I–VI on the VMC (spindle only, axes stationary).
 
-    Seed 001 states: Tests I–III run at 4000 rpm with different durations and
+    Abdulshahed et al. (2015) states: Tests I–III run at 4000 rpm with different durations and
     ambient conditions; Test IV runs 4000 rpm for 120 min, pauses 60 min,
     runs 120 min and stands 180 min; Tests V and VI run 8000 rpm for 1 h and
     cool for 1 h in different ambient conditions; Test I against Test VI
@@ -65,7 +65,7 @@ def vmc_tests():
             "IV",
             test_iv,
             diurnal(20.0, 1.5, peak_hour=15.0, start_hour=8.0),
-            note="seed 001's training test",
+            note="Abdulshahed et al.'s (2015) training test",
         ),
         HeatingTest(
             "V",
@@ -75,15 +75,15 @@ def vmc_tests():
             note="air cooling; machine warm from a 2 h run that ended 30 min before",
         ),
         HeatingTest(
-            "VI", fast, linear_drift(19.0, 0.3), note="seed 001 Fig. 5: X 3, Y 79, Z 22 µm"
+            "VI", fast, linear_drift(19.0, 0.3), note="Abdulshahed et al. (2015) Fig. 5: X 3, Y 79, Z 22 µm"
         ),
     ]
 
 
 def probe_test():
-    """Seeds 002/004's 200-min probing test at 9000 rpm and 5000 mm/min.
+    """Abdulshahed et al.'s (2017) 200-min probing test at 9000 rpm and 5000 mm/min.
 
-    The spindle stops for the probing routines (seed 002 Sec. 4): before the
+    The spindle stops for the probing routines (Abdulshahed et al. (2017) Sec. 4): before the
     first part, after the third and after the sixth. Each routine is taken
     as 2 min at the probe's 480 mm/min (our choice); the seeds do not give
     the ambient, here a slow morning rise (our choice).
@@ -108,19 +108,19 @@ def probe_test():
         .run(**probe)
     )
     return HeatingTest(
-        "probe", programme, linear_drift(20.0, 0.2), note="seeds 002/004: X 20, Y 18, Z 58 µm"
+        "probe", programme, linear_drift(20.0, 0.2), note="Abdulshahed et al. (2017): X 20, Y 18, Z 58 µm"
     )
 
 
 def gantry_tests():
-    """Seed 000's Z-axis, C-axis and helical tests on the gantry.
+    """Abdulshahed et al.'s (2016) Z-axis, C-axis and helical tests on the gantry.
 
     Each heats for 2 h and cools for 2 h. Z axis: the ram reciprocates at
     70 m/min ten times, then dwells 10 s for the measurement, over and over
     (we take the ten strokes as 10 s). C axis: 2500 rpm in the same rhythm.
     Helical: both at once; the seed gives no speeds, so we keep 2500 rpm and
     take a 2 mm/rev helix, 5 m/min in Z (our choice). The machine stands in
-    a workshop without temperature control (seed 000 Sec. 5): a daily cycle
+    a workshop without temperature control (Abdulshahed et al. (2016) Sec. 5): a daily cycle
     of the air, and in the Z-axis test a door left open during the cooling,
     the kind of ambient change that gave the seed's largest residuals.
 
@@ -155,17 +155,17 @@ def gantry_tests():
         duration_s=900.0,
     )
     return [
-        HeatingTest("Z-axis", z, air_z, note="seed 000 Sec. 4.1: Z error > 100 µm"),
+        HeatingTest("Z-axis", z, air_z, note="Abdulshahed et al. (2016) Sec. 4.1: Z error > 100 µm"),
         HeatingTest(
             "C-axis",
             c,
             diurnal(18.5, 1.0, peak_hour=15.0, start_hour=13.0),
-            note="seed 000 Sec. 4.2: T1 +7 °C, T2 < 4 °C, T3/T4 ≈ 1 °C, Z > 80 µm",
+            note="Abdulshahed et al. (2016) Sec. 4.2: T1 +7 °C, T2 < 4 °C, T3/T4 ≈ 1 °C, Z > 80 µm",
         ),
         HeatingTest(
             "helical",
             helical,
             diurnal(17.5, 2.0, peak_hour=15.0, start_hour=11.0),
-            note="seed 000 Sec. 4.3: about 95 µm",
+            note="Abdulshahed et al. (2016) Sec. 4.3: about 95 µm",
         ),
     ]

@@ -32,7 +32,7 @@ AMBIENT = "ambient"
 #: Operating inputs a programme can command, in column order.
 OPERATING_INPUTS = ("spindle_rpm", "feed_mm_min", "c_rpm")
 
-#: Apparent strain of a bare fibre Bragg grating per °C (seed 000, Sec. 3).
+#: Apparent strain of a bare fibre Bragg grating per °C (Abdulshahed et al. (2016), Sec. 3).
 FBG_TEMPERATURE_SENSITIVITY_UE_PER_C = 8.64
 
 

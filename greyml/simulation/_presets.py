@@ -53,8 +53,8 @@ def _mix(a, b, w):
 
 
 # =====================================================================
-# VMC (seed 001: 3-axis vertical milling centre, 60-8000 rpm, 76 sensors;
-# seeds 002/004: the probing test at 9000 rpm and 5000 mm/min)
+# VMC (Abdulshahed et al. (2015): 3-axis vertical milling centre, 60-8000 rpm, 76 sensors;
+# Abdulshahed et al. (2017): the probing test at 9000 rpm and 5000 mm/min)
 # =====================================================================
 
 # name: (mass kg, specific heat) -> capacity = mass * c
@@ -119,7 +119,7 @@ _VMC_CONVECTION = {
 }
 
 #: Heat of the spindle bearings at 8000 rpm (W). Chosen, together with
-#: ``_VMC_MOTOR_W``, so that seed 001's 8000 rpm 1 h test gives Y ≈ 79 µm
+#: ``_VMC_MOTOR_W``, so that Abdulshahed et al.'s (2015) 8000 rpm 1 h test gives Y ≈ 79 µm
 #: with carrier temperatures rising by a few kelvin.
 _VMC_BEARING_W = 145.0
 #: Losses of the spindle motor at 8000 rpm (W), proportional to speed.
@@ -128,7 +128,7 @@ _VMC_MOTOR_W = 100.0
 _VMC_AXIS_MOTOR_W = 12.0
 #: Friction heat of each ballscrew nut and its support bearings at
 #: 5000 mm/min (W), proportional to feed (the switchable extra source).
-#: Chosen so that seed 002's 200-min probing test gives X ≈ 20 µm.
+#: Chosen so that Abdulshahed et al.'s (2017) 200-min probing test gives X ≈ 20 µm.
 _VMC_NUT_W = 8.0
 
 
@@ -142,7 +142,7 @@ def _vmc_sources():
             _VMC_BEARING_W,
             8000.0,
             BEARING_EXPONENT,
-            note="chosen: seed 001 8000 rpm 1 h test, Y ≈ 79 µm",
+            note="chosen: Abdulshahed et al. (2015) 8000 rpm 1 h test, Y ≈ 79 µm",
         ),
         HeatSource(
             "spindle motor",
@@ -151,7 +151,7 @@ def _vmc_sources():
             _VMC_MOTOR_W,
             8000.0,
             1.0,
-            note="chosen: seed 001 8000 rpm 1 h test, Y ≈ 79 µm",
+            note="chosen: Abdulshahed et al. (2015) 8000 rpm 1 h test, Y ≈ 79 µm",
         ),
         HeatSource("X motor", "feed_mm_min", {"x_motor": 1.0}, _VMC_AXIS_MOTOR_W, feed),
         HeatSource("Y motor", "feed_mm_min", {"y_motor": 1.0}, _VMC_AXIS_MOTOR_W, feed),
@@ -175,7 +175,7 @@ _VMC_COLUMN_H = 0.70  # m, column height
 _VMC_CARRIER_Z = 0.25  # m, carrier from the Z nut down to the spindle nose
 #: m of spindle shaft in front of the fixed front bearing (the shaft grows
 #: backwards from it); chosen with _VMC_CARRIER_Z so that the 8000 rpm 1 h
-#: test gives Z ≈ 22 µm (seed 001)
+#: test gives Z ≈ 22 µm (Abdulshahed et al. (2015))
 _VMC_SPINDLE_L = 0.05
 _VMC_TABLE_H = 0.25  # m, base top to table top
 # Y: the spindle axis sits in front of the column face on the carrier. A
@@ -187,18 +187,18 @@ _VMC_CARRIER_H = 0.45  # m, carrier height
 _VMC_CARRIER_D = 0.25  # m, carrier depth (front to rear)
 _VMC_COLUMN_D = 0.50  # m, column depth
 #: m from the carrier's lower face to where the NCDTs read the test bar
-#: (spindle nose, tool holder and test bar; seed 001). Chosen so that the
+#: (spindle nose, tool holder and test bar; Abdulshahed et al. (2015)). Chosen so that the
 #: 8000 rpm 1 h test gives Y ≈ 79 µm.
 _VMC_NCDT_ARM = 0.60
-#: Same for the touch probe of seeds 002/004. Chosen so that the 200-min
+#: Same for the touch probe of Abdulshahed et al. (2017). Chosen so that the 200-min
 #: 9000 rpm test gives Y ≈ 18 µm: there the forward growth of the carrier
 #: and its backward bending nearly cancel.
 _VMC_PROBE_ARM = 0.0
 #: Fraction of the Y mechanisms seen in X: the machine is symmetric in X
-#: (seed 001 Sec. 4.1: X error 3 µm against 79 µm in Y). Chosen for X ≈ 3 µm.
+#: (Abdulshahed et al. (2015) Sec. 4.1: X error 3 µm against 79 µm in Y). Chosen for X ≈ 3 µm.
 _VMC_X_ASYMMETRY = 0.035
 # X and Y ballscrews: distance of the measured positions from the fixed bearing
-_VMC_X_SCREW_L = 0.25  # m; chosen so that seed 002's test gives X ≈ 20 µm
+_VMC_X_SCREW_L = 0.25  # m; chosen so that Abdulshahed et al.'s (2017) test gives X ≈ 20 µm
 _VMC_Y_SCREW_L = 0.05  # m
 
 
@@ -237,7 +237,7 @@ def _vmc_displacement(measurement):
     return {"dx_um": dx, "dy_um": dy, "dz_um": dz}
 
 
-# --- the 76 candidate sensors of seed 001 (Table 1 is not in the text: only the
+# --- the 76 candidate sensors of Abdulshahed et al. (2015) (Table 1 is not in the text: only the
 # positions of T11, T18, T55, T63, T68 and T71 are given; the rest of the
 # layout follows the categories the paper lists, in its numbering order)
 _VMC_GROUPS = (
@@ -319,7 +319,7 @@ def _vmc_ncdt_sensors():
 
 
 def _vmc_probe_sensors():
-    # seeds 002/004: nine sensors on the carrier, spindle boss, axis motors,
+    # Abdulshahed et al. (2017): nine sensors on the carrier, spindle boss, axis motors,
     # ballscrew nuts and the ambient air
     layout = (
         ("spindle carrier", {"carrier_front": 0.7, "spindle_motor": 0.3}, 180.0),
@@ -339,7 +339,7 @@ def _vmc_probe_sensors():
 
 
 def vmc(measurement="ncdt"):
-    """The small 3-axis vertical milling centre of seeds 001 and 002/004.
+    """The small 3-axis vertical milling centre of Abdulshahed et al. (2015, 2017).
 
     Fifteen nodes: spindle bearings, spindle boss, the front and rear halves
     of the spindle carrier, the spindle motor, the front and rear of the
@@ -351,7 +351,7 @@ def vmc(measurement="ncdt"):
     Parameters
     ----------
     measurement : {"ncdt", "probe"}, default="ncdt"
-        ``"ncdt"``: seed 001's set-up, 76 temperature sensors and five
+        ``"ncdt"``: Abdulshahed et al.'s (2015) set-up, 76 temperature sensors and five
         non-contact displacement transducers on a test bar in the spindle
         (spindle up to 8000 rpm, sampled every minute). ``"probe"``: seeds
         002/004's set-up, 9 temperature sensors and a spindle-mounted touch
@@ -371,15 +371,15 @@ def vmc(measurement="ncdt"):
     test bar far below the nose against a probe stylus at the nose) and in
     the ballscrews that the probe's loop contains.
 
-    Seed 001's Table 1 (sensor positions) is not in the available text; the
+    Abdulshahed et al.'s (2015) Table 1 (sensor positions) is not in the available text; the
     76 sensors are laid out by the categories it names, with T11, T18 and
     T55 on the carrier strips, T63 on the spindle boss, T68 in the air near
     the column and T71 in the air near the base, as in its Sec. 4.2.
 
     References
     ----------
-    Seed 001: Abdulshahed et al., ANFIS thermal error models of a VMC with
-    grey/FCM sensor selection. Seeds 002/004: Abdulshahed et al., GMC(1,N)
+    Abdulshahed et al. (2015): ANFIS thermal error models of a VMC with
+    grey/FCM sensor selection. Abdulshahed et al. (2017): GMC(1,N)
     calibrated by cuckoo search on a 200-min probing test.
 
     Examples
@@ -392,7 +392,7 @@ def vmc(measurement="ncdt"):
     """
     if measurement not in ("ncdt", "probe"):
         raise ValueError(
-            f"measurement must be 'ncdt' (seed 001) or 'probe' (seeds 002/004); "
+            f"measurement must be 'ncdt' (Abdulshahed et al. (2015)) or 'probe' (Abdulshahed et al. (2017)); "
             f"got {measurement!r}."
         )
     names = tuple(_VMC_NODES)
@@ -408,7 +408,7 @@ def vmc(measurement="ncdt"):
         temperature_sensors=_vmc_ncdt_sensors() if ncdt else _vmc_probe_sensors(),
         displacement=_vmc_displacement(measurement),
         # NCDTs resolve about 0.1 µm; the OMP40-2 probe repeats to 1.0 µm (2σ,
-        # seed 002 Sec. 4), so σ = 0.5 µm
+        # Abdulshahed et al. (2017) Sec. 4), so σ = 0.5 µm
         probe_noise_um=dict.fromkeys(("dx_um", "dy_um", "dz_um"), 0.1 if ncdt else 0.5),
         # slow creep of the transducer fixture, a fraction of a µm per hour
         probe_drift_um_per_h={"dx_um": 0.1, "dy_um": -0.3, "dz_um": 0.4},
@@ -416,17 +416,17 @@ def vmc(measurement="ncdt"):
         max_input={"spindle_rpm": 8000.0 if ncdt else 9000.0, "feed_mm_min": 10000.0},
         sample_s=60.0 if ncdt else 10.0,
         description=(
-            "Small 3-axis vertical milling centre of seed 001 (76 candidate "
+            "Small 3-axis vertical milling centre of Abdulshahed et al. (2015) (76 candidate "
             "temperature sensors, NCDTs on a test bar)"
             if ncdt
-            else "Small vertical milling centre of seeds 002/004 (9 temperature "
+            else "Small vertical milling centre of Abdulshahed et al. (2017) (9 temperature "
             "sensors, spindle probe on a granite square)"
         ),
     )
 
 
 # =====================================================================
-# Gantry (seed 000: 5-axis gantry, ram along Z at 70 m/min, C axis in the ram)
+# Gantry (Abdulshahed et al. (2016): 5-axis gantry, ram along Z at 70 m/min, C axis in the ram)
 # =====================================================================
 
 _GANTRY_NODES = {
@@ -484,11 +484,11 @@ _GANTRY_CONVECTION = {
 }
 
 #: C-axis motor and bearing heat at 2500 rpm (W). Chosen so that the C-axis
-#: test raises T1 by about 7 °C and gives a Z error above 80 µm (seed 000,
+#: test raises T1 by about 7 °C and gives a Z error above 80 µm (Abdulshahed et al. (2016),
 #: Sec. 4.2).
 _GANTRY_C_W = 132.0
 #: Z motor losses at 70 m/min while moving (W). Chosen with the two below
-#: so that the Z-axis test gives a Z error above 100 µm (seed 000, Sec. 4.1).
+#: so that the Z-axis test gives a Z error above 100 µm (Abdulshahed et al. (2016), Sec. 4.1).
 _GANTRY_ZMOTOR_W = 75.0
 #: Friction in the two ballscrew support bearings at 70 m/min (W).
 _GANTRY_ZBEARING_W = 40.0
@@ -506,7 +506,7 @@ def _gantry_sources():
             _GANTRY_C_W,
             2500.0,
             1.0,
-            note="chosen: seed 000 C-axis test, T1 +7 °C, Z > 80 µm",
+            note="chosen: Abdulshahed et al. (2016) C-axis test, T1 +7 °C, Z > 80 µm",
         ),
         HeatSource("Z motor", "feed_mm_min", {"z_motor": 1.0}, _GANTRY_ZMOTOR_W, feed),
         HeatSource(
@@ -554,7 +554,7 @@ def _gantry_displacement():
 
 
 def _gantry_sensors():
-    lag = 600.0  # s, seed 000 Sec. 3.1: surface sensors lag by about 10 min
+    lag = 600.0  # s, Abdulshahed et al. (2016) Sec. 3.1: surface sensors lag by about 10 min
     layout = (
         ("ram", {"c_axis": 0.6, "ram_lower": 0.4}, lag),  # T1 near the C-axis motor
         ("ram", {"ram_lower": 0.7, "z_bearing": 0.3}, lag),  # T2 ram rear, lower bearing
@@ -624,7 +624,7 @@ def _gantry_fbgs():
 
 
 def gantry():
-    """The 5-axis gantry machine of seed 000 (Z-axis ram with a C axis in it).
+    """The 5-axis gantry machine of Abdulshahed et al. (2016) (Z-axis ram with a C axis in it).
 
     Thirteen nodes: the C-axis motor and bearings in the ram foot, four ram
     nodes (foot, upper front, upper rear, top end), the lower ballscrew
@@ -633,7 +633,7 @@ def gantry():
     (∝ C-axis speed), the Z motor and the ballscrew support bearings
     (∝ Z feed) and, as the switchable extra source, the ball nut (∝ Z feed).
 
-    Sensors as in seed 000 Sec. 3: T1 near the C-axis motor, T2 at the lower
+    Sensors as in Abdulshahed et al. (2016) Sec. 3: T1 near the C-axis motor, T2 at the lower
     ballscrew bearing (ram rear), T3/T4 at the end of the ram, T5/T6 on the Z
     motor, T7–T12 in the air around the machine; FBG1–FBG3 on the ram,
     FBG4–FBG7 on the cross-beam. Targets: ``dy_um`` and ``dz_um`` (the seed
@@ -645,7 +645,7 @@ def gantry():
 
     References
     ----------
-    Seed 000: Abdulshahed et al., GNNMCI(1,N) thermal error model of a
+    Abdulshahed et al. (2016): GNNMCI(1,N) thermal error model of a
     5-axis gantry machine with temperature and FBG sensors.
 
     Examples
@@ -671,7 +671,7 @@ def gantry():
         max_input={"feed_mm_min": 70000.0, "c_rpm": 2500.0},
         sample_s=20.0,
         description=(
-            "5-axis gantry machine of seed 000: ram along Z (70 m/min) with the "
+            "5-axis gantry machine of Abdulshahed et al. (2016): ram along Z (70 m/min) with the "
             "C axis in its foot; 12 temperature sensors, 7 FBGs"
         ),
     )

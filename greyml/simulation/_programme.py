@@ -87,7 +87,7 @@ class Programme:
 
     Examples
     --------
-    Seed 001's Test IV: 4000 rpm for 120 min, 60 min pause, 120 min, 180 min stopped.
+    Abdulshahed et al.'s (2015) Test IV: 4000 rpm for 120 min, 60 min pause, 120 min, 180 min stopped.
 
     >>> p = (Programme(name="Test IV").run(120, spindle_rpm=4000).dwell(60)
     ...      .run(120, spindle_rpm=4000).dwell(180))
@@ -96,7 +96,7 @@ class Programme:
     >>> len(p.segments)
     4
 
-    Seed 000's Z-axis test: 10 s of reciprocation, 10 s dwell, for 2 h, then
+    Abdulshahed et al.'s (2016) Z-axis test: 10 s of reciprocation, 10 s dwell, for 2 h, then
     2 h cooling.
 
     >>> z = Programme().cycle(on_s=10, off_s=10, minutes=120, feed_mm_min=70000)

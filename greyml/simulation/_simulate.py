@@ -39,15 +39,15 @@ class Effects:
         ``ambient_C`` column still show the real air).
     sensor_lag : bool, default=True
         Surface-mounted temperature sensors follow their node through a
-        first-order delay (seed 000, Sec. 3.1: surface temperatures lag the
+        first-order delay (Abdulshahed et al. (2016), Sec. 3.1: surface temperatures lag the
         displacement by about 10 min). Off: they read the node directly.
     initial_disequilibrium : bool, default=True
         A test with a ``history`` starts in the thermal state that the history
         left (a machine that ran or stood in different air before the test,
-        seed 001 Fig. 4a). Off: every test starts in equilibrium with the air.
+        Abdulshahed et al. (2015) Fig. 4a). Off: every test starts in equilibrium with the air.
     fbg_cross_sensitivity : bool, default=True
         FBG readings include the grating's own temperature response of
-        8.64 µε/°C (seed 000, Sec. 3). Off: pure mechanical strain.
+        8.64 µε/°C (Abdulshahed et al. (2016), Sec. 3). Off: pure mechanical strain.
     probe_drift : bool, default=True
         The displacement transducers drift slowly (the machine's
         ``probe_drift_um_per_h``). Off: no drift.
