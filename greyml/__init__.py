@@ -12,6 +12,7 @@ from greyml.grey import (
     fit_gm1n,
     simulate_gmc,
 )
+from greyml.dynamic import ThermalTransferFunction
 from greyml.neural import MLPBaseline
 from greyml.selection import GreyInfluenceSelector, TrainOnOneTest
 
@@ -30,6 +31,7 @@ __all__ = [
     "MLPBaseline",
     "TEST_LEVEL",
     "TIME_LEVEL",
+    "ThermalTransferFunction",
     "TrainOnOneTest",
     "fit_gm1n",
     "make_test_index",

@@ -4,4 +4,6 @@ The kernels (:mod:`greyml.dynamic._kernels`) are shared by every piece that need
 a thermal lag, :mod:`greyml.gap` included.
 """
 
-__all__ = []
+from greyml.dynamic._transfer import ThermalTransferFunction
+
+__all__ = ["ThermalTransferFunction"]
