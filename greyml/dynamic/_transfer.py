@@ -110,13 +110,21 @@ def _held_out_scores(grams, cols, alphas, penalised, folds):
     bs = b[:, cols]
     Gt, bt = Gs.sum(axis=0), bs.sum(axis=0)
     pen = penalised[cols]
+    alphas = np.asarray(alphas, dtype=float)
     out = np.zeros(len(alphas))
+    uniform = np.all(pen == pen[0]) and pen[0] > 0
     for h in folds:
         Gtr, btr = Gt - Gs[h], bt - bs[h]
-        for i, alpha in enumerate(alphas):
-            coef = _ridge(Gtr, btr, alpha, pen)
-            sse = yy[h] - 2.0 * coef @ bs[h] + coef @ Gs[h] @ coef
-            out[i] += np.sqrt(max(sse, 0.0) / sw[h])
+        if uniform:
+            # one eigendecomposition serves every alpha
+            lam, V = np.linalg.eigh(Gtr)
+            lam = np.maximum(lam, 0.0)
+            z = V.T @ btr
+            coefs = V @ (z[:, None] / (lam[:, None] + alphas[None, :] * pen[0]))
+        else:
+            coefs = np.column_stack([_ridge(Gtr, btr, a, pen) for a in alphas])
+        sse = yy[h] - 2.0 * (bs[h] @ coefs) + np.einsum("ia,ij,ja->a", coefs, Gs[h], coefs)
+        out += np.sqrt(np.maximum(sse, 0.0) / sw[h])
     return out / len(folds)
 
 
@@ -386,11 +394,12 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
             )
         powers = tuple(self.driver_powers)
         if not powers or any(
-            not isinstance(p, numbers.Integral) or isinstance(p, bool) or p < 1 for p in powers
+            not isinstance(p, numbers.Real) or isinstance(p, bool) or not np.isfinite(p) or p <= 0
+            for p in powers
         ):
             raise ValueError(
                 f"The 'driver_powers' parameter of {name} must be a non-empty sequence of "
-                f"ints >= 1. Got {self.driver_powers!r} instead."
+                f"finite numbers > 0. Got {self.driver_powers!r} instead."
             )
         alphas = np.asarray(DEFAULT_ALPHAS if self.alphas is None else self.alphas, dtype=float)
         if alphas.ndim != 1 or alphas.size == 0 or not (np.isfinite(alphas) & (alphas > 0)).all():
@@ -503,7 +512,7 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
                 f"({', '.join(sensors) or 'none'})."
             )
         w = self._weights(sample_weight, Xa.shape[0], segments)
-        taus_max = max(taus.max(), driver_taus.max()) if not fit_taus else np.inf
+        taus_max = max(taus.max(), driver_taus.max())
         dt = self._time_steps(X, segments, taus_max)
         bounds = [(s.start, s.stop) for s in segments]
         if self.relative_to_start:
@@ -539,7 +548,8 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
         )
         if fit_taus and folds is not None:
             taus, driver_taus = self._fit_taus(
-                build, chosen, taus, driver_taus, y_fit, w, bounds, alphas, folds, drivers
+                Xa, dt, bounds, names, drivers, [sensors[k] for k in chosen], taus,
+                driver_taus, powers, y_fit, w, alphas, folds,
             )
             spec, groups, labels, F = build(taus, driver_taus)
             grams, scale, pen = self._grams(F, y_fit, w, bounds)
@@ -665,30 +675,37 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
         score, keep, alpha = best
         return keep, alpha, score, path
 
-    def _fit_taus(self, build, chosen, taus, driver_taus, y, w, bounds, alphas, folds, drivers):
-        """Variable projection: search log time constants, gains solved for each."""
+    def _fit_taus(self, Xa, dt, bounds, names, drivers, chosen_names, taus, driver_taus,
+                  powers, y, w, alphas, folds):
+        """Variable projection: Nelder–Mead over the log time constants, gains solved inside.
+
+        Only the drivers and the chosen sensors are filtered; the score is the
+        mean held-out RMSE (best penalty) of whole tests.
+        """
         m = len(taus)
 
         def unpack(z):
-            t = np.sort(np.exp(z))
-            return t[:m], t[m:]
+            return np.sort(np.exp(z[:m])), np.sort(np.exp(z[m:]))
 
         def objective(z):
             ts, td = unpack(z)
-            spec, groups, _, F = build(ts, td)
-            col_group = np.repeat(groups, [1 + len(b[2]) for b in spec])
+            if ts.max() > 1e7 or td.max() > 1e7 or ts.min() < 1.0 or td.min() < 1.0:
+                return np.inf
+            spec, groups, _ = self._spec(drivers, chosen_names, names, powers, ts, td)
+            F = self._design(Xa, dt, bounds, spec)
             grams, _, pen = self._grams(F, y, w, bounds)
-            cols = self._cols_all(col_group, chosen, grams[0].shape[1])
+            cols = np.arange(grams[0].shape[1])
             return float(_held_out_scores(grams, cols, alphas, pen, folds).min())
 
         z0 = np.log(np.concatenate([taus, driver_taus]))
+        f0 = objective(z0)
         result = minimize(
             objective,
             z0,
             method="Nelder-Mead",
-            options={"maxfev": 60 * len(z0), "xatol": 0.05, "fatol": 1e-4},
+            options={"maxfev": 40 * len(z0), "xatol": 0.02, "fatol": 1e-6 * max(f0, 1e-12)},
         )
-        best = result.x if result.fun <= objective(z0) else z0
+        best = result.x if result.fun < f0 else z0
         return unpack(best)
 
     # -- readable -------------------------------------------------------------
@@ -700,7 +717,7 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
             for tau in (None, *taus):
                 weight = float(self.coef_[c])
                 if weight != 0.0:
-                    terms.append((name, int(power), None if tau is None else float(tau), weight))
+                    terms.append((name, power, None if tau is None else float(tau), weight))
                 c += 1
         return terms
 
@@ -718,7 +735,7 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
             group_in = name in self.drivers_ or name in self.selected_sensors_
             if group_in:
                 rows.append(row)
-                index.append((name, int(power)))
+                index.append((name, power))
         table = pd.DataFrame(rows, columns=columns)
         table.index = pd.MultiIndex.from_tuples(index, names=["input", "power"])
         return table
