@@ -539,7 +539,8 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
         if n_eq < n_coef:
             raise ValueError(
                 f"{type(self).__name__} has too few rows to fit {n_coef} coefficients: "
-                f"{Xa.shape[0]} rows in {len(segments)} test(s) give {n_eq} equations. "
+                f"{Xa.shape[0]} sample{'' if Xa.shape[0] == 1 else 's'} in {len(segments)} "
+                f"test(s) give {n_eq} equations. "
                 "Give more rows, fewer sensors or fewer time constants."
             )
         grams, scale, pen = self._grams(F, y_fit, w, bounds)
@@ -602,7 +603,10 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
                 f"{w[r]!r}; weights must be finite and >= 0."
             )
         if w.sum() <= 0:
-            raise ValueError(f"{type(self).__name__}: every sample_weight is 0.")
+            raise ValueError(
+                f"{type(self).__name__}: every sample_weight is zero; give some rows a "
+                "positive weight."
+            )
         return w
 
     def _grams(self, F, y, w, bounds):
