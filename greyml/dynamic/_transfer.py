@@ -97,48 +97,73 @@ def _ridge(G, b, alpha, penalised):
         return np.linalg.lstsq(M, b, rcond=None)[0]
 
 
-def _held_out_scores(grams, cols, alphas, penalised, folds):
+def _standardised(G, b, sw, pen):
+    """Gram of the design with unit weighted standard deviation per column.
+
+    ``G``, ``b`` are the summed raw Grams of some tests and ``sw`` their weight.
+    Where a column is unpenalised (the intercept, always last) the others are
+    scaled by their centred deviation, which with an unpenalised intercept is
+    the same ridge as on centred columns. Returns (G', b', scale).
+    """
+    m2 = np.diag(G) / sw
+    if (pen == 0).any():
+        var = m2 - (G[-1] / sw) ** 2
+    else:
+        var = m2
+    scale = np.sqrt(np.maximum(var, 0.0))
+    scale = np.where((scale > 0) & (var > 1e-14 * np.maximum(m2, 1e-300)) & (pen > 0), scale, 1.0)
+    d = 1.0 / scale
+    return G * d[:, None] * d[None, :], b * d, scale
+
+
+def _solve_all(G, b, sw, alphas, pen):
+    """Ridge coefficients (raw units) for every alpha: columns of a (p, n_alphas) array.
+
+    The penalty is ``alpha`` per unit of weight (per row with unit weights) on
+    the standardised columns, so a fit on fewer tests is penalised in proportion.
+    """
+    Gn, bn, scale = _standardised(G, b, sw, pen)
+    alphas = np.asarray(alphas, dtype=float)
+    if (pen > 0).all():
+        # one eigendecomposition serves every alpha
+        lam, V = np.linalg.eigh(Gn)
+        lam = np.maximum(lam, 0.0)
+        coefs = V @ ((V.T @ bn)[:, None] / (lam[:, None] + alphas[None, :] * sw))
+    else:
+        coefs = np.column_stack([_ridge(Gn, bn, a * sw, pen) for a in alphas])
+    return coefs / scale[:, None]
+
+
+def _held_out_scores(grams, cols, alphas, pen, folds):
     """Mean held-out RMSE over ``folds`` for each alpha, on design columns ``cols``.
 
-    ``grams`` are the per-test (G, b, yy, sw) of the standardised design; each
-    fold holds out one test and solves the ridge on the others. Returns an
-    array (n_alphas,) of mean per-test RMSE.
+    ``grams`` are the per-test raw (G, b, yy, sw); each fold holds out one test,
+    standardises and solves the ridge on the others exactly as a refit on them
+    would, and scores the held-out test from its own Gram. Returns an array
+    (n_alphas,) of mean per-test RMSE.
     """
     G, b, yy, sw = grams
     ix = np.ix_(cols, cols)
     Gs = G[:, ix[0], ix[1]]
     bs = b[:, cols]
-    Gt, bt = Gs.sum(axis=0), bs.sum(axis=0)
-    pen = penalised[cols]
-    alphas = np.asarray(alphas, dtype=float)
+    Gt, bt, st = Gs.sum(axis=0), bs.sum(axis=0), sw.sum()
+    pen = pen[cols]
     out = np.zeros(len(alphas))
-    uniform = np.all(pen == pen[0]) and pen[0] > 0
     for h in folds:
-        Gtr, btr = Gt - Gs[h], bt - bs[h]
-        if uniform:
-            # one eigendecomposition serves every alpha
-            lam, V = np.linalg.eigh(Gtr)
-            lam = np.maximum(lam, 0.0)
-            z = V.T @ btr
-            coefs = V @ (z[:, None] / (lam[:, None] + alphas[None, :] * pen[0]))
-        else:
-            coefs = np.column_stack([_ridge(Gtr, btr, a, pen) for a in alphas])
+        coefs = _solve_all(Gt - Gs[h], bt - bs[h], st - sw[h], alphas, pen)
         sse = yy[h] - 2.0 * (bs[h] @ coefs) + np.einsum("ia,ij,ja->a", coefs, Gs[h], coefs)
         out += np.sqrt(np.maximum(sse, 0.0) / sw[h])
     return out / len(folds)
 
 
-def _train_scores(grams, cols, alphas, penalised):
+def _train_scores(grams, cols, alphas, pen):
     """Training RMSE (all tests pooled) for each alpha, when too few tests to hold one out."""
     G, b, yy, sw = grams
     ix = np.ix_(cols, cols)
     Gt, bt = G[:, ix[0], ix[1]].sum(axis=0), b[:, cols].sum(axis=0)
-    out = np.zeros(len(alphas))
-    for i, alpha in enumerate(alphas):
-        coef = _ridge(Gt, bt, alpha, penalised[cols])
-        sse = yy.sum() - 2.0 * coef @ bt + coef @ Gt @ coef
-        out[i] = np.sqrt(max(sse, 0.0) / sw.sum())
-    return out
+    coefs = _solve_all(Gt, bt, sw.sum(), alphas, pen[cols])
+    sse = yy.sum() - 2.0 * (bt @ coefs) + np.einsum("ia,ij,ja->a", coefs, Gt, coefs)
+    return np.sqrt(np.maximum(sse, 0.0) / sw.sum())
 
 
 # ------------------------------------------------------------------------------
@@ -512,7 +537,7 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
                 f"({', '.join(sensors) or 'none'})."
             )
         w = self._weights(sample_weight, Xa.shape[0], segments)
-        taus_max = max(taus.max(), driver_taus.max())
+        taus_max = max(taus.max(), driver_taus.max()) if drivers else taus.max()
         dt = self._time_steps(X, segments, taus_max)
         bounds = [(s.start, s.stop) for s in segments]
         if self.relative_to_start:
@@ -543,7 +568,7 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
                 f"test(s) give {n_eq} equations. "
                 "Give more rows, fewer sensors or fewer time constants."
             )
-        grams, scale, pen = self._grams(F, y_fit, w, bounds)
+        grams, pen = self._grams(F, y_fit, w, bounds)
         chosen, alpha, score, path = self._select(
             grams, pen, col_group, sensors, alphas, folds
         )
@@ -553,15 +578,16 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
                 driver_taus, powers, y_fit, w, alphas, folds,
             )
             spec, groups, labels, F = build(taus, driver_taus)
-            grams, scale, pen = self._grams(F, y_fit, w, bounds)
-            cols = self._cols(col_group, chosen)
+            grams, pen = self._grams(F, y_fit, w, bounds)
+            cols = self._cols_all(col_group, chosen, grams[0].shape[1])
             sc = _held_out_scores(grams, cols, alphas, pen, folds)
             alpha, score = float(alphas[np.argmin(sc)]), float(sc.min())
-        cols = self._cols(col_group, chosen)
+        cols = self._cols_all(col_group, chosen, grams[0].shape[1])
         G, b = grams[0].sum(axis=0), grams[1].sum(axis=0)
-        coef_std = _ridge(G[np.ix_(cols, cols)], b[cols], alpha, pen[cols])
-        coef = np.zeros(len(col_group) + (0 if self.relative_to_start else 1))
-        coef[cols] = coef_std / scale[cols]
+        coef = np.zeros(grams[0].shape[1])
+        coef[cols] = _solve_all(
+            G[np.ix_(cols, cols)], b[cols], grams[3].sum(), [alpha], pen[cols]
+        )[:, 0]
 
         self.sensors_ = sensors
         self.drivers_ = drivers
@@ -610,21 +636,12 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
         return w
 
     def _grams(self, F, y, w, bounds):
-        """Standardised design (ones column last without relative_to_start) and its Grams."""
+        """Per-test raw Grams of the design (ones column last without relative_to_start)."""
         A = F if self.relative_to_start else np.column_stack([F, np.ones(len(F))])
-        ww = w / w.sum()
-        mean = ww @ A
-        centre = 0.0 if self.relative_to_start else mean
-        scale = np.sqrt(ww @ (A - centre) ** 2)
         pen = np.ones(A.shape[1])
         if not self.relative_to_start:
-            scale[-1] = 1.0
             pen[-1] = 0.0
-        scale = np.where(scale > 0, scale, 1.0)
-        n_rows = float((w > 0).sum())
-        grams = _test_grams(A / scale, y, w, bounds)
-        # penalties are per row of the design: alpha·n on unit-variance columns
-        return grams, scale, pen * n_rows
+        return _test_grams(A, y, w, bounds), pen
 
     @staticmethod
     def _cols(col_group, chosen):
@@ -697,7 +714,7 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
                 return np.inf
             spec, groups, _ = self._spec(drivers, chosen_names, names, powers, ts, td)
             F = self._design(Xa, dt, bounds, spec)
-            grams, _, pen = self._grams(F, y, w, bounds)
+            grams, pen = self._grams(F, y, w, bounds)
             cols = np.arange(grams[0].shape[1])
             return float(_held_out_scores(grams, cols, alphas, pen, folds).min())
 
@@ -809,7 +826,7 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
             long = 5.0 * max(self.time_constants_.max(), self.driver_time_constants_.max())
             grid = np.linspace(0.0, long, 2001)
             r = self.step_response(name, step, times=grid).to_numpy()
-            final = r[-1]
+            final = float(self.step_response(name, step, times=[np.inf]).iloc[0])
             at_once = r[0]
             at45 = float(self.step_response(name, step, times=[2700.0]).iloc[0])
             if abs(final) > 0:
@@ -842,7 +859,9 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
         """
         check_is_fitted(self)
         Xa, _, segments = validate_sequences(self, X, reset=False)
-        taus_max = max(self.time_constants_.max(), self.driver_time_constants_.max())
+        taus_max = self.time_constants_.max()
+        if self.drivers_:
+            taus_max = max(taus_max, self.driver_time_constants_.max())
         dt = self._time_steps(X, segments, taus_max)
         bounds = [(s.start, s.stop) for s in segments]
         used = np.flatnonzero(self.coef_ != 0)
