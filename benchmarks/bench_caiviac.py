@@ -392,7 +392,9 @@ def transfer_models(reference):
         (
             f"TTF<={MAX_SENSORS}",
             ThermalTransferFunction(
-                drivers=[DRIVER], max_sensors=MAX_SENSORS, state="carry",
+                drivers=[DRIVER],
+                max_sensors=MAX_SENSORS,
+                state="carry",
                 relative_to_start=relative,
             ),
             True,
@@ -491,14 +493,20 @@ def dyn_summary(rows, labels):
 
 
 def print_dynamic(target, reference, rows, summ, labels, seed_note):
-    ref = "each cycle from its first row" if reference == "cycle" else "the recording from its first row"
+    ref = (
+        "each cycle from its first row"
+        if reference == "cycle"
+        else "the recording from its first row"
+    )
     print(f"\n== {target}, reference: {ref} ==")
     print(f"{'held out':8s} {'rpm':>5s} " + " ".join(f"{lab:>16s}" for lab in labels))
     for r in rows:
         print(
             f"{r['cycle']:8s} {r['rpm'] or 0:5d} "
             + " ".join(
-                f"{r['rmse'][lab]:16.2f}" if np.isfinite(r["rmse"].get(lab, np.nan)) else f"{'-':>16s}"
+                f"{r['rmse'][lab]:16.2f}"
+                if np.isfinite(r["rmse"].get(lab, np.nan))
+                else f"{'-':>16s}"
                 for lab in labels
             )
         )
@@ -562,7 +570,9 @@ def run_dynamic(args):
                 seed_s = time.perf_counter() - start
                 for row, rec in zip(rows, seed_records):
                     row["rmse"]["seed search"] = rec["rmse"]
-                    row["seed_choice"] = config_label(rec["model"], rec["n_clusters"], rec["cluster_on"])
+                    row["seed_choice"] = config_label(
+                        rec["model"], rec["n_clusters"], rec["cluster_on"]
+                    )
                 labels.insert(1, "seed search")
                 seed_note = (
                     f"seed search: nested GridSearchCV over the 30 configurations on one row in "
@@ -588,8 +598,12 @@ def run_dynamic(args):
         + ", ".join(f"{k} {v}" for k, v in versions().items() if v)
     )
     if args.json:
-        write_json(args.json, {"results": results, "fit_timing_s": timing}, packages=PACKAGES,
-                   elapsed_s=elapsed)
+        write_json(
+            args.json,
+            {"results": results, "fit_timing_s": timing},
+            packages=PACKAGES,
+            elapsed_s=elapsed,
+        )
     return results
 
 

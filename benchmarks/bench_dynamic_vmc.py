@@ -50,7 +50,11 @@ def models():
     from greyml import ANFISFCM, GreyInfluenceSelector, ThermalTransferFunction
 
     return [
-        ("ridge-76", make_pipeline(StandardScaler(), RidgeCV(alphas=np.logspace(-3, 3, 13))), False),
+        (
+            "ridge-76",
+            make_pipeline(StandardScaler(), RidgeCV(alphas=np.logspace(-3, 3, 13))),
+            False,
+        ),
         (
             "ANFISFCM",
             Pipeline(

@@ -223,8 +223,7 @@ def test_compensator_equals_predict(data):
     one = X.xs("t1", level="test", drop_level=False)
     comp = model.compensator()
     out = [
-        comp.update({**row, "time_s": t})
-        for (_, t), row in zip(one.index, one.to_dict("records"))
+        comp.update({**row, "time_s": t}) for (_, t), row in zip(one.index, one.to_dict("records"))
     ]
     np.testing.assert_allclose(out, model.predict(one), rtol=0, atol=1e-9)
 
@@ -235,9 +234,7 @@ def test_step_response_and_describe(data, capsys):
     r = model.step_response("spindle_rpm", times=[0.0, 2700.0, 1e6])
     # 1000 rpm: 0.2 µm at once, + 1 µm through the 45-min lag
     assert model.step_sizes_["spindle_rpm"] == 1000.0
-    np.testing.assert_allclose(
-        r.to_numpy(), [0.2, 0.2 + 1.0 * (1 - np.exp(-1)), 1.2], atol=2e-4
-    )
+    np.testing.assert_allclose(r.to_numpy(), [0.2, 0.2 + 1.0 * (1 - np.exp(-1)), 1.2], atol=2e-4)
     r2 = model.step_response("T2_C", times=[900.0])
     assert r2.iloc[0] == pytest.approx(3.0 * (1 - np.exp(-1)), abs=1e-3)
     text = model.describe()

@@ -27,7 +27,7 @@ import numbers
 
 import numpy as np
 import pandas as pd
-from scipy.linalg import LinAlgError, cho_factor, cho_solve, solve
+from scipy.linalg import LinAlgError, cho_factor, cho_solve
 from scipy.optimize import minimize
 from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.utils.validation import check_is_fitted
@@ -62,7 +62,7 @@ def _features(x, dt, bounds, spec, carry):
     F = np.empty((n, int(sum(widths))))
     offsets = np.concatenate(([0], np.cumsum(widths)))
     by_taus = {}
-    for b, (col, power, taus) in enumerate(spec):
+    for b, (_col, _power, taus) in enumerate(spec):
         by_taus.setdefault(tuple(taus), []).append(b)
     for taus, blocks in by_taus.items():
         cols = np.column_stack([x[:, spec[b][0]] ** spec[b][1] for b in blocks])
@@ -380,8 +380,7 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
             ) from None
         if taus.size == 0:
             raise ValueError(
-                f"The {name!r} parameter of {type(self).__name__} needs at least one "
-                "time constant."
+                f"The {name!r} parameter of {type(self).__name__} needs at least one time constant."
             )
         for tau in taus:
             if not np.isfinite(tau) or tau <= 0:
@@ -569,13 +568,22 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
                 "Give more rows, fewer sensors or fewer time constants."
             )
         grams, pen = self._grams(F, y_fit, w, bounds)
-        chosen, alpha, score, path = self._select(
-            grams, pen, col_group, sensors, alphas, folds
-        )
+        chosen, alpha, score, path = self._select(grams, pen, col_group, sensors, alphas, folds)
         if fit_taus and folds is not None:
             taus, driver_taus = self._fit_taus(
-                Xa, dt, bounds, names, drivers, [sensors[k] for k in chosen], taus,
-                driver_taus, powers, y_fit, w, alphas, folds,
+                Xa,
+                dt,
+                bounds,
+                names,
+                drivers,
+                [sensors[k] for k in chosen],
+                taus,
+                driver_taus,
+                powers,
+                y_fit,
+                w,
+                alphas,
+                folds,
             )
             spec, groups, labels, F = build(taus, driver_taus)
             grams, pen = self._grams(F, y_fit, w, bounds)
@@ -585,9 +593,9 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
         cols = self._cols_all(col_group, chosen, grams[0].shape[1])
         G, b = grams[0].sum(axis=0), grams[1].sum(axis=0)
         coef = np.zeros(grams[0].shape[1])
-        coef[cols] = _solve_all(
-            G[np.ix_(cols, cols)], b[cols], grams[3].sum(), [alpha], pen[cols]
-        )[:, 0]
+        coef[cols] = _solve_all(G[np.ix_(cols, cols)], b[cols], grams[3].sum(), [alpha], pen[cols])[
+            :, 0
+        ]
 
         self.sensors_ = sensors
         self.drivers_ = drivers
@@ -696,8 +704,22 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
         score, keep, alpha = best
         return keep, alpha, score, path
 
-    def _fit_taus(self, Xa, dt, bounds, names, drivers, chosen_names, taus, driver_taus,
-                  powers, y, w, alphas, folds):
+    def _fit_taus(
+        self,
+        Xa,
+        dt,
+        bounds,
+        names,
+        drivers,
+        chosen_names,
+        taus,
+        driver_taus,
+        powers,
+        y,
+        w,
+        alphas,
+        folds,
+    ):
         """Variable projection: Nelder–Mead over the log time constants, gains solved inside.
 
         Only the drivers and the chosen sensors are filtered; the score is the
@@ -734,7 +756,7 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
     def _terms(self):
         terms = []
         c = 0
-        for (col, power, taus), (name, _) in zip(self._spec_, self._labels_):
+        for (_col, power, taus), (name, _) in zip(self._spec_, self._labels_):
             for tau in (None, *taus):
                 weight = float(self.coef_[c])
                 if weight != 0.0:
@@ -747,7 +769,7 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
         all_taus = sorted({t for _, _, taus in self._spec_ for t in taus})
         columns = ["static"] + [f"lag {_fmt_tau(t)}" for t in all_taus]
         c = 0
-        for (col, power, taus), (name, _) in zip(self._spec_, self._labels_):
+        for (_col, power, taus), (name, _) in zip(self._spec_, self._labels_):
             row = dict.fromkeys(columns, np.nan)
             row["static"] = self.coef_[c]
             for j, tau in enumerate(taus):
@@ -895,4 +917,3 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
         tags = super().__sklearn_tags__()
         tags.input_tags.allow_nan = False
         return tags
-
