@@ -299,3 +299,20 @@ def test_max_sensors_larger_than_sensors(data):
         ValueError, match=r"'max_sensors' parameter .* is 6, more than the 5 temperature"
     ):
         ThermalTransferFunction(drivers=["spindle_rpm"], max_sensors=6).fit(X, y)
+
+
+@pytest.mark.parametrize(
+    "params, match",
+    [
+        ({"state": "keep"}, r"'state' parameter .* must be 'restart' or 'carry'"),
+        ({"max_sensors": 0}, r"'max_sensors' parameter .* range \[1, inf\) or None"),
+        ({"driver_powers": (1, -2)}, r"'driver_powers' parameter .* finite numbers > 0"),
+        ({"alphas": [0.0]}, r"'alphas' parameter .* finite floats > 0"),
+        ({"relative_to_start": "yes"}, r"'relative_to_start' parameter .* True or False"),
+        ({"time_constants": "auto"}, r"'time_constants' parameter .* or 'fit' or None"),
+    ],
+)
+def test_bad_parameters(data, params, match):
+    X, y = data
+    with pytest.raises(ValueError, match=match):
+        ThermalTransferFunction(drivers=["spindle_rpm"], **params).fit(X, y)

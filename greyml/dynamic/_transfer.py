@@ -431,6 +431,11 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
                 f"The 'alphas' parameter of {name} must be a non-empty sequence of finite "
                 f"floats > 0. Got {self.alphas!r} instead."
             )
+        if not isinstance(self.relative_to_start, (bool, np.bool_)):
+            raise ValueError(
+                f"The 'relative_to_start' parameter of {name} must be True or False. "
+                f"Got {self.relative_to_start!r} instead."
+            )
         if isinstance(self.drivers, str):
             raise ValueError(
                 f"The 'drivers' parameter of {name} must be a sequence of column names, "
