@@ -400,6 +400,17 @@ def transfer_models(reference):
             True,
         ),
         (
+            f"TTF<={MAX_SENSORS} stable",
+            ThermalTransferFunction(
+                drivers=[DRIVER],
+                max_sensors=MAX_SENSORS,
+                state="carry",
+                relative_to_start=relative,
+                selection="stable",
+            ),
+            True,
+        ),
+        (
             "TTF-16",
             ThermalTransferFunction(drivers=[DRIVER], state="carry", relative_to_start=relative),
             True,
@@ -521,10 +532,15 @@ def print_dynamic(target, reference, rows, summ, labels, seed_note):
     )
     label = f"TTF<={MAX_SENSORS}"
     for r in rows:
-        print(f"  {r['cycle']}: {label} chose {short(r['selected'][label])}")
+        print(
+            f"  {r['cycle']}: {label} chose {short(r['selected'][label])}; stable chose "
+            f"{short(r['selected'][label + ' stable'])}"
+        )
     if seed_note:
         print("  " + seed_note)
-    if reference == "cycle" and target in DYN_GOALS:
+    for label in (f"TTF<={MAX_SENSORS}", f"TTF<={MAX_SENSORS} stable"):
+        if reference != "cycle" or target not in DYN_GOALS:
+            break
         goal = DYN_GOALS[target]
         red = 1.0 - summ[label]["median_ratio"]
         worst_ok = summ[label]["worst"] <= summ["ridge-16"]["worst"]

@@ -316,3 +316,18 @@ def test_bad_parameters(data, params, match):
     X, y = data
     with pytest.raises(ValueError, match=match):
         ThermalTransferFunction(drivers=["spindle_rpm"], **params).fit(X, y)
+
+
+def test_stable_selection_keeps_the_sensors_most_runs_chose(data):
+    X, y = data
+    model = _model(max_sensors=3, selection="stable").fit(X, y)
+    # every run without one of the four tests finds T2 and T1; nothing else is
+    # chosen by half of them
+    assert model.selected_sensors_ == ["T2_C", "T1_C"]
+    shares = dict(zip(model.selection_["sensor"], model.selection_["share_of_runs"]))
+    assert shares["T2_C"] == 1.0 and shares["T1_C"] == 1.0
+    assert all(v < 0.5 for k, v in shares.items() if k not in ("T1_C", "T2_C"))
+    # with three tests there is no run without one that still holds out three: forward
+    three = X.index.get_level_values("test") != "t3"
+    forward = _model(max_sensors=3, selection="stable").fit(X[three], y[three])
+    assert list(forward.selection_.columns) == ["sensor", "held_out_rmse", "alpha"]

@@ -219,6 +219,11 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
       projection: a Nelder–Mead search over the logarithms of the bank, the
       gains solved for each candidate), started from the default bank.
 
+    ``selection="stable"`` (four tests or more) repeats the forward selection
+    without each test in turn and keeps the sensors that at least half of the
+    runs chose (stability selection, Meinshausen and Bühlmann (2010)): fewer
+    sensors that fit one test's peculiarities.
+
     With fewer than three tests the penalty is the smallest of ``alphas`` and
     the sensors are chosen by training error (there is no whole test to hold
     out that leaves two to fit).
@@ -261,6 +266,11 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
     alphas : sequence of float or None, default=None
         Ridge penalties per row of the standardised design; ``None``: 13
         values from 1e-6 to 1 (log spaced).
+    selection : {"forward", "stable"}, default="forward"
+        How ``max_sensors`` sensors are chosen: one forward selection on
+        held-out tests, or the sensors chosen by at least half of the forward
+        selections run without each test in turn (needs four tests; with
+        fewer, ``"forward"``).
 
     Attributes
     ----------
@@ -288,7 +298,9 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
         input raised to the power, for a displacement in µm).
     selection_ : DataFrame
         Forward selection, step by step: the sensor added, the mean held-out
-        RMSE and the penalty (empty without ``max_sensors``).
+        RMSE and the penalty (empty without ``max_sensors``). With
+        ``selection="stable"``: each sensor any run chose and the share of
+        runs that chose it.
     cv_score_ : float
         Mean held-out RMSE of the chosen model (training RMSE with fewer than
         three tests).
@@ -349,6 +361,7 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
         driver_time_constants=None,
         relative_to_start=True,
         alphas=None,
+        selection="forward",
     ):
         self.drivers = drivers
         self.max_sensors = max_sensors
@@ -359,6 +372,7 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
         self.driver_time_constants = driver_time_constants
         self.relative_to_start = relative_to_start
         self.alphas = alphas
+        self.selection = selection
 
     # -- parameters -----------------------------------------------------------
 
@@ -430,6 +444,11 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
             raise ValueError(
                 f"The 'alphas' parameter of {name} must be a non-empty sequence of finite "
                 f"floats > 0. Got {self.alphas!r} instead."
+            )
+        if self.selection not in ("forward", "stable"):
+            raise ValueError(
+                f"The 'selection' parameter of {name} must be 'forward' or 'stable'. "
+                f"Got {self.selection!r} instead."
             )
         if not isinstance(self.relative_to_start, (bool, np.bool_)):
             raise ValueError(
@@ -609,7 +628,11 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
         self.driver_time_constants_ = np.asarray(driver_taus, dtype=float)
         self.alpha_ = float(alpha)
         self.cv_score_ = float(score)
-        self.selection_ = pd.DataFrame(path, columns=["sensor", "held_out_rmse", "alpha"])
+        stable = bool(path) and len(path[0]) == 2
+        self.selection_ = pd.DataFrame(
+            path,
+            columns=["sensor", "share_of_runs"] if stable else ["sensor", "held_out_rmse", "alpha"],
+        )
         self._spec_ = spec
         self._labels_ = labels
         self._col_group_ = col_group
@@ -686,6 +709,47 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
         if self.max_sensors is None:
             score, alpha = evaluate(everything)
             return everything, alpha, score, []
+        if self.selection == "stable" and folds is not None and len(folds) >= 4:
+            return self._stable(grams, pen, col_group, sensors, alphas, folds, evaluate)
+        return self._forward(evaluate, everything, sensors, col_group, n_total)
+
+    def _stable(self, grams, pen, col_group, sensors, alphas, folds, evaluate):
+        """Forward selection repeated without each test in turn; keep the sensors most runs chose.
+
+        A sensor enters when at least half of the runs chose it (at most
+        ``max_sensors``, most votes first, then earliest on average); the
+        penalty is then chosen by leave one test out on all tests.
+        """
+        votes, rank = {}, {}
+        n_total = grams[0].shape[1]
+        for t in folds:
+            without = tuple(a.copy() for a in grams)
+            for a in without:
+                a[t] = 0.0
+            rest = [f for f in folds if f != t]
+
+            def evaluate_without(chosen, without=without, rest=rest):
+                cols = self._cols_all(col_group, chosen, n_total)
+                sc = _held_out_scores(without, cols, alphas, pen, rest)
+                i = int(np.argmin(sc))
+                return float(sc[i]), float(alphas[i])
+
+            keep, _, _, _ = self._forward(
+                evaluate_without, list(range(len(sensors))), sensors, col_group, n_total
+            )
+            for position, k in enumerate(keep):
+                votes[k] = votes.get(k, 0) + 1
+                rank[k] = rank.get(k, 0) + position
+        order = sorted(votes, key=lambda k: (-votes[k], rank[k] / votes[k], k))
+        chosen = [k for k in order if 2 * votes[k] >= len(folds)][: self.max_sensors]
+        if not chosen and order:
+            chosen = order[:1]
+        score, alpha = evaluate(chosen)
+        path = [(sensors[k], float(votes[k]) / len(folds)) for k in order]
+        return chosen, alpha, score, path
+
+    def _forward(self, evaluate, everything, sensors, col_group, n_total):
+        """Greedy forward selection; the best prefix up to ``max_sensors`` by held-out score."""
         chosen, path = [], []
         best = None
         if (col_group == -1).any() or n_total > len(col_group):
