@@ -216,17 +216,22 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
       gains that are kept, and with per-test Gram matrices a step costs only
       small linear solves;
     * with ``time_constants="fit"``, the time constants (variable
-      projection: a Nelder–Mead search over the logarithms of the bank, the
-      gains solved for each candidate), started from the default bank.
+      projection: a Nelder–Mead search over their logarithms, the gains
+      solved for each candidate), after the sensors are chosen on the bank.
 
     ``selection="stable"`` (four tests or more) repeats the forward selection
     without each test in turn and keeps the sensors that at least half of the
     runs chose (stability selection, Meinshausen and Bühlmann (2010)): fewer
     sensors that fit one test's peculiarities.
 
-    With fewer than three tests the penalty is the smallest of ``alphas`` and
-    the sensors are chosen by training error (there is no whole test to hold
-    out that leaves two to fit).
+    With fewer than three tests the penalty and the sensors are chosen by
+    training error (which favours the smallest penalty), and
+    ``time_constants="fit"`` keeps the default bank: there is no whole test
+    to hold out that leaves two to fit.
+
+    The time constants' search starts from the given driver lags and the
+    default sensor bank, and fits the drivers' and the chosen sensors' lags
+    (a shared bank for the sensors).
 
     Parameters
     ----------
