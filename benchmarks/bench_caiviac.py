@@ -1,4 +1,15 @@
-"""Sensor selection on real data: leave-one-cycle-out on CAIVIAC against ridge on 16 sensors.
+"""Real data, leave one cycle out on CAIVIAC: dynamic models and sensor selection against ridge-16.
+
+By default (issue 16) the script compares, with the same folds, ridge on all
+sixteen temperatures, the seed-model search described below (on one row a
+minute, ``--seed-step``), and ``ThermalTransferFunction`` with at most five
+sensors plus the spindle speed (forward and stable selection) and with all
+sixteen, for ch1 and ch3, with displacement and temperatures from each
+cycle's first row and from the recording's first row. The transfer
+functions carry their lags through the whole recording: each is given every
+row with sample weight 0 on the held-out cycle (its displacement is never
+seen). It also times ``ThermalTransferFunction(max_sensors=5).fit`` on all
+five cycles. ``--seed-only`` runs the issue-5 search alone, as follows.
 
 The real recording CAIVIAC/FL_THERMAL (MIT licence; read where it lies by
 ``greyml.datasets.load_caiviac``, never copied into greyml): five heating and
