@@ -1,4 +1,15 @@
-"""Sensor selection on real data: leave-one-cycle-out on CAIVIAC against ridge on 16 sensors.
+"""Real data, leave one cycle out on CAIVIAC: dynamic models and sensor selection against ridge-16.
+
+By default (issue 16) the script compares, with the same folds, ridge on all
+sixteen temperatures, the seed-model search described below (on one row a
+minute, ``--seed-step``), and ``ThermalTransferFunction`` with at most five
+sensors plus the spindle speed (forward and stable selection) and with all
+sixteen, for ch1 and ch3, with displacement and temperatures from each
+cycle's first row and from the recording's first row. The transfer
+functions carry their lags through the whole recording: each is given every
+row with sample weight 0 on the held-out cycle (its displacement is never
+seen). It also times ``ThermalTransferFunction(max_sensors=5).fit`` on all
+five cycles. ``--seed-only`` runs the issue-5 search alone, as follows.
 
 The real recording CAIVIAC/FL_THERMAL (MIT licence; read where it lies by
 ``greyml.datasets.load_caiviac``, never copied into greyml): five heating and
@@ -370,6 +381,259 @@ def print_hindsight(rows, summ):
     )
 
 
+# ------------------------------------------------------------------------------
+# Dynamic models: ThermalTransferFunction against ridge-16 and the seed search
+# ------------------------------------------------------------------------------
+
+DRIVER = "spindle_rpm"
+MAX_SENSORS = 5
+DYN_TARGETS = ("ch1_um", "ch3_um")
+DYN_REFERENCES = ("cycle", "recording")
+SEED_STEP = 4  # the seed search runs on one row a minute (see --seed-step)
+# issue #16: median RMSE below ridge-16's by at least this share (cycle reference)
+DYN_GOALS = {"ch1_um": 0.35, "ch3_um": 0.25}
+
+
+def transfer_models(reference):
+    """(label, estimator, carry?) of the ThermalTransferFunction variants compared."""
+    from greyml import ThermalTransferFunction
+
+    relative = reference == "cycle"
+    out = [
+        (
+            f"TTF<={MAX_SENSORS}",
+            ThermalTransferFunction(
+                drivers=[DRIVER],
+                max_sensors=MAX_SENSORS,
+                state="carry",
+                relative_to_start=relative,
+            ),
+            True,
+        ),
+        (
+            f"TTF<={MAX_SENSORS} stable",
+            ThermalTransferFunction(
+                drivers=[DRIVER],
+                max_sensors=MAX_SENSORS,
+                state="carry",
+                relative_to_start=relative,
+                selection="stable",
+            ),
+            True,
+        ),
+        (
+            "TTF-16",
+            ThermalTransferFunction(drivers=[DRIVER], state="carry", relative_to_start=relative),
+            True,
+        ),
+    ]
+    if reference == "cycle":
+        out.append(
+            (
+                f"TTF<={MAX_SENSORS} restart",
+                ThermalTransferFunction(drivers=[DRIVER], max_sensors=MAX_SENSORS),
+                False,
+            )
+        )
+    return out
+
+
+def dynamic_loco(X, y, rpm, reference):
+    """Per held-out cycle: ridge-16 and every ThermalTransferFunction variant.
+
+    Carried lags: each model is given the whole recording with sample weight
+    0 on the held-out cycle's rows (its temperatures and speed drive the lags
+    as a controller's would; its displacement is never seen) and predicts the
+    whole recording, scored on the held-out rows. Restarted lags: the model
+    sees the four training cycles only and predicts the held-out cycle alone.
+    """
+    from sklearn.base import clone
+
+    from greyml import test_ids
+    from greyml.metrics import rmse
+
+    Xd = X.copy()
+    Xd.insert(0, DRIVER, rpm.to_numpy())
+    groups = np.asarray(test_ids(X))
+    models = transfer_models(reference)
+    rows = []
+    for cycle in dict.fromkeys(groups):
+        train, held = groups != cycle, groups == cycle
+        y_true = y[held].to_numpy()
+        ridge = ridge_all().fit(X[train], y[train])
+        row = {
+            "cycle": str(cycle),
+            "rpm": SPEEDS.get(str(cycle)),
+            "rmse": {"ridge-16": float(rmse(y_true, ridge.predict(X[held])))},
+            "selected": {},
+            "alpha": {},
+        }
+        for label, template, carry in models:
+            model = clone(template)
+            if carry:
+                model.fit(Xd, y, sample_weight=train.astype(float))
+                pred = model.predict(Xd)[held]
+            else:
+                model.fit(Xd[train], y[train])
+                pred = model.predict(Xd[held])
+            row["rmse"][label] = float(rmse(y_true, pred))
+            row["selected"][label] = list(model.selected_sensors_)
+            row["alpha"][label] = model.alpha_
+        rows.append(row)
+    return rows
+
+
+def fit_timing(X, rpm, y, repeats=3):
+    """Seconds to fit ThermalTransferFunction(max_sensors=5) on all five cycles (best of 3)."""
+    from greyml import ThermalTransferFunction
+
+    Xd = X.copy()
+    Xd.insert(0, DRIVER, rpm.to_numpy())
+    out = {}
+    for state in ("restart", "carry"):
+        best = np.inf
+        for _ in range(repeats):
+            start = time.perf_counter()
+            ThermalTransferFunction(drivers=[DRIVER], max_sensors=MAX_SENSORS, state=state).fit(
+                Xd, y
+            )
+            best = min(best, time.perf_counter() - start)
+        out[state] = best
+    return out, Xd.shape
+
+
+def dyn_summary(rows, labels):
+    out = {}
+    for label in labels:
+        values = np.array([r["rmse"][label] for r in rows])
+        out[label] = {"median": float(np.median(values)), "worst": float(values.max())}
+    ridge = out["ridge-16"]
+    for label in labels:
+        out[label]["median_ratio"] = out[label]["median"] / ridge["median"]
+        out[label]["worst_ratio"] = out[label]["worst"] / ridge["worst"]
+    return out
+
+
+def print_dynamic(target, reference, rows, summ, labels, seed_note):
+    ref = (
+        "each cycle from its first row"
+        if reference == "cycle"
+        else "the recording from its first row"
+    )
+    print(f"\n== {target}, reference: {ref} ==")
+    print(f"{'held out':8s} {'rpm':>5s} " + " ".join(f"{lab:>16s}" for lab in labels))
+    for r in rows:
+        print(
+            f"{r['cycle']:8s} {r['rpm'] or 0:5d} "
+            + " ".join(
+                f"{r['rmse'][lab]:16.2f}"
+                if np.isfinite(r["rmse"].get(lab, np.nan))
+                else f"{'-':>16s}"
+                for lab in labels
+            )
+        )
+    for key in ("median", "worst"):
+        print(f"{key:8s} {'':5s} " + " ".join(f"{summ[lab][key]:16.2f}" for lab in labels))
+    print(
+        f"{'/ridge':8s} {'':5s} "
+        + " ".join(
+            f"{summ[lab]['median_ratio']:7.2f} {summ[lab]['worst_ratio']:8.2f}" for lab in labels
+        )
+        + "   (median ratio, worst ratio)"
+    )
+    label = f"TTF<={MAX_SENSORS}"
+    for r in rows:
+        print(
+            f"  {r['cycle']}: {label} chose {short(r['selected'][label])}; stable chose "
+            f"{short(r['selected'][label + ' stable'])}"
+        )
+    if seed_note:
+        print("  " + seed_note)
+    for label in (f"TTF<={MAX_SENSORS}", f"TTF<={MAX_SENSORS} stable"):
+        if reference != "cycle" or target not in DYN_GOALS:
+            break
+        goal = DYN_GOALS[target]
+        red = 1.0 - summ[label]["median_ratio"]
+        worst_ok = summ[label]["worst"] <= summ["ridge-16"]["worst"]
+        print(
+            f"  ACCEPTANCE {target}: {label} median {summ[label]['median']:.2f} um, "
+            f"{100 * red:.1f} % below ridge-16 {summ['ridge-16']['median']:.2f} "
+            f"(goal >= {100 * goal:.0f} %): {'PASS' if red >= goal else 'MISS'}; worst cycle "
+            f"{summ[label]['worst']:.2f} vs ridge-16's worst {summ['ridge-16']['worst']:.2f}: "
+            f"{'PASS' if worst_ok else 'MISS'}"
+        )
+
+
+def run_dynamic(args):
+    """The issue-16 comparison: every target and reference, same folds."""
+    from threadpoolctl import threadpool_limits
+
+    from greyml import GreyConditioningWarning
+
+    results = {}
+    start_all = time.perf_counter()
+    timing = None
+    for reference in args.reference:
+        for target in args.target:
+            try:
+                X, y, data = load(args.data, target, reference, 1)
+            except FileNotFoundError:
+                print(f"CAIVIAC data not found at {where_looked(args.data)}; skipping")
+                return None
+            rpm = data.frame[DRIVER]
+            start = time.perf_counter()
+            with threadpool_limits(limits=1):
+                rows = dynamic_loco(X, y, rpm, reference)
+            dyn_s = time.perf_counter() - start
+            labels = ["ridge-16"] + [lab for lab, _, _ in transfer_models(reference)]
+            seed_note = ""
+            seed_records = None
+            if not args.no_seed_search:
+                Xs, ys, _ = load(args.data, target, reference, args.seed_step)
+                start = time.perf_counter()
+                with threadpool_limits(limits=1), warnings.catch_warnings():
+                    warnings.simplefilter("ignore", GreyConditioningWarning)
+                    seed_records = nested(Xs, ys, args.jobs)
+                seed_s = time.perf_counter() - start
+                for row, rec in zip(rows, seed_records):
+                    row["rmse"]["seed search"] = rec["rmse"]
+                    row["seed_choice"] = config_label(
+                        rec["model"], rec["n_clusters"], rec["cluster_on"]
+                    )
+                labels.insert(1, "seed search")
+                seed_note = (
+                    f"seed search: nested GridSearchCV over the 30 configurations on one row in "
+                    f"{args.seed_step} ({15 * args.seed_step} s), scored on those rows, {seed_s:.0f} s; "
+                    "chose " + "; ".join(f"{r['cycle']} {r['seed_choice']}" for r in rows)
+                )
+            summ = dyn_summary(rows, labels)
+            print_dynamic(target, reference, rows, summ, labels, seed_note)
+            print(f"  ThermalTransferFunction fits and ridge-16: {dyn_s:.1f} s")
+            results[f"{target}/{reference}"] = {"rows": rows, "summary": summ}
+            if timing is None and reference == "cycle":
+                with threadpool_limits(limits=1):
+                    timing, shape = fit_timing(X, rpm, y)
+                print(
+                    f"\nTIMING ThermalTransferFunction(drivers=[{DRIVER!r}], max_sensors=5).fit on "
+                    f"all five cycles ({shape[0]} rows x {shape[1]} columns), best of 3, one BLAS "
+                    f"thread: state='restart' {timing['restart']:.2f} s, state='carry' "
+                    f"{timing['carry']:.2f} s (goal < 5 s)"
+                )
+    elapsed = time.perf_counter() - start_all
+    print(
+        f"\nTotal {elapsed:.1f} s; python {platform.python_version()}, "
+        + ", ".join(f"{k} {v}" for k, v in versions().items() if v)
+    )
+    if args.json:
+        write_json(
+            args.json,
+            {"results": results, "fit_timing_s": timing},
+            packages=PACKAGES,
+            elapsed_s=elapsed,
+        )
+    return results
+
+
 def versions():
     return _package_versions(PACKAGES, missing=None)
 
@@ -379,15 +643,17 @@ def main(argv=None):
     parser.add_argument(
         "--target",
         choices=[f"ch{k}_um" for k in range(1, 6)],
-        default=TARGET,
-        help=f"probe channel (default {TARGET})",
+        action="append",
+        help="probe channel, may be repeated (default: ch1_um and ch3_um; "
+        f"{TARGET} with --seed-only)",
     )
     parser.add_argument(
         "--reference",
         choices=("cycle", "recording"),
-        default=REFERENCE,
-        help="displacement and temperature rises from each cycle's first reading (default) "
-        "or from the recording's first reading",
+        action="append",
+        help="displacement and temperature rises from each cycle's first reading "
+        "or from the recording's first reading; may be repeated (default: both; "
+        f"{REFERENCE} with --seed-only)",
     )
     parser.add_argument(
         "--step",
@@ -405,9 +671,34 @@ def main(argv=None):
         help="also score every configuration on the held-out cycles (optimistic bound)",
     )
     parser.add_argument("--json", metavar="PATH", help="also write every number as JSON")
+    parser.add_argument(
+        "--seed-only",
+        action="store_true",
+        help="only the seed-model search of issue #5 (one --target, one --reference, "
+        "--step), as before issue #16",
+    )
+    parser.add_argument(
+        "--no-seed-search",
+        action="store_true",
+        help="dynamic comparison without the seed-model search (about 10 s instead of ~5 min)",
+    )
+    parser.add_argument(
+        "--seed-step",
+        type=int,
+        default=SEED_STEP,
+        help=f"rows of the seed search in the dynamic comparison (default {SEED_STEP}: "
+        "one a minute)",
+    )
     args = parser.parse_args(argv)
-    if args.step < 1:
-        parser.error("--step must be at least 1")
+    if args.step < 1 or args.seed_step < 1:
+        parser.error("--step and --seed-step must be at least 1")
+    if not args.seed_only:
+        args.target = list(args.target or DYN_TARGETS)
+        args.reference = list(args.reference or DYN_REFERENCES)
+        run_dynamic(args)
+        return 0
+    args.target = (args.target or [TARGET])[0]
+    args.reference = (args.reference or [REFERENCE])[0]
 
     try:
         X, y, _ = load(args.data, args.target, args.reference, args.step)

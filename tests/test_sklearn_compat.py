@@ -14,6 +14,7 @@ from greyml import (
     GreyInfluenceSelector,
     LagFeatures,
     MLPBaseline,
+    ThermalTransferFunction,
 )
 
 # A row's output depends on the rows before it in its test (accumulation,
@@ -52,6 +53,12 @@ ESTIMATORS = [
     # evenly spaced rows one second apart
     LagFeatures([2.0, 10.0], sample_step_s=1.0),
     LagFeatures([5.0], state="carry", powers=(1, 2), include_input=False, sample_step_s=1.0),
+    # scikit-learn's checks fit as few as 10 rows of up to 4 columns: fewer than
+    # the 4 x 5 gains of the default bank of four lags, which the model refuses;
+    # one lag (2 gains per column; rows are 1 s apart without a time_s level)
+    # fits them
+    ThermalTransferFunction(time_constants=[30.0]),
+    ThermalTransferFunction(time_constants=[30.0], max_sensors=1, relative_to_start=False),
 ]
 
 # ANFIS and the MLP map each row to its output on its own (a static model), and
@@ -60,10 +67,30 @@ ESTIMATORS = [
 STATIC = (ANFISGrid, ANFISFCM, MLPBaseline, GreyInfluenceSelector)
 
 
+# ThermalTransferFunction's rows drive lags through the rows after them, so a
+# row repeated or removed is not a row weighted 2 or 0
+TRANSFER_WEIGHT_REASON = (
+    "sequence model: a repeated or removed row changes the lags of every later row, "
+    "so weighting a row 2 or 0 is not the same as repeating or removing it"
+)
+# relative_to_start=True predicts the change since each test's first row, as
+# greyml's tests start at 0; scikit-learn's regression data do not, so R² of
+# those changes against absolute targets is poor by design
+TRANSFER_RELATIVE_REASON = (
+    "relative_to_start=True predicts the change since the test's first row; "
+    "scikit-learn's regression targets are not zero there, so R² against them is poor"
+)
+
+
 def _expected_failures(estimator):
     if isinstance(estimator, STATIC):
         return {}
-    return dict(SEQUENCE_CHECKS)
+    out = dict(SEQUENCE_CHECKS)
+    if isinstance(estimator, ThermalTransferFunction):
+        out["check_sample_weight_equivalence_on_dense_data"] = TRANSFER_WEIGHT_REASON
+        if estimator.relative_to_start:
+            out["check_regressors_train"] = TRANSFER_RELATIVE_REASON
+    return out
 
 
 # scikit-learn's checks fit random numbers, not heating tests: a grey model

@@ -9,5 +9,6 @@ needs a thermal lag, :mod:`greyml.gap` included.
 
 from greyml.dynamic._compensator import Compensator
 from greyml.dynamic._lags import LagFeatures
+from greyml.dynamic._transfer import ThermalTransferFunction
 
-__all__ = ["Compensator", "LagFeatures"]
+__all__ = ["Compensator", "LagFeatures", "ThermalTransferFunction"]

@@ -1,0 +1,328 @@
+"""ThermalTransferFunction: known gains and time constants recovered, sensors chosen,
+held-out scores exact, terms that stream, clear messages for bad input."""
+
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from greyml import ThermalTransferFunction, make_test_index
+
+STEP = 60.0
+
+
+def _lag(x, tau, dt=STEP, s0=None):
+    """A plain first-order lag from rest at the first value (the reference recursion)."""
+    a = np.exp(-dt / tau)
+    out = np.empty_like(x)
+    s = x[0] if s0 is None else s0
+    for k, v in enumerate(x):
+        if k or s0 is not None:
+            s = a * s + (1 - a) * v
+        out[k] = s
+    return out
+
+
+def _tests(n_tests=4, hours=6.0, seed=0):
+    """Tests with a spindle (on then off) and five sensors; y from known transfer functions."""
+    rng = np.random.default_rng(seed)
+    frames, ys = [], []
+    speeds = [1000.0, 3000.0, 2000.0, 4000.0, 2500.0][:n_tests]
+    for i, rpm in enumerate(speeds):
+        t = np.arange(0.0, hours * 3600, STEP)
+        n = np.where(t < hours * 1800, rpm, 0.0)
+        heat = _lag(n, 1800.0)
+        T = {
+            "T1_C": 20 + 0.002 * heat + 0.02 * rng.standard_normal(t.size),
+            "T2_C": 20 + 0.6 * np.sin(t / 1500 + i),
+            "T3_C": 20 + np.cumsum(rng.standard_normal(t.size)) * 0.02,
+            "T4_C": 20 + 0.3 * np.cos(t / 900 + 2 * i),
+            "T5_C": 20 + np.cumsum(rng.standard_normal(t.size)) * 0.02,
+        }
+        y = (
+            0.8 * (T["T1_C"] - T["T1_C"][0])
+            + 3.0 * (_lag(T["T2_C"], 900.0) - T["T2_C"][0])
+            + 1e-3 * _lag(n, 2700.0)
+            + 2e-4 * n
+        )
+        index = make_test_index([f"t{i}"] * t.size, t)
+        frames.append(pd.DataFrame({"spindle_rpm": n, **T}, index=index))
+        ys.append(pd.Series(y, index=index, name="dx_um"))
+    return pd.concat(frames), pd.concat(ys)
+
+
+@pytest.fixture(scope="module")
+def data():
+    return _tests()
+
+
+def _model(**kw):
+    base = dict(
+        drivers=["spindle_rpm"],
+        time_constants=[900.0, 2700.0],
+        driver_time_constants=[2700.0],
+        driver_powers=(1,),
+        alphas=[1e-9],
+    )
+    base.update(kw)
+    return ThermalTransferFunction(**base)
+
+
+def test_known_gains_recovered(data):
+    X, y = data
+    model = _model(max_sensors=2).fit(X, y)
+    assert sorted(model.selected_sensors_) == ["T1_C", "T2_C"]
+    g = model.gains_
+    assert g.loc[("spindle_rpm", 1), "static"] == pytest.approx(2e-4, abs=1e-7)
+    assert g.loc[("spindle_rpm", 1), "lag 45 min"] == pytest.approx(1e-3, abs=1e-6)
+    assert g.loc[("T1_C", 1), "static"] == pytest.approx(0.8, abs=1e-4)
+    assert g.loc[("T2_C", 1), "lag 15 min"] == pytest.approx(3.0, abs=1e-4)
+    assert g.loc[("T2_C", 1), "lag 45 min"] == pytest.approx(0.0, abs=1e-4)
+    # relative_to_start: the change since each test's first row
+    y0 = y.groupby(level="test", sort=False).transform("first")
+    np.testing.assert_allclose(model.predict(X), (y - y0).to_numpy(), atol=1e-4)
+
+
+def test_selection_picks_the_true_sensors_in_order(data):
+    X, y = data
+    model = _model(max_sensors=4).fit(X, y)
+    # T2 (through a lag, 3 µm/K) and T1 (0.8 µm/K) explain y; the others add nothing
+    assert model.selected_sensors_[:2] == ["T2_C", "T1_C"]
+    path = model.selection_
+    assert path["sensor"].tolist()[1:3] == ["T2_C", "T1_C"]
+    assert path["held_out_rmse"].iloc[2] < 1e-3 < path["held_out_rmse"].iloc[1]
+
+
+def test_time_constants_fitted_by_variable_projection(data):
+    X, y = data
+    # sensors start from the default bank (5, 15, 45, 135 min) and the driver's
+    # one lag from 4000 s; the true ones are 900 s (T2) and 2700 s (speed)
+    model = ThermalTransferFunction(
+        drivers=["spindle_rpm"],
+        max_sensors=2,
+        time_constants="fit",
+        driver_time_constants=[4000.0],
+        driver_powers=(1,),
+        alphas=[1e-9],
+    ).fit(X, y)
+    assert sorted(model.selected_sensors_) == ["T1_C", "T2_C"]
+    assert model.driver_time_constants_[0] == pytest.approx(2700.0, rel=0.02)
+    # the lag that carries T2's 3 µm/K sits at 900 s
+    g = model.gains_.loc[("T2_C", 1)].drop("static").dropna()
+    j = int(np.argmax(np.abs(g.to_numpy())))
+    assert abs(g.iloc[j]) > 1.0
+    assert model.time_constants_[j] == pytest.approx(900.0, rel=0.02)
+    assert model.cv_score_ < 1e-3
+
+
+def test_held_out_score_equals_refits_on_whole_tests(data):
+    X, y = data
+    model = _model(max_sensors=None, alphas=[1e-2]).fit(X, y)
+    tests = list(dict.fromkeys(X.index.get_level_values("test")))
+    rmses = []
+    for held in tests:
+        train = X.index.get_level_values("test") != held
+        part = _model(max_sensors=None, alphas=[1e-2]).fit(X[train], y[train])
+        pred = part.predict(X[~train])
+        y_held = y[~train].to_numpy()
+        rmses.append(np.sqrt(np.mean((pred - (y_held - y_held[0])) ** 2)))
+    assert rmses[0] > 0.01  # the penalty matters here
+    assert model.cv_score_ == pytest.approx(np.mean(rmses), rel=1e-6)
+
+
+def test_penalty_chosen_on_held_out_tests(data):
+    X, y = data
+    noisy = y + np.random.default_rng(1).standard_normal(len(y)) * 0.5
+    alphas = [1e-8, 1e-4, 1e-1, 10.0]
+    model = _model(alphas=alphas).fit(X, noisy)
+    scores = []
+    for a in alphas:
+        scores.append(_model(alphas=[a]).fit(X, noisy).cv_score_)
+    assert model.alpha_ == alphas[int(np.argmin(scores))]
+    assert model.cv_score_ == pytest.approx(min(scores))
+
+
+def test_zero_weight_test_is_left_out(data):
+    X, y = data
+    keep = X.index.get_level_values("test") != "t3"
+    full = _model(max_sensors=3).fit(X[keep], y[keep])
+    weighted = _model(max_sensors=3).fit(X, y, sample_weight=keep.astype(float))
+    assert weighted.selected_sensors_ == full.selected_sensors_
+    np.testing.assert_allclose(weighted.coef_, full.coef_, rtol=1e-8, atol=1e-12)
+
+
+def test_carry_runs_the_lags_across_tests():
+    # one recording cut in two: with carried state the second piece continues the lag
+    t = np.arange(0.0, 4 * 3600, STEP)
+    n = np.where((t > 1800) & (t < 9000), 3000.0, 0.0)
+    y = 1e-3 * _lag(n, 2700.0)
+    half = t.size // 2
+    labels = ["a"] * half + ["b"] * (t.size - half)
+    times = np.concatenate([t[:half], t[half:] - t[half]])
+    X = pd.DataFrame({"spindle_rpm": n}, index=make_test_index(labels, times))
+    model = ThermalTransferFunction(
+        drivers=["spindle_rpm"],
+        driver_time_constants=[2700.0],
+        driver_powers=(1,),
+        state="carry",
+        relative_to_start=False,
+        alphas=[1e-9],
+    ).fit(X, y)
+    assert model.gains_.loc[("spindle_rpm", 1), "lag 45 min"] == pytest.approx(1e-3, rel=1e-4)
+    np.testing.assert_allclose(model.predict(X), y, atol=1e-4)
+    # restarted at b's first row, the lag would jump: the fit is visibly worse
+    restart = model.set_params(state="restart").fit(X, y)
+    assert np.abs(restart.predict(X) - y).max() > 0.1
+
+
+def _stream(terms, intercept, relative, frame):
+    """The agreed Compensator recursion, row by row (written out, independent of greyml.dynamic.Compensator)."""
+    state, prev_t, first = {}, None, None
+    out = []
+    for (_, t), row in zip(frame.index, frame.to_dict("records")):
+        total = intercept
+        for name, power, tau, weight in terms:
+            x = row[name] ** power
+            if tau is None:
+                value = x
+            else:
+                key = (name, power, tau)
+                if key not in state:
+                    state[key] = x
+                else:
+                    a = np.exp(-(t - prev_t) / tau)
+                    state[key] = a * state[key] + (1 - a) * x
+                value = state[key]
+            total += weight * value
+        if first is None:
+            first = total
+        out.append(total - first if relative else total)
+        prev_t = t
+    return np.array(out)
+
+
+@pytest.mark.parametrize("relative", [True, False])
+def test_terms_stream_equal_to_predict(data, relative):
+    X, y = data
+    model = ThermalTransferFunction(
+        drivers=["spindle_rpm"], max_sensors=3, relative_to_start=relative
+    ).fit(X, y)
+    one = X.xs("t2", level="test", drop_level=False)
+    streamed = _stream(model.terms_, model.intercept_, relative, one)
+    np.testing.assert_allclose(streamed, model.predict(one), rtol=0, atol=1e-9)
+
+
+def test_compensator_equals_predict(data):
+    X, y = data
+    model = ThermalTransferFunction(drivers=["spindle_rpm"], max_sensors=2).fit(X, y)
+    one = X.xs("t1", level="test", drop_level=False)
+    comp = model.compensator()
+    out = [
+        comp.update({**row, "time_s": t}) for (_, t), row in zip(one.index, one.to_dict("records"))
+    ]
+    np.testing.assert_allclose(out, model.predict(one), rtol=0, atol=1e-9)
+
+
+def test_step_response_and_describe(data, capsys):
+    X, y = data
+    model = _model(max_sensors=2).fit(X, y)
+    r = model.step_response("spindle_rpm", times=[0.0, 2700.0, 1e6])
+    # 1000 rpm: 0.2 µm at once, + 1 µm through the 45-min lag
+    assert model.step_sizes_["spindle_rpm"] == 1000.0
+    np.testing.assert_allclose(r.to_numpy(), [0.2, 0.2 + 1.0 * (1 - np.exp(-1)), 1.2], atol=2e-4)
+    r2 = model.step_response("T2_C", times=[900.0])
+    assert r2.iloc[0] == pytest.approx(3.0 * (1 - np.exp(-1)), abs=1e-3)
+    text = model.describe()
+    printed = capsys.readouterr().out
+    assert text in printed
+    line = text.splitlines()[0]
+    assert line.startswith("spindle_rpm: 1.2 µm per 1000 rpm at steady state, 0.2 µm at once"), line
+    assert "63 % of the lagged part within 45 min" in line
+    with pytest.raises(ValueError, match="'T9_C' is not an input"):
+        model.step_response("T9_C")
+
+
+# ------------------------------------------------------------------------------
+# Bad input
+# ------------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("bad", [0.0, -5.0, np.nan, np.inf])
+def test_bad_time_constant(data, bad):
+    X, y = data
+    with pytest.raises(ValueError, match=r"'time_constants'.*time constant .* not a finite"):
+        ThermalTransferFunction(time_constants=[300.0, bad]).fit(X, y)
+
+
+def test_gap_longer_than_largest_time_constant(data):
+    X, y = data
+    cut = X.drop(X.index[400:460])
+    with pytest.raises(
+        ValueError,
+        match=r"test 't1' has a sampling gap of 3660 s from time_s=2340 to 6000 \(row 400\), "
+        r"longer than the largest time constant \(900 s\)",
+    ):
+        ThermalTransferFunction(time_constants=[300.0, 900.0]).fit(cut, y.loc[cut.index])
+    # drivers get a slower lag (3 x 900 s) by default: the gap is measured against it
+    with pytest.raises(ValueError, match=r"longer than the largest time constant \(2700 s\)"):
+        ThermalTransferFunction(drivers=["spindle_rpm"], time_constants=[300.0, 900.0]).fit(
+            cut, y.loc[cut.index]
+        )
+    # and at predict, against the fitted model's
+    model = ThermalTransferFunction(time_constants=[300.0, 900.0]).fit(X, y)
+    with pytest.raises(ValueError, match=r"test 't1' has a sampling gap of 3660 s"):
+        model.predict(cut)
+
+
+def test_too_few_rows():
+    X, y = _tests(n_tests=1, hours=0.25)
+    with pytest.raises(ValueError, match=r"too few rows to fit 37 coefficients: 15 samples"):
+        ThermalTransferFunction(drivers=["spindle_rpm"]).fit(X, y)
+
+
+def test_driver_not_a_column(data):
+    X, y = data
+    with pytest.raises(ValueError, match=r"the driver 'rpm' is not a column of X \(columns: "):
+        ThermalTransferFunction(drivers=["rpm"]).fit(X, y)
+    with pytest.raises(ValueError, match=r"sequence of column names, e\.g\. \['spindle_rpm'\]"):
+        ThermalTransferFunction(drivers="spindle_rpm").fit(X, y)
+
+
+def test_max_sensors_larger_than_sensors(data):
+    X, y = data
+    with pytest.raises(
+        ValueError, match=r"'max_sensors' parameter .* is 6, more than the 5 temperature"
+    ):
+        ThermalTransferFunction(drivers=["spindle_rpm"], max_sensors=6).fit(X, y)
+
+
+@pytest.mark.parametrize(
+    "params, match",
+    [
+        ({"state": "keep"}, r"'state' parameter .* must be 'restart' or 'carry'"),
+        ({"max_sensors": 0}, r"'max_sensors' parameter .* range \[1, inf\) or None"),
+        ({"driver_powers": (1, -2)}, r"'driver_powers' parameter .* finite numbers > 0"),
+        ({"alphas": [0.0]}, r"'alphas' parameter .* finite floats > 0"),
+        ({"relative_to_start": "yes"}, r"'relative_to_start' parameter .* True or False"),
+        ({"time_constants": "auto"}, r"'time_constants' parameter .* or 'fit' or None"),
+    ],
+)
+def test_bad_parameters(data, params, match):
+    X, y = data
+    with pytest.raises(ValueError, match=match):
+        ThermalTransferFunction(drivers=["spindle_rpm"], **params).fit(X, y)
+
+
+def test_stable_selection_keeps_the_sensors_most_runs_chose(data):
+    X, y = data
+    model = _model(max_sensors=3, selection="stable").fit(X, y)
+    # every run without one of the four tests finds T2 and T1; nothing else is
+    # chosen by half of them
+    assert model.selected_sensors_ == ["T2_C", "T1_C"]
+    shares = dict(zip(model.selection_["sensor"], model.selection_["share_of_runs"]))
+    assert shares["T2_C"] == 1.0 and shares["T1_C"] == 1.0
+    assert all(v < 0.5 for k, v in shares.items() if k not in ("T1_C", "T2_C"))
+    # with three tests there is no run without one that still holds out three: forward
+    three = X.index.get_level_values("test") != "t3"
+    forward = _model(max_sensors=3, selection="stable").fit(X[three], y[three])
+    assert list(forward.selection_.columns) == ["sensor", "held_out_rmse", "alpha"]
