@@ -102,7 +102,7 @@ from sklearn.preprocessing import (
 )
 from sklearn.utils.validation import check_is_fitted
 
-from greyml.dynamic import Compensator, LagFeatures
+from greyml.dynamic import Compensator, LagFeatures, ThermalTransferFunction
 from greyml.fuzzy import ANFISFCM, ANFISGrid
 from greyml.grey import AGO, GMC, GNNMCI, AccumulatedTargetRegressor
 from greyml.neural import MLPBaseline
@@ -157,6 +157,7 @@ ALLOWED_CLASSES = MappingProxyType(
         "greyml.optimize.CuckooSearch": CuckooSearch,
         "greyml.optimize.ParticleSwarm": ParticleSwarm,
         "greyml.selection.TrainOnOneTest": TrainOnOneTest,
+        "greyml.ThermalTransferFunction": ThermalTransferFunction,
         "scipy.optimize.OptimizeResult": OptimizeResult,
         # scikit-learn
         "sklearn.compose.TransformedTargetRegressor": TransformedTargetRegressor,

@@ -148,7 +148,7 @@ def test_zero_weight_test_is_left_out(data):
     full = _model(max_sensors=3).fit(X[keep], y[keep])
     weighted = _model(max_sensors=3).fit(X, y, sample_weight=keep.astype(float))
     assert weighted.selected_sensors_ == full.selected_sensors_
-    np.testing.assert_allclose(weighted.coef_, full.coef_, rtol=1e-8, atol=1e-12)
+    np.testing.assert_allclose(weighted.feature_coef_, full.feature_coef_, rtol=1e-8, atol=1e-12)
 
 
 def test_carry_runs_the_lags_across_tests():

@@ -295,6 +295,10 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
         lagged with ``tau_s`` (None: the raw value), times ``weight``, in the
         inputs' units. The prediction is ``intercept_`` plus their sum (minus
         its first-row value per test when ``relative_to_start``).
+    feature_coef_ : ndarray of shape (n_terms,)
+        The weights of the lag features in the order of ``terms_`` (named
+        ``feature_coef_``, not ``coef_``: there is one per term, not one per
+        input column).
     intercept_ : float
         Constant term (0 when ``relative_to_start``).
     gains_ : DataFrame
@@ -634,18 +638,19 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
         self.alpha_ = float(alpha)
         self.cv_score_ = float(score)
         stable = bool(path) and len(path[0]) == 2
-        self.selection_ = pd.DataFrame(
-            path,
-            columns=["sensor", "share_of_runs"] if stable else ["sensor", "held_out_rmse", "alpha"],
+        # kept as plain lists (a saved model holds no DataFrame); selection_ and
+        # gains_ are tables built from them on access
+        self._selection_path_ = [list(step) for step in path]
+        self._selection_columns_ = (
+            ["sensor", "share_of_runs"] if stable else ["sensor", "held_out_rmse", "alpha"]
         )
         self._spec_ = spec
         self._labels_ = labels
         self._col_group_ = col_group
         n_cols = len(col_group)
-        self.coef_ = coef[:n_cols]
+        self.feature_coef_ = coef[:n_cols]
         self.intercept_ = 0.0 if self.relative_to_start else float(coef[n_cols])
         self.terms_ = self._terms()
-        self.gains_ = self._gain_table()
         self.step_sizes_ = {s: 1.0 for s in sensors}
         for d in drivers:
             col = Xa[:, names.index(d)]
@@ -827,12 +832,24 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
 
     # -- readable -------------------------------------------------------------
 
+    @property
+    def selection_(self):
+        """The selection's path as a table (see the class's Attributes)."""
+        check_is_fitted(self)
+        return pd.DataFrame(self._selection_path_, columns=self._selection_columns_)
+
+    @property
+    def gains_(self):
+        """Each input's gains as a table (see the class's Attributes)."""
+        check_is_fitted(self)
+        return self._gain_table()
+
     def _terms(self):
         terms = []
         c = 0
         for (_col, power, taus), (name, _) in zip(self._spec_, self._labels_):
             for tau in (None, *taus):
-                weight = float(self.coef_[c])
+                weight = float(self.feature_coef_[c])
                 if weight != 0.0:
                     terms.append((name, power, None if tau is None else float(tau), weight))
                 c += 1
@@ -845,9 +862,9 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
         c = 0
         for (_col, power, taus), (name, _) in zip(self._spec_, self._labels_):
             row = dict.fromkeys(columns, np.nan)
-            row["static"] = self.coef_[c]
+            row["static"] = self.feature_coef_[c]
             for j, tau in enumerate(taus):
-                row[f"lag {_fmt_tau(tau)}"] = self.coef_[c + 1 + j]
+                row[f"lag {_fmt_tau(tau)}"] = self.feature_coef_[c + 1 + j]
             c += 1 + len(taus)
             group_in = name in self.drivers_ or name in self.selected_sensors_
             if group_in:
@@ -960,11 +977,11 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
             taus_max = max(taus_max, self.driver_time_constants_.max())
         dt = self._time_steps(X, segments, taus_max)
         bounds = [(s.start, s.stop) for s in segments]
-        used = np.flatnonzero(self.coef_ != 0)
+        used = np.flatnonzero(self.feature_coef_ != 0)
         if used.size == 0:
             return np.full(Xa.shape[0], self.intercept_)
         F = self._design(Xa, dt, bounds, self._spec_)
-        return F @ self.coef_ + self.intercept_
+        return F @ self.feature_coef_ + self.intercept_
 
     def compensator(self):
         """A :class:`greyml.dynamic.Compensator` that runs this model row by row.
