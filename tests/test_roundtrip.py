@@ -34,7 +34,9 @@ from greyml import (
     AccumulatedTargetRegressor,
     ANFISGrid,
     GreyInfluenceSelector,
+    LagFeatures,
     MLPBaseline,
+    ThermalTransferFunction,
     TrainOnOneTest,
 )
 from greyml.persist import UnsafeModelError, describe_model, load_model, save_model
@@ -93,6 +95,12 @@ ESTIMATORS = {
     ),
     "AGO-AccumulatedTargetRegressor": lambda: Pipeline(
         [("ago", AGO()), ("model", AccumulatedTargetRegressor(Ridge(alpha=0.1)))]
+    ),
+    "ThermalTransferFunction": lambda: ThermalTransferFunction(
+        drivers=["T1_C"], max_sensors=2, time_constants=[600.0, 1800.0]
+    ),
+    "LagFeatures-Ridge": lambda: Pipeline(
+        [("lags", LagFeatures([600.0, 1800.0])), ("model", Ridge(alpha=0.1))]
     ),
     "scaler-ANFISFCM": lambda: Pipeline(
         [("scale", StandardScaler().set_output(transform="pandas")), ("model", _fast_anfis_fcm())]
