@@ -14,6 +14,7 @@ MODEL_NAMES = {
     "anfis-grid": "ANFISGrid",
     "anfis-fcm": "ANFISFCM",
     "mlp": "MLPBaseline",
+    "transfer-function": "ThermalTransferFunction",
 }
 
 #: Machines of ``greyml simulate --machine``.

@@ -11,6 +11,7 @@ the command line prints it as one line.
 
 from __future__ import annotations
 
+import io
 import os
 import re
 import sys
@@ -112,16 +113,21 @@ SEED_RESULTS = {
 # ------------------------------------------------------------------------------
 
 
-def make_model(name, *, random_state=0, quick=False):
+def make_model(name, *, random_state=0, quick=False, drivers=(), max_sensors=None):
     """A greyml model by its command-line name, with the seeds' settings.
 
     Parameters
     ----------
-    name : {"gmc", "gnnmci", "anfis-grid", "anfis-fcm", "mlp"}
+    name : {"gmc", "gnnmci", "anfis-grid", "anfis-fcm", "mlp", "transfer-function"}
     random_state : int, default=0
         Seed of the model's random choices.
     quick : bool, default=False
         Smaller swarms, fewer epochs and restarts (``greyml demo --quick``).
+    drivers : sequence of str, default=()
+        ``"transfer-function"`` only: the columns the controller knows
+        (spindle speed, feed), always inputs and not counted as sensors.
+    max_sensors : int, optional
+        ``"transfer-function"`` only: the budget of temperature sensors.
 
     Returns
     -------
@@ -130,8 +136,18 @@ def make_model(name, *, random_state=0, quick=False):
     description : str
         The settings in words.
     """
-    from greyml import ANFISFCM, GMC, GNNMCI, ANFISGrid, MLPBaseline
+    from greyml import ANFISFCM, GMC, GNNMCI, ANFISGrid, MLPBaseline, ThermalTransferFunction
 
+    if name == "transfer-function":
+        model = ThermalTransferFunction(
+            drivers=tuple(drivers), max_sensors=max_sensors, random_state=random_state
+        )
+        budget = "all sensors" if max_sensors is None else f"at most {max_sensors} sensors"
+        driven = ", ".join(drivers) if drivers else "no drivers"
+        return model, (
+            f"thermal transfer function: lags of 5, 15, 45, 135 min, {budget}, {driven} "
+            "(ThermalTransferFunction; Mares, Horejs et al. (2020))"
+        )
     check = f"{100 * CHECKING_FRACTION:.0f} % checking data"
     if name == "gmc":
         return GMC(solver="ls"), "GMC(1,N) calibrated by least squares, b1 >= 0 (GMC-LS)"
@@ -426,6 +442,10 @@ _DEMO_MACHINES = (
 )
 
 
+#: Short names in the demo's table where the class name is too wide for it.
+_DEMO_LABELS = {"transfer-function": "ThermalTF"}
+
+
 def _split(X, train_tests):
     """Row positions to train on (``train_tests``) and to validate on (the others).
 
@@ -441,7 +461,7 @@ def _split(X, train_tests):
 
 
 def _demo_machine(machine, progress, *, quick):
-    """Simulate, select, fit and validate the five models on one machine."""
+    """Simulate, select, fit and validate the six models on one machine."""
     from sklearn.pipeline import Pipeline
 
     from greyml import datasets, test_ids
@@ -452,25 +472,47 @@ def _demo_machine(machine, progress, *, quick):
     y = data.frame[machine.target]
     train, valid = _split(X, machine.train)
     valid_tests = list(dict.fromkeys(test_ids(X.iloc[valid])))
+    # the dynamic model sees what the controller knows (speeds, feed) beside the
+    # temperature rises, and chooses its own sensors
+    drivers = [c for c in OPERATING_COLUMNS if c in data.frame.columns and c != "ambient_C"]
+    X_dynamic = pd.concat([data.frame[drivers], X], axis=1)
     results = []
     for name, label in MODEL_NAMES.items():
+        label = _DEMO_LABELS.get(name, label)
         progress.step(f"fitting {label} on the {machine.label}")
-        model, settings = make_model(name, random_state=0, quick=quick)
-        pipe = Pipeline(
-            [("select", _selector(DEMO_SENSORS, "series", 0, quick=quick)), ("model", model)]
+        model, settings = make_model(
+            name, random_state=0, quick=quick, drivers=drivers, max_sensors=DEMO_SENSORS
         )
+        if name == "transfer-function":
+            pipe, X_model = model, X_dynamic
+        else:
+            pipe, X_model = (
+                Pipeline(
+                    [
+                        ("select", _selector(DEMO_SENSORS, "series", 0, quick=quick)),
+                        ("model", model),
+                    ]
+                ),
+                X,
+            )
         result = {"name": name, "label": label, "settings": settings}
         try:
-            result["fit_s"], result["warnings"] = _fit_quietly(pipe, X.iloc[train], y.iloc[train])
-            pred, more = _predict_quietly(pipe, X.iloc[valid])
+            result["fit_s"], result["warnings"] = _fit_quietly(
+                pipe, X_model.iloc[train], y.iloc[train]
+            )
+            pred, more = _predict_quietly(pipe, X_model.iloc[valid])
         except (ValueError, FloatingPointError, np.linalg.LinAlgError) as exc:
             result["error"] = str(exc)
             results.append(result)
             continue
         result["warnings"] += [m for m in more if m not in result["warnings"]]
         y_valid = y.iloc[valid]
-        result["selected"] = list(pipe[0].selected_)
-        b1 = getattr(pipe[-1], "development_coef_", None)
+        if name == "transfer-function":
+            result["selected"] = list(pipe.selected_sensors_)
+        else:
+            result["selected"] = list(pipe[0].selected_)
+            result["by_selector"] = True
+        b1 = getattr(_final_step(pipe), "development_coef_", None)
         result["b1"] = None if b1 is None else float(b1)
         result["scores"] = scores(y_valid.to_numpy(), pred)
         groups = test_ids(y_valid)
@@ -538,21 +580,25 @@ def _demo_table(run, seeds):
         f"{_tests_words(run['valid_tests'])}; target {machine.target} ({unit})",
     ]
     ok = [r for r in run["results"] if "selected" in r]
-    if ok:
-        kept = ", ".join(f"{s} ({data.sensor_groups.get(s, '?')})" for s in ok[0]["selected"])
+    by_selector = [r for r in ok if r.get("by_selector")]
+    if by_selector:
+        kept = ", ".join(
+            f"{s} ({data.sensor_groups.get(s, '?')})" for s in by_selector[0]["selected"]
+        )
         lines.append(
             f"  sensors kept by GreyInfluenceSelector({DEMO_SENSORS}, cluster_on='series') "
             f"on the training data, from {len(data.sensors)}: {kept}"
         )
     heads = "".join(" " + h.rjust(w - 1) for _, h, _, w in _COLUMNS)
     width = len(heads)
-    left = f" PAPER: {paper}, measured"
+    lw = 12  # the model column
+    left = " PAPER, measured"
     right = " OURS: greyml, simulated"
     lines += [
         "",
-        f"  {'':12s} |{left:<{width}s} |{right}",
-        f"  {'model':12s} |{heads} |{heads} {'fit s':>6s}",
-        "  " + "-" * 13 + "+" + "-" * (width + 1) + "+" + "-" * (width + 7),
+        f"  {'':{lw}s} |{left:<{width}s} |{right}",
+        f"  {'model':{lw}s} |{heads} |{heads} {'fit s':>6s}",
+        "  " + "-" * (lw + 1) + "+" + "-" * (width + 1) + "+" + "-" * (width + 7),
     ]
     for r in run["results"]:
         row = seeds["rows"].get(r["name"])
@@ -564,7 +610,7 @@ def _demo_table(run, seeds):
             right_cells = f" failed: {r['error']}"
         else:
             right_cells = _ours(r["scores"]) + _cell(r["fit_s"], 1, 7)
-        lines.append(f"  {r['label']:12s} |{left_cells} |{right_cells}")
+        lines.append(f"  {r['label']:{lw}s} |{left_cells} |{right_cells}")
     lines += [
         "",
         "  Ours: R, RMSE and E over the validation tests together; ±res is the largest",
@@ -578,7 +624,7 @@ def _demo_table(run, seeds):
                 f"({_cell(100 * v['improvement'], 0, 7).strip()})"
                 for t, v in r["per_test"].items()
             )
-            lines.append(f"    {r['label']:12s} {per}")
+            lines.append(f"    {r['label']:{lw}s} {per}")
     lines.append(f"  Paper ({paper}): {seeds['citation']}")
     for note in seeds["notes"]:
         lines.append(f"  {note}")
@@ -663,7 +709,7 @@ def _plot(path, run, result):
 
 
 def run_demo(out="greyml-demo", *, force=False, quick=False, quiet=False):
-    """``greyml demo``: the five models on the seeds' simulated tests, beside the papers.
+    """``greyml demo``: the six models on the seeds' simulated tests, beside the papers.
 
     Simulates Abdulshahed et al.'s (2015) VMC tests and Abdulshahed et al.'s (2016) gantry tests
     (:func:`greyml.datasets.load_vmc_tests`, :func:`~greyml.datasets.load_gantry_tests`),
@@ -711,7 +757,7 @@ def run_demo(out="greyml-demo", *, force=False, quick=False, quiet=False):
     mode = "--quick: smaller swarms, fewer epochs" if quick else "the seeds' settings"
     settings = {r["label"]: r["settings"] for r in runs[0]["results"]}
     parts = [
-        "greyml demo: five thermal-error models on simulated copies of the seeds' tests, "
+        "greyml demo: six thermal-error models on simulated copies of the seeds' tests, "
         "beside the numbers the seed papers report for their measured machines. The "
         "simulated machines are not the papers' machines: compare the shape of the results, "
         "not the digits.",
@@ -720,7 +766,8 @@ def run_demo(out="greyml-demo", *, force=False, quick=False, quiet=False):
     for run in runs:
         parts += [_demo_table(run, SEED_RESULTS[run["machine"].key]), ""]
     parts.append(f"Model settings ({mode}); inputs are sensor rises from each test's start:")
-    parts += [f"  {label:12s} {text}" for label, text in settings.items()]
+    lw = max([12] + [len(label) for label in settings])
+    parts += [f"  {label:{lw}s} {text}" for label, text in settings.items()]
     parts += [
         "",
         f"Ran in {elapsed:.1f} s with one BLAS thread. Plots (measured vs predicted over time, "
@@ -1062,6 +1109,8 @@ def run_fit(
     force=False,
     csv_options=None,
     quiet=False,
+    drivers=None,
+    max_sensors=None,
 ):
     """``greyml fit``: train a named model and save it with :func:`greyml.persist.save_model`.
 
@@ -1090,6 +1139,12 @@ def run_fit(
         ``time_unit``, ``sep`` and ``decimal`` of :func:`greyml.io.read_tests_csv`.
     quiet : bool, default=False
         No progress on standard error.
+    drivers : list of str, optional
+        ``"transfer-function"`` only: columns the controller knows (spindle
+        speed, feed), always inputs, not counted as sensors.
+    max_sensors : int, optional
+        ``"transfer-function"`` only: the budget of temperature sensors, chosen
+        inside the fit on held-out whole tests.
 
     Returns
     -------
@@ -1102,13 +1157,36 @@ def run_fit(
 
     if model not in MODEL_NAMES:
         raise ValueError(f"unknown model {model!r}; choose one of {', '.join(MODEL_NAMES)}.")
+    dynamic = model == "transfer-function"
+    drivers = list(drivers or [])
+    if not dynamic and (drivers or max_sensors is not None):
+        raise ValueError(
+            "--drivers and --max-sensors are for --model transfer-function; "
+            f"{model} takes its inputs from --sensors or --n-sensors."
+        )
+    if dynamic and select is not None:
+        raise ValueError(
+            "--model transfer-function chooses its own sensors: give the budget with "
+            "--max-sensors instead of --n-sensors."
+        )
     path = _check_output_file(out, force)
     with _progress(4, quiet) as progress:
         progress.step(f"reading {os.fspath(data)!r}")
         frame, columns = _load_training(
             data, target, sensors, train_tests, "--train-tests", csv_options
         )
-        estimator, settings = make_model(model, random_state=random_state)
+        if dynamic:
+            _require_columns(frame, drivers, data, "--drivers")
+            _require_values(frame, drivers, data, "driver")
+            columns = drivers + [c for c in columns if c not in drivers]
+            if max_sensors is not None and max_sensors > len(columns) - len(drivers):
+                raise ValueError(
+                    f"--max-sensors {max_sensors} is more than the {len(columns) - len(drivers)} "
+                    "sensor column(s) besides the drivers."
+                )
+        estimator, settings = make_model(
+            model, random_state=random_state, drivers=drivers, max_sensors=max_sensors
+        )
         n_inputs = select if select is not None else len(columns)
         if select is not None and select > len(columns):
             raise ValueError(
@@ -1149,6 +1227,16 @@ def run_fit(
             f"  inputs: {', '.join(inputs)} (kept by GreyInfluenceSelector from "
             f"{len(columns)} candidates)"
         )
+    elif dynamic:
+        kept = ", ".join(map(printable, estimator.selected_sensors_)) or "none"
+        print(
+            f"  inputs: drivers {', '.join(map(printable, drivers)) or 'none'}; sensors {kept} "
+            f"(chosen inside the fit from {len(columns) - len(drivers)})"
+        )
+        buffer = io.StringIO()
+        estimator.describe(file=buffer)
+        for line in buffer.getvalue().splitlines():
+            print(f"  {line}")
     else:
         shown = ", ".join(inputs[:10]) + (", ..." if len(inputs) > 10 else "")
         print(f"  inputs ({len(inputs)}): {shown}")

@@ -52,7 +52,7 @@ Exit codes: 0 when the diagnosis ran, whether or not it names a cause; 2 for
 a usage error, a file that cannot be read or written, or data that cannot be
 diagnosed (one line starting with ``greyml gap: error:``).
 
-``greyml demo`` fits the five models on the seeds' simulated tests and prints
+``greyml demo`` fits the six models on the seeds' simulated tests and prints
 them beside the papers' numbers; ``simulate``, ``select``, ``fit`` and
 ``predict`` are the steps of the same job on a user's CSV files. Each has its
 ``--help`` with an example. Their work is done in :mod:`greyml._commands`,
@@ -303,9 +303,9 @@ def _add_demo_parser(subparsers):
     parser = _subparser(
         subparsers,
         "demo",
-        help="fit the five models on the seeds' simulated tests, beside the papers",
+        help="fit the six models on the seeds' simulated tests, beside the papers",
         description=(
-            "The main job on greyml's embedded data: select sensors, fit the five "
+            "The main job on greyml's embedded data: select sensors, fit the six "
             "thermal-error models, validate them the seeds' way (train on one test, "
             "validate on the others) and print the results beside the numbers the "
             "seed papers report, with plots."
@@ -562,6 +562,10 @@ Models (the seeds' settings):
               3^5 = 243 rules on 5 inputs, so give few inputs)
   anfis-fcm   ANFIS with 3 fuzzy c-means rules, 100 epochs (Abdulshahed et al. (2015))
   mlp         one hidden layer of 10, Levenberg-Marquardt (Abdulshahed et al.'s (2016) baseline)
+  transfer-function
+              thermal transfer functions: each input through first-order lags of
+              5, 15, 45 and 135 min (Mares, Horejs et al. (2020)); --drivers for
+              what the controller knows, --max-sensors for a sensor budget
 
 --n-sensors N puts GreyInfluenceSelector before the model in one Pipeline, so the
 saved model chooses its own sensors. The model is saved with
@@ -579,6 +583,8 @@ Examples:
       --train-tests IV --out vmc-anfis.greyml
   greyml fit vmc.csv --target dy_um --model gmc --sensors T18_C,T55_C,T63_C \\
       --out vmc-gmc.greyml
+  greyml fit vmc.csv --target dy_um --model transfer-function \\
+      --drivers spindle_rpm --max-sensors 5 --out vmc-ttf.greyml
 """
     + _EXIT_CODES
 )
@@ -621,6 +627,21 @@ def _add_fit_parser(subparsers):
         "--cluster-on",
         choices=("series", "influence"),
         help="the selector's grouping, with --n-sensors: " + _CLUSTER_HELP.split(": ", 1)[1],
+    )
+    parser.add_argument(
+        "--drivers",
+        type=_names,
+        action="extend",
+        metavar="A,B",
+        help="--model transfer-function: columns the controller knows (spindle speed, "
+        "feed), always inputs and not counted as sensors",
+    )
+    parser.add_argument(
+        "--max-sensors",
+        type=_count,
+        metavar="N",
+        help="--model transfer-function: at most N temperature sensors, chosen inside the "
+        "fit on held-out whole tests",
     )
     parser.add_argument(
         "--sensors",
@@ -666,6 +687,8 @@ def _run_fit(args):
         force=args.force,
         csv_options=_csv_options(args),
         quiet=args.quiet,
+        drivers=_unique(args.drivers),
+        max_sensors=args.max_sensors,
     )
 
 

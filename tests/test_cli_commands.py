@@ -23,7 +23,7 @@ from greyml.datasets import load_vmc_tests
 from greyml.io import read_tests_csv, write_tests_csv
 from greyml.persist import load_model
 
-MODELS = ("GMC", "GNNMCI", "ANFISGrid", "ANFISFCM", "MLPBaseline")
+MODELS = ("GMC", "GNNMCI", "ANFISGrid", "ANFISFCM", "MLPBaseline", "ThermalTF")
 
 
 def _tiny_frame(n=60):
@@ -476,14 +476,15 @@ def test_progress_shows_steps_on_a_terminal_only():
 def _check_demo_output(out, folder):
     for machine in ("VMC:", "Gantry:"):
         assert machine in out
-    assert "PAPER: Abdulshahed et al. (2015)" in out and "PAPER: Abdulshahed et al. (2016)" in out
+    assert out.count("PAPER, measured") == 2
+    assert "Paper (Abdulshahed et al. (2015))" in out and "Paper (Abdulshahed et al. (2016))" in out
     assert out.count("OURS: greyml, simulated") == 2
     for label in MODELS:
         assert out.count(f"  {label} ") >= 2, label
     # Abdulshahed et al.'s (2016) Table 4, beside ours
     assert "4.60" in out and "15.26" in out and "Journal of Manufacturing Systems" in out
     pngs = sorted(p.name for p in folder.glob("*.png"))
-    assert len(pngs) == 10, pngs
+    assert len(pngs) == 12, pngs
     assert "vmc_anfis-fcm.png" in pngs and "gantry_gnnmci.png" in pngs
     for name in pngs:
         assert (folder / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
@@ -511,3 +512,59 @@ def test_full_demo_runs(capsys, tmp_path):
     out = capsys.readouterr().out
     _check_demo_output(out, tmp_path)
     assert "the seeds' settings" in out and "90 particles x 100 iterations" in out
+
+
+def _driven_frame():
+    """Three tests of 300 rows (30 s apart), each starting at rest: the target
+    follows the spindle speed through a 45-min lag and sensor T1_C (itself a
+    20-min lag of the speed); T2_C is an unrelated random walk."""
+    from greyml import make_test_index
+    from greyml.dynamic._kernels import lag_filter
+
+    rng = np.random.default_rng(7)
+    n, tests = 300, ["a", "b", "c"]
+    k = np.arange(n)
+    rpm = np.concatenate([np.where((k >= 20) & (k < 150 + 30 * i), 2000.0 * (i + 1), 0.0) for i in range(3)])
+    bounds = [(i * n, (i + 1) * n) for i in range(3)]
+    dt = np.full(3 * n, 30.0)
+    lags, _ = lag_filter(rpm[:, None], dt, np.array([1200.0, 2700.0]), bounds)
+    t1 = 20.0 + 1e-3 * lags[:, 0, 0]
+    t2 = 20.0 + np.cumsum(rng.normal(0, 0.02, 3 * n))
+    y = 2e-3 * lags[:, 0, 1] + 1.5 * (t1 - 20.0)
+    index = make_test_index(np.repeat(tests, n), np.tile(np.arange(n) * 30.0, 3))
+    return pd.DataFrame(
+        {"spindle_rpm": rpm, "T1_C": t1, "T2_C": t2, "dz_um": y + rng.normal(0, 0.01, 3 * n)},
+        index=index,
+    )
+
+
+def test_fit_transfer_function_with_drivers_and_a_sensor_budget(capsys, tmp_path):
+    data = write_tests_csv(_driven_frame(), tmp_path / "driven.csv")
+    model = tmp_path / "ttf.greyml"
+    argv = ["fit", str(data), "--target", "dz_um", "--model", "transfer-function"]
+    code = main([*argv, "--drivers", "spindle_rpm", "--max-sensors", "1", "--out", str(model)])
+    out = capsys.readouterr().out
+    assert code == 0
+    assert "inputs: drivers spindle_rpm; sensors T1_C (chosen inside the fit from 2)" in out
+    assert "spindle_rpm: " in out and "µm per 1000 rpm" in out
+    loaded = load_model(model)
+    assert loaded.selected_sensors_ == ["T1_C"] and loaded.drivers_ == ["spindle_rpm"]
+    pred = tmp_path / "pred.csv"
+    assert main(["predict", str(model), str(data), "--out", str(pred)]) == 0
+    rmse = float(capsys.readouterr().out.split("RMSE ")[1].split(",")[0])
+    assert rmse < 0.05  # the noise is 0.01 µm; the peak is about 6 µm
+
+
+@pytest.mark.parametrize(
+    "extra, match",
+    [
+        (["--model", "gmc", "--drivers", "spindle_rpm"], "are for --model transfer-function"),
+        (["--model", "transfer-function", "--drivers", "rpm"], "--drivers names 'rpm'"),
+        (["--model", "transfer-function", "--n-sensors", "1"], "--max-sensors instead"),
+        (["--model", "transfer-function", "--drivers", "spindle_rpm", "--max-sensors", "3"], "more than the 2 sensor"),
+    ],
+)
+def test_transfer_function_flags_are_checked(capsys, tmp_path, extra, match):
+    data = write_tests_csv(_driven_frame(), tmp_path / "driven.csv")
+    argv = ["fit", str(data), "--target", "dz_um", *extra, "--out", str(tmp_path / "m.greyml")]
+    assert match in _error(capsys, argv)
