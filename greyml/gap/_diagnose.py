@@ -14,8 +14,10 @@ from greyml._validation import _upper_first
 from greyml.gap._effects import (
     DESCRIPTIONS,
     EFFECTS,
-    LagCache,
+    Bank,
     build_candidates,
+    lag_bank,
+    lag_picks,
     recalibration_candidate,
 )
 from greyml.gap._fit import evaluate, fit_recalibration, fold_design, placebo_walks
@@ -221,7 +223,7 @@ def _shrinkage(after, before):
 
 
 def _placebo_make(ctx, cand, rng):
-    """Random-walk signatures as free as ``cand``: a ``make`` like its own.
+    """Random-walk signatures as free as ``cand``: a :class:`Bank` like its own.
 
     As many variants, features and time-constant settings: the variants are
     random walks from 0 in every test, lagged like the candidate's signatures
@@ -229,10 +231,11 @@ def _placebo_make(ctx, cand, rng):
     """
     n, V, k = len(ctx.r), len(cand.variants), cand.n_features
     if cand.settings[0]:
-        lags = LagCache(placebo_walks(rng, ctx.bounds, V), ctx.dt, ctx.bounds)
-        return lags.stack
+        taus = cand.taus or tuple(sorted({float(t) for s in cand.settings for t in s}))
+        walks = placebo_walks(rng, ctx.bounds, V)
+        return Bank(lag_bank(walks, taus, ctx.dt, ctx.bounds), lag_picks(cand.settings, taus))
     walks = placebo_walks(rng, ctx.bounds, V * k).reshape(n, V, k)
-    return lambda setting: walks
+    return Bank(walks, [list(range(k))])
 
 
 def _placebo_improvements(ctx, base, before, cand, rng, n_placebo, recal=None, beat=np.inf):
@@ -291,11 +294,11 @@ def _pair_step(ctx, base, before, scored, recal, rng, n_placebo, min_shrinkage, 
     """
     best = None
     for _, first, ev_first in scored[:top]:
-        with_first = _with(base, first.make, ev_first)
+        with_first = _with(base, ev_first.bank, ev_first)
         for _, second, _ in scored:
             if second is first:
                 continue
-            ev = evaluate(ctx.r, with_first, second.make, second.settings, ctx.bounds, recal=recal)
+            ev = evaluate(ctx.r, with_first, second.get_bank(), second.settings, ctx.bounds, recal=recal)
             if best is None or ev.rmse < best[3].rmse:
                 best = (first, ev_first, second, ev)
     first, ev_first, second, ev = best
@@ -306,7 +309,7 @@ def _pair_step(ctx, base, before, scored, recal, rng, n_placebo, min_shrinkage, 
         ev_a = evaluate(ctx.r, base, make_a, first.settings, ctx.bounds, recal=recal)
         make_b = _placebo_make(ctx, second, rng)
         ev_b = evaluate(
-            ctx.r, _with(base, make_a, ev_a), make_b, second.settings, ctx.bounds, recal=recal
+            ctx.r, _with(base, ev_a.bank, ev_a), make_b, second.settings, ctx.bounds, recal=recal
         )
         placebo.append(_shrinkage(ev_b.rmse, before.rmse))
         if placebo[-1] >= shrink:  # not significant, whatever the others do
@@ -323,7 +326,7 @@ def _prune(ctx, named, base, recal, tie_tolerance):
     costs less than ``tie_tolerance`` of the held-out RMSE, the cheapest is
     dropped.
     """
-    designs = {id(c): fold_design(c.make, ev.choices) for c, ev, _ in named}
+    designs = {id(c): fold_design(ev.bank, ev.choices) for c, ev, _ in named}
     keep = [c for c, _, _ in named]
 
     def score(effects):
@@ -372,7 +375,7 @@ def _forward(
     while remaining:
         scored = []
         for cand in remaining:
-            ev = evaluate(ctx.r, base, cand.make, cand.settings, ctx.bounds, recal=recal)
+            ev = evaluate(ctx.r, base, cand.get_bank(), cand.settings, ctx.bounds, recal=recal)
             shrink = _shrinkage(ev.rmse, before.rmse)
             scored.append((shrink, cand, ev))
         scored.sort(key=lambda s: -s[0])
@@ -419,7 +422,7 @@ def _forward(
                     }
                     steps.append(step)
                     named.append((cand, ev, step))
-                base = _with(_with(base, first.make, ev_first), second.make, ev_second)
+                base = _with(_with(base, ev_first.bank, ev_first), ev_second.bank, ev_second)
                 before = ev_second
                 remaining = [c for c in remaining if c is not first and c is not second]
                 continue
@@ -427,7 +430,7 @@ def _forward(
         if not significant:
             break
         named.append((best, best_ev, step))
-        base = _with(base, best.make, best_ev)
+        base = _with(base, best_ev.bank, best_ev)
         before = best_ev
         remaining = [c for c in remaining if c is not best]
 
