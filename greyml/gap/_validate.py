@@ -14,6 +14,7 @@ to its own parameters, as a user could compute for theirs).
 from __future__ import annotations
 
 import time
+import warnings
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -21,6 +22,7 @@ import pandas as pd
 
 from greyml.datasets import make_tests
 from greyml.datasets._simulated import _machine, main_target
+from greyml.gap._report import GapWarning
 from greyml.simulation import Effects, HeatingTest, Programme, diurnal
 
 __all__ = [
@@ -315,14 +317,17 @@ def _run_case(spec, machine, target, kind, n_tests, n_sensors, use_sensitivities
         n_sensors=n_sensors,
     )
     start = time.perf_counter()
-    report = diagnose_gap(
-        case.real,
-        case.sim,
-        **case.roles,
-        sensitivities=case.sensitivities if use_sensitivities else None,
-        random_state=seed,
-        **kwargs,
-    )
+    with warnings.catch_warnings(record=True) as caught:
+        # a time constant at its search bound is counted, not raised
+        warnings.simplefilter("always", GapWarning)
+        report = diagnose_gap(
+            case.real,
+            case.sim,
+            **case.roles,
+            sensitivities=case.sensitivities if use_sensitivities else None,
+            random_state=seed,
+            **kwargs,
+        )
     seconds = time.perf_counter() - start
     fitted = report.gap.to_numpy() - report.corrected.to_numpy()
     true_gap = case.effect + case.parameter_gap
@@ -346,6 +351,10 @@ def _run_case(spec, machine, target, kind, n_tests, n_sensors, use_sensitivities
         "shrinkage": report.shrinkage,
         "oracle_shrinkage": 1.0 - _rms(case.noise) / report.rmse_before,
         "clean_shrinkage": 1.0 - _rms(true_gap - fitted) / clean if clean > 0 else np.nan,
+        "verdict": report.verdict,
+        "remainder_ratio": report.remainder_ratio,
+        "n_events": len(report.events),
+        "bound_warnings": sum(issubclass(w.category, GapWarning) for w in caught),
         "seconds": seconds,
     }
 
