@@ -667,7 +667,8 @@ def diagnose_gap(
         recalibrated = evaluate(ctx.r, base, None, [()], ctx.bounds, recal=recal)
     floor = noise_floor(ctx.r, ctx.bounds)
     # Abrupt events, located on the gap the parameters leave, are held fixed
-    # (one column each, in every fold's base) while effects are fitted.
+    # (one column each, in every fold's base) while effects are fitted; those
+    # still in the remainder at the end are reported.
     located = locate_events(
         recalibrated.held_out if recalibrated is not None else ctx.r, ctx.bounds, floor
     )
@@ -769,6 +770,9 @@ def diagnose_gap(
     remainder_where = gap_breakdown(corrected, drivers=drivers_frame if ctx.driver_names else None)
     remainder_white, remainder_xcorr = residual_diagnostics(corrected, signal_frame)
     times = ctx.index.get_level_values("time_s").to_numpy(dtype=float)
+    # the events reported are those still in what the named effects leave:
+    # one found in the gap before the search may have been a thermal bend
+    located = locate_events(final.held_out, ctx.bounds, floor)
     events = pd.DataFrame(
         {
             "test": [ctx.labels[t] for t, *_ in located],
