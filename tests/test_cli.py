@@ -11,6 +11,7 @@ import pytest
 
 from greyml import make_test_index
 from greyml.cli import main
+from greyml.gap import GapWarning
 from greyml.io import write_tests_csv
 
 CAUSE_FIELDS = {"effect", "detail", "rmse_before", "rmse_after", "shrinkage", "significant"}
@@ -313,7 +314,9 @@ def test_custom_effect_from_the_command_line(tmp_path, capsys):
         str(write_tests_csv(real, tmp_path / "real.csv")),
         str(write_tests_csv(sim, tmp_path / "sim.csv")),
     ]
-    assert main(_gap(paths, "--custom", "hydraulics=pump_on", "--json", "-")) == 0
+    # the faster of the two lags ends at the shortest searched: said in a warning
+    with pytest.warns(GapWarning, match="'hydraulics' ended at the shortest time constant"):
+        assert main(_gap(paths, "--custom", "hydraulics=pump_on", "--json", "-")) == 0
     data = _strict_json(capsys.readouterr().out)
     assert data["named"] == ["hydraulics"] and data["verdict"] == "explained"
     assert data["unexplained_rms"] == pytest.approx(0.01, rel=0.3)
@@ -322,5 +325,6 @@ def test_custom_effect_from_the_command_line(tmp_path, capsys):
     assert top["effect"] == "hydraulics" and top["p_value"] == pytest.approx(1 / 40)
     low, high = top["shrinkage_ci"]
     assert low <= top["shrinkage"] <= high and low > 0.8
+    assert "the shortest time constant searched (120 s = 2 min)" in top["detail"]
     assert main(_gap(paths, "--custom", "hydraulics")) == 2
     assert "expected NAME=COL[,COL]" in capsys.readouterr().err

@@ -821,8 +821,8 @@ def _time_unit_hint(ctx):
     return (
         f"Time constants are searched in seconds of time_s, from {lo:g} s "
         f"({fmt_tau(lo)}) to twice the longest test ({2 * max(ctx.durations):g} s = "
-        f"{fmt_tau(2 * max(ctx.durations))}); if time_s holds minutes or hours, convert "
-        "it to seconds (read_tests_csv(..., time_unit=))."
+        f"{fmt_tau(2 * max(ctx.durations))}); if time_s holds minutes or hours, that is "
+        "the likely cause: convert it to seconds."
     )
 
 
