@@ -213,8 +213,17 @@ def main(argv=None):
 
         env = dict(os.environ, PYTHONPATH=os.path.abspath(args.against))
         here = os.path.dirname(os.path.abspath(__file__))
-        cmd = [sys.executable, os.path.join(here, "bench_gap.py"), "--peer",
-               "--repeats", str(args.repeats), "--withheld", args.withheld, "--rows", str(args.rows)]
+        cmd = [
+            sys.executable,
+            os.path.join(here, "bench_gap.py"),
+            "--peer",
+            "--repeats",
+            str(args.repeats),
+            "--withheld",
+            args.withheld,
+            "--rows",
+            str(args.rows),
+        ]
         # the same measurement here, CPU time too, interleaved with the peer's
         cpu = []
         for _ in range(args.repeats):

@@ -54,7 +54,9 @@ def main(argv=None):
     effects = tuple(e for e in args.effects.split(",") if e)
     result = validate_withheld(
         effects,
-        pairs=(("ambient", "drift"), ("heat_source", "initial_state")) if args.pair_seeds != 0 else (),
+        pairs=(("ambient", "drift"), ("heat_source", "initial_state"))
+        if args.pair_seeds != 0
+        else (),
         n_events=args.events,
         n_custom=args.custom,
         custom_size=args.custom_size,
@@ -89,7 +91,9 @@ def main(argv=None):
         print("effect named (clean), located in the right test within 10 min:")
         print(result.events().round(2).to_string())
     if args.custom:
-        print(f"\nHeat input driven by a logged column, given only as a custom effect ({args.custom_size:g}x):")
+        print(
+            f"\nHeat input driven by a logged column, given only as a custom effect ({args.custom_size:g}x):"
+        )
         print(result.custom().round(3).to_string())
         extra = cases[cases["withheld"] == "custom"]
         print(f"  oracle shrinkage median {extra['oracle_shrinkage'].median():.3f}")

@@ -212,3 +212,26 @@ def test_minutes_labelled_as_seconds_warn_at_the_search_bound():
     with pytest.warns(GapWarning, match=r"shortest time constant searched \(60 s = 1 min\)"):
         report = _diagnose(real, sim, effects=["ambient"])
     assert "the shortest time constant searched" in report.causes.iloc[0]["detail"]
+
+
+def test_lag_signatures_run_on_the_shared_kernel_as_before():
+    # greyml.gap's lags come from greyml.dynamic's lag_filter now; from rest
+    # at 0 in each test they equal the previous per-test lfilter to the bit
+    from scipy.signal import lfilter
+
+    from greyml.gap._effects import lag_bank
+
+    rng = np.random.default_rng(3)
+    x = rng.standard_normal((250, 3))
+    bounds, dt = [(0, 100), (100, 250)], [30.0, 60.0]
+    taus = [120.0, 1800.0]
+    lags = lag_bank(x, taus, dt, bounds)
+    for j, tau in enumerate(taus):
+        for (start, stop), step in zip(bounds, dt):
+            a = np.exp(-step / tau)
+            expected = lfilter([1.0 - a], [1.0, -a], x[start:stop], axis=0)
+            np.testing.assert_array_equal(lags[start:stop, :, j], expected)
+        np.testing.assert_array_equal(first_order_lag(x, tau, dt, bounds), lags[:, :, j])
+    # by hand: the first sample of a test is (1 - a)·x, the lag starts from rest
+    a = np.exp(-30.0 / 120.0)
+    assert lags[0, 0, 0] == pytest.approx((1 - a) * x[0, 0], rel=1e-15)

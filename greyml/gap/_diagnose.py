@@ -259,7 +259,7 @@ def _placebo_improvements(ctx, base, before, cand, rng, n_placebo, recal=None, b
 
 
 def _p_value(placebo, shrink):
-    """Placebo p-value, sequential (Besag and Clifford, 1991): placebos stop at the first that beats.
+    """Sequential placebo p-value (Besag and Clifford, 1991): stop at the first placebo as good.
 
     ``placebo`` holds the shrinkage of the placebos drawn (NaN: none drawn).
     Stopped after l placebos at the first one at least as good as the effect,
@@ -340,7 +340,9 @@ def _pair_step(ctx, base, before, scored, recal, rng, n_placebo, min_shrinkage, 
         for _, second, _ in scored:
             if second is first:
                 continue
-            ev = evaluate(ctx.r, with_first, second.get_bank(), second.settings, ctx.bounds, recal=recal)
+            ev = evaluate(
+                ctx.r, with_first, second.get_bank(), second.settings, ctx.bounds, recal=recal
+            )
             if best is None or ev.rmse < best[3].rmse:
                 best = (first, ev_first, second, ev)
     first, ev_first, second, ev = best
@@ -910,8 +912,9 @@ def _custom_effects(custom_effects, real, ctx):
                     f"dtype {series.dtype}."
                 )
             values[:, j] = series.to_numpy(dtype=float)
-            _finite(values[:, j], f"Column {column!r} (custom effect {name!r})", ctx.index,
-                    segments)
+            _finite(
+                values[:, j], f"Column {column!r} (custom effect {name!r})", ctx.index, segments
+            )
         out[name] = ("columns", columns, values)
     return out
 

@@ -230,7 +230,9 @@ class GapReport:
                 label = {"test": "test ", "time": "", "band": "band "}[by]
                 parts.append(f"{label}{top['segment']} ({top['share']:.0%})")
         if parts:
-            lines.append("Where it remains (share of the squared remainder): " + ", ".join(parts) + ".")
+            lines.append(
+                "Where it remains (share of the squared remainder): " + ", ".join(parts) + "."
+            )
         white = self.remainder_whiteness or self.whiteness
         if white:
             state = "white" if white.get("white") else "not white"

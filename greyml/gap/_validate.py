@@ -375,7 +375,12 @@ def _extra_case(kind_of_case, size, seed, m, target, param_error, kind, n_tests,
     sensitivities = simulator_sensitivities(wrong, tests, target, effects=quiet)
     names = list(m.temperature_names)
     sensors = names[:: max(1, len(names) // n_sensors)][:n_sensors]
-    roles = {"target": target, "ambient": "ambient_C", "drivers": list(m.inputs), "sensors": sensors}
+    roles = {
+        "target": target,
+        "ambient": "ambient_C",
+        "drivers": list(m.inputs),
+        "sensors": sensors,
+    }
     return WithheldCase(
         real=real,
         sim=sim,
@@ -512,13 +517,19 @@ class WithheldValidation:
         cases = self.cases[self.cases["withheld"] == "custom"]
         return (
             cases.groupby("param_error")
-            .agg(top1=("top1", "mean"), named=("all_named", "mean"), shrinkage=("shrinkage", "median"))
+            .agg(
+                top1=("top1", "mean"),
+                named=("all_named", "mean"),
+                shrinkage=("shrinkage", "median"),
+            )
             .assign(n=cases.groupby("param_error").size())
         )
 
     def verdicts(self):
         """Verdicts by withheld effect (rows) and parameter error."""
-        return pd.crosstab([self.cases["param_error"], self.cases["withheld"]], self.cases["verdict"])
+        return pd.crosstab(
+            [self.cases["param_error"], self.cases["withheld"]], self.cases["verdict"]
+        )
 
     def recall(self):
         """Top-1 and top-2 recall by parameter error, withheld effect and size."""
