@@ -136,7 +136,27 @@ def main(argv=None):
         "--blas-threads", type=int, default=None, help="limit BLAS threads (threadpoolctl)"
     )
     parser.add_argument("--json", metavar="PATH", help="also write the results as JSON")
+    parser.add_argument(
+        "--against",
+        metavar="DIR",
+        help="also time the same diagnosis with the greyml package found in DIR (e.g. the "
+        "previous release unpacked there: git archive 55e1ca1 greyml | tar -x -C DIR), in a "
+        "subprocess, and print the ratio of the two",
+    )
+    parser.add_argument("--peer", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args(argv)
+    if args.peer:  # run by --against: time this process's greyml, print JSON
+        import json
+
+        real, sim = make_case(args.withheld, rows=args.rows)
+        times, report = timed(lambda: diagnose(real, sim), args.repeats)
+        cpu = []
+        for _ in range(args.repeats):
+            start = time.process_time()
+            diagnose(real, sim)
+            cpu.append(time.process_time() - start)
+        print(json.dumps({"wall": times, "cpu": cpu, "named": list(report.named)}))
+        return
 
     real, sim = make_case(args.withheld, rows=args.rows)
     per_test = real.groupby(level="test", sort=False).size()
@@ -184,6 +204,44 @@ def main(argv=None):
         + f" s; min {min(where):.3f} s, median {float(np.median(where)):.3f} s"
     )
 
+    peer = None
+    if args.against:
+        import json
+        import os
+        import subprocess
+        import sys
+
+        env = dict(os.environ, PYTHONPATH=os.path.abspath(args.against))
+        here = os.path.dirname(os.path.abspath(__file__))
+        cmd = [
+            sys.executable,
+            os.path.join(here, "bench_gap.py"),
+            "--peer",
+            "--repeats",
+            str(args.repeats),
+            "--withheld",
+            args.withheld,
+            "--rows",
+            str(args.rows),
+        ]
+        # the same measurement here, CPU time too, interleaved with the peer's
+        cpu = []
+        for _ in range(args.repeats):
+            start = time.process_time()
+            diagnose(real, sim)
+            cpu.append(time.process_time() - start)
+        out = subprocess.run(cmd, env=env, capture_output=True, text=True, check=True).stdout
+        peer = json.loads(out.strip().splitlines()[-1])
+        ratio_wall = float(np.median(peer["wall"])) / median
+        ratio_cpu = float(np.median(peer["cpu"])) / float(np.median(cpu))
+        print(
+            f"\nAgainst greyml in {args.against}: median "
+            f"{float(np.median(peer['wall'])):.2f} s wall, {float(np.median(peer['cpu'])):.2f} s CPU "
+            f"(named {', '.join(peer['named']) or 'nothing'}); this greyml "
+            f"{median:.2f} s wall, {float(np.median(cpu)):.2f} s CPU. "
+            f"Speed-up: {ratio_wall:.1f}x wall, {ratio_cpu:.1f}x CPU."
+        )
+
     if args.json:
         write_json(
             args.json,
@@ -200,6 +258,7 @@ def main(argv=None):
                 "where_s": where,
                 "limit_s": LIMIT_S,
                 "under_limit": bool(median < LIMIT_S),
+                "peer": peer,
             },
             packages=PACKAGES,
             argv=argv,

@@ -42,12 +42,25 @@ def main(argv=None):
     parser.add_argument("--kind", choices=("class", "element"), default="class")
     parser.add_argument("--no-sensitivities", action="store_true")
     parser.add_argument("--n-jobs", type=int, default=2)
+    parser.add_argument("--effects", default="ambient,heat_source,initial_state,drift")
+    parser.add_argument("--pair-seeds", type=int, default=None, help="seeds per pair (--seeds)")
+    parser.add_argument("--events", type=int, default=10, help="step cases per parameter error")
+    parser.add_argument("--custom", type=int, default=10, help="custom-effect cases per error")
+    parser.add_argument("--custom-size", type=float, default=30.0)
     parser.add_argument("--json", default=None)
     args = parser.parse_args(argv)
 
     start = time.perf_counter()
+    effects = tuple(e for e in args.effects.split(",") if e)
     result = validate_withheld(
-        sizes=tuple(float(s) for s in args.sizes.split(",")),
+        effects,
+        pairs=(("ambient", "drift"), ("heat_source", "initial_state"))
+        if args.pair_seeds != 0
+        else (),
+        n_events=args.events,
+        n_custom=args.custom,
+        custom_size=args.custom_size,
+        sizes=tuple(float(s) for s in args.sizes.split(",")) if args.sizes else (),
         n_seeds=args.seeds,
         param_errors=tuple(float(p) for p in args.param_errors.split(",")),
         n_null=args.null,
@@ -71,6 +84,19 @@ def main(argv=None):
     print(result.pairs().round(2).to_string())
     print("\nNull cases: false alarms / cases:")
     print(result.false_alarms().to_string())
+    print("\nVerdicts by case:")
+    print(result.verdicts().to_string())
+    if args.events:
+        print("\nStep of 3-6x the noise in one test: verdict unexplained/partial, no physical")
+        print("effect named (clean), located in the right test within 10 min:")
+        print(result.events().round(2).to_string())
+    if args.custom:
+        print(
+            f"\nHeat input driven by a logged column, given only as a custom effect ({args.custom_size:g}x):"
+        )
+        print(result.custom().round(3).to_string())
+        extra = cases[cases["withheld"] == "custom"]
+        print(f"  oracle shrinkage median {extra['oracle_shrinkage'].median():.3f}")
     print("\nMedian held-out shrinkage (size >= 10): named effects, oracle, noise-free:")
     print(result.shrinkage(min_size=10).round(3).to_string())
     print(

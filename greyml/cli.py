@@ -6,7 +6,8 @@ Usage
 
     greyml gap REAL.csv SIM.csv --target COL [--ambient COL] [--drivers A,B]
                [--sensors A,B] [--fbgs A,B] [--effects a,b] [--random-state N]
-               [--sensitivities SENS.csv] [--tolerance X] [--json FILE|-] [--force]
+               [--sensitivities SENS.csv] [--tolerance X] [--custom NAME=COL[,COL]]
+               [--json FILE|-] [--force]
     greyml demo [--out DIR] [--force] [--quick]
     greyml simulate --machine {vmc,vmc-probe,gantry} --out FILE.csv
                     [--programme SPEC] [--tests seeds|A,B] [--ambient C]
@@ -99,9 +100,12 @@ for every measured (test, time_s) row.
 
 Output: without --json, the report for people is printed. --json FILE also
 writes the report as JSON to FILE; --json - writes only the JSON to standard
-output. The JSON holds "cause" (null when no effect is significant), "causes"
-(one row per effect) and "where" (where the gap lies), and never NaN. An
-existing FILE is replaced only with --force.
+output. The report for people starts with the verdict (within_noise, explained,
+partial or unexplained). The JSON holds "verdict", "unexplained_rms", "events"
+(located steps and spikes: test, time_s, size), "cause" (null when no effect is
+significant), "causes" (one row per effect, with p_value and shrinkage_ci) and
+"where" (where the gap lies), and never NaN. An existing FILE is replaced
+only with --force.
 
 {effects}
 
@@ -832,6 +836,15 @@ def _add_gap_arguments(parser):
         help="how far (relative) the simulation's parameters may be off (default: 0.1)",
     )
     parser.add_argument(
+        "--custom",
+        type=_custom_effect,
+        action="append",
+        default=None,
+        metavar="NAME=COL[,COL]",
+        help="an effect the library lacks: the columns through two thermal lags, reported "
+        "as NAME; may be repeated",
+    )
+    parser.add_argument(
         "--json",
         metavar="FILE|-",
         help="write the report as JSON to FILE, or only JSON to standard output with -",
@@ -840,6 +853,15 @@ def _add_gap_arguments(parser):
     _add_csv_options(parser)
     _add_quiet(parser)
     parser.set_defaults(handler=_run_gap, parser=parser)
+
+
+def _custom_effect(text):
+    """``NAME=COL[,COL]`` -> (name, [columns])."""
+    name, sep, columns = text.partition("=")
+    names = [c.strip() for c in columns.split(",") if c.strip()]
+    if not sep or not name.strip() or not names:
+        raise argparse.ArgumentTypeError(f"expected NAME=COL[,COL], got {text!r}")
+    return name.strip(), names
 
 
 def _run_gap(args):
@@ -872,6 +894,7 @@ def _run_gap(args):
             random_state=args.random_state,
             sensitivities=sensitivities,
             tolerance=args.tolerance,
+            custom_effects=dict(args.custom) if args.custom else None,
         )
         data = report.to_dict()
         if args.json not in (None, "-"):

@@ -11,6 +11,7 @@ import pytest
 
 from greyml import make_test_index
 from greyml.cli import main
+from greyml.gap import GapWarning
 from greyml.io import write_tests_csv
 
 CAUSE_FIELDS = {"effect", "detail", "rmse_before", "rmse_after", "shrinkage", "significant"}
@@ -105,7 +106,9 @@ def test_json_file_and_human_report(drift_case, tmp_path, capsys):
     assert code == 0, err
     data = _strict_json(target.read_text(encoding="utf-8"))
     assert data["cause"] == "drift"
-    assert out.startswith("Gap of dz_um:")
+    # the verdict comes first (issue 17), then the report as before
+    assert out.startswith("Verdict: explained. drift brings the held-out gap")
+    assert out.splitlines()[1].startswith("Gap of dz_um:")
     assert "1. drift" in out
     with pytest.raises(json.JSONDecodeError):
         json.loads(out)
@@ -114,7 +117,7 @@ def test_json_file_and_human_report(drift_case, tmp_path, capsys):
 def test_human_report_without_json(drift_case, tmp_path, capsys):
     assert main(_gap(drift_case)) == 0
     out, _ = capsys.readouterr()
-    assert out.startswith("Gap of dz_um:") and "drift" in out
+    assert out.startswith("Verdict: explained.") and "Gap of dz_um:" in out and "drift" in out
     assert list(tmp_path.iterdir()) == []
 
 
@@ -125,8 +128,11 @@ def test_null_case_has_no_cause(null_case, capsys):
     data = _strict_json(out)
     assert data["cause"] is None
     assert not any(row["significant"] for row in data["causes"])
+    assert data["verdict"] == "within_noise" and data["events"] == []
     assert main(_gap(null_case)) == 0
-    assert "No significant unmodelled effect." in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert out.startswith("Verdict: within noise.")
+    assert "No significant unmodelled effect." in out
 
 
 def _error(capsys, argv):
@@ -287,3 +293,36 @@ def test_sensitivities_recalibrate_a_simulation_off_by_five_percent(tmp_path, ca
     data = _strict_json(capsys.readouterr().out)
     assert data["cause"] == "drift" and data["named"] == ["drift"]
     assert data["recalibration"].startswith("parameters refitted within ±10%: capacity")
+
+
+def test_custom_effect_from_the_command_line(tmp_path, capsys):
+    # the gap follows a logged pump column through a 30-min lag; the pump is
+    # not a driver, only a custom effect
+    real, sim = _tests(0.0)
+    rows = []
+    for _, frame in real.groupby(level="test", sort=False):
+        t = frame.index.get_level_values("time_s").to_numpy()
+        pump = ((t // 2400) % 2 == 1).astype(float)
+        lag = np.zeros(len(t))
+        for i in range(1, len(t)):
+            lag[i] = lag[i - 1] + (pump[i] - lag[i - 1]) * (1 - np.exp(-60 / 1800))
+        rows.append(frame.assign(pump_on=pump, dz_um=frame["dz_um"] + 0.2 * lag))
+    real = pd.concat(rows)
+    paths = [
+        str(write_tests_csv(real, tmp_path / "real.csv")),
+        str(write_tests_csv(sim, tmp_path / "sim.csv")),
+    ]
+    # the faster of the two lags ends at the shortest searched: said in a warning
+    with pytest.warns(GapWarning, match="'hydraulics' ended at the shortest time constant"):
+        assert main(_gap(paths, "--custom", "hydraulics=pump_on", "--json", "-")) == 0
+    data = _strict_json(capsys.readouterr().out)
+    assert data["named"] == ["hydraulics"] and data["verdict"] == "explained"
+    assert data["unexplained_rms"] == pytest.approx(0.01, rel=0.3)
+    assert data["events"] == [] and data["n_placebo"] >= 39
+    top = data["causes"][0]
+    assert top["effect"] == "hydraulics" and top["p_value"] == pytest.approx(1 / 40)
+    low, high = top["shrinkage_ci"]
+    assert low <= top["shrinkage"] <= high and low > 0.8
+    assert "the shortest time constant searched (120 s = 2 min)" in top["detail"]
+    assert main(_gap(paths, "--custom", "hydraulics")) == 2
+    assert "expected NAME=COL[,COL]" in capsys.readouterr().err

@@ -14,6 +14,7 @@ from contextlib import contextmanager
 import dask
 import joblib
 import numpy as np
+import pandas as pd
 import pytest
 from distributed import Client, LocalCluster, get_task_stream
 from sklearn.exceptions import FitFailedWarning
@@ -274,3 +275,31 @@ def test_failing_candidate_on_dask_raises_greyml_error(client, four_drivers):
     assert str(exc_info.value).startswith("ANFISGrid with n_mfs=3 on 4 inputs")
     assert str(exc_info.value).endswith("fewer MFs, or fewer inputs.")
     assert not hasattr(search, "best_estimator_")
+
+
+@pytest.mark.timeout(300)
+def test_validate_withheld_on_dask_equals_the_sequential_run(client):
+    from greyml.gap import validate_withheld
+
+    kwargs = dict(
+        effects=("drift",),
+        sizes=(10,),
+        n_seeds=1,
+        param_errors=(0.0,),
+        pairs=(),
+        n_null=1,
+        n_events=1,
+        n_tests=3,
+        n_sensors=3,
+        n_placebo=9,
+        random_state=7,
+    )
+    sequential = validate_withheld(**kwargs).cases
+    with get_task_stream(client) as stream, joblib.parallel_config(backend="dask"):
+        distributed = validate_withheld(n_jobs=-1, **kwargs).cases
+    assert stream.data, "no case ran on the cluster"
+    assert list(distributed["withheld"]) == ["none", "drift", "event"]
+    assert list(distributed["cause"]) == ["none", "drift", "none"]
+    # every outcome identical, only the wall time differs
+    columns = [c for c in sequential.columns if c != "seconds"]
+    pd.testing.assert_frame_equal(distributed[columns], sequential[columns])

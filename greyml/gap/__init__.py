@@ -2,7 +2,7 @@
 
 from greyml.gap._diagnose import diagnose_gap
 from greyml.gap._effects import DESCRIPTIONS, EFFECTS
-from greyml.gap._report import GapReport
+from greyml.gap._report import GapReport, GapWarning
 from greyml.gap._validate import (
     WITHHELD,
     WithheldCase,
@@ -19,6 +19,7 @@ __all__ = [
     "DESCRIPTIONS",
     "EFFECTS",
     "GapReport",
+    "GapWarning",
     "WITHHELD",
     "WithheldCase",
     "WithheldValidation",

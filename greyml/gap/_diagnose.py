@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import os
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -14,12 +15,17 @@ from greyml._validation import _upper_first
 from greyml.gap._effects import (
     DESCRIPTIONS,
     EFFECTS,
-    LagCache,
+    Bank,
     build_candidates,
+    fmt_tau,
+    lag_bank,
+    lag_picks,
     recalibration_candidate,
+    tau_grid,
 )
+from greyml.gap._events import event_columns, locate_events
 from greyml.gap._fit import evaluate, fit_recalibration, fold_design, placebo_walks
-from greyml.gap._report import GapReport
+from greyml.gap._report import GapReport, GapWarning
 from greyml.gap._where import _sampling_interval, gap_breakdown, residual_diagnostics
 from greyml.io import check_test_frame, read_tests_csv
 
@@ -221,7 +227,7 @@ def _shrinkage(after, before):
 
 
 def _placebo_make(ctx, cand, rng):
-    """Random-walk signatures as free as ``cand``: a ``make`` like its own.
+    """Random-walk signatures as free as ``cand``: a :class:`Bank` like its own.
 
     As many variants, features and time-constant settings: the variants are
     random walks from 0 in every test, lagged like the candidate's signatures
@@ -229,10 +235,11 @@ def _placebo_make(ctx, cand, rng):
     """
     n, V, k = len(ctx.r), len(cand.variants), cand.n_features
     if cand.settings[0]:
-        lags = LagCache(placebo_walks(rng, ctx.bounds, V), ctx.dt, ctx.bounds)
-        return lags.stack
+        taus = cand.taus or tuple(sorted({float(t) for s in cand.settings for t in s}))
+        walks = placebo_walks(rng, ctx.bounds, V)
+        return Bank(lag_bank(walks, taus, ctx.dt, ctx.bounds), lag_picks(cand.settings, taus))
     walks = placebo_walks(rng, ctx.bounds, V * k).reshape(n, V, k)
-    return lambda setting: walks
+    return Bank(walks, [list(range(k))])
 
 
 def _placebo_improvements(ctx, base, before, cand, rng, n_placebo, recal=None, beat=np.inf):
@@ -251,9 +258,44 @@ def _placebo_improvements(ctx, base, before, cand, rng, n_placebo, recal=None, b
     return np.array(out)
 
 
-def _row(effect, detail, step=None, ev=None, significant=False, number=0, placebo=np.nan):
+def _p_value(placebo, shrink):
+    """Sequential placebo p-value (Besag and Clifford, 1991): stop at the first placebo as good.
+
+    ``placebo`` holds the shrinkage of the placebos drawn (NaN: none drawn).
+    Stopped after l placebos at the first one at least as good as the effect,
+    p = 1/l; all drawn and none as good, p = 1/(l + 1). NaN when none was drawn.
+    """
+    drawn = placebo[np.isfinite(placebo)]
+    if not drawn.size:
+        return np.nan
+    beaten = int(np.sum(drawn >= shrink))
+    return beaten / drawn.size if beaten else 1.0 / (drawn.size + 1)
+
+
+def _shrinkage_ci(before, after, bounds, level=0.95, n_boot=2000):
+    """Percentile interval of the held-out shrinkage over tests resampled with replacement."""
+    b = np.array([np.sum(before[s:e] ** 2) for s, e in bounds])
+    a = np.array([np.sum(after[s:e] ** 2) for s, e in bounds])
+    # a fixed seed: the interval is a property of the data, not of random_state
+    pick = np.random.default_rng(0).integers(0, len(bounds), size=(n_boot, len(bounds)))
+    den = b[pick].sum(axis=1)
+    ok = den > 0
+    if not ok.any():
+        return (np.nan, np.nan)
+    shrink = 1.0 - np.sqrt(a[pick].sum(axis=1)[ok] / den[ok])
+    lo, hi = np.quantile(shrink, [(1 - level) / 2, (1 + level) / 2])
+    return (float(lo), float(hi))
+
+
+def _row(
+    effect, detail, step=None, ev=None, significant=False, number=0, placebo=np.nan, bounds=None
+):
     """One row of ``causes``: ``ev`` scored against ``step``'s starting gap (NaN if unscored)."""
     scored = step is not None and ev is not None
+    ci = (np.nan, np.nan)
+    if scored and bounds is not None and step.get("held_before") is not None:
+        ci = _shrinkage_ci(step["held_before"], ev.held_out, bounds)
+    own = scored and placebo is not None and np.isfinite(placebo)
     return {
         "effect": effect,
         "detail": detail,
@@ -265,6 +307,9 @@ def _row(effect, detail, step=None, ev=None, significant=False, number=0, placeb
         "placebo_shrinkage": placebo,
         "peak_before": step["peak_before"] if scored else np.nan,
         "peak_after": ev.peak if scored else np.nan,
+        "p_value": step["p_value"] if own else np.nan,
+        "n_placebo": int(step["n_placebo"]) if own else 0,
+        "shrinkage_ci": ci,
     }
 
 
@@ -291,11 +336,13 @@ def _pair_step(ctx, base, before, scored, recal, rng, n_placebo, min_shrinkage, 
     """
     best = None
     for _, first, ev_first in scored[:top]:
-        with_first = _with(base, first.make, ev_first)
+        with_first = _with(base, ev_first.bank, ev_first)
         for _, second, _ in scored:
             if second is first:
                 continue
-            ev = evaluate(ctx.r, with_first, second.make, second.settings, ctx.bounds, recal=recal)
+            ev = evaluate(
+                ctx.r, with_first, second.get_bank(), second.settings, ctx.bounds, recal=recal
+            )
             if best is None or ev.rmse < best[3].rmse:
                 best = (first, ev_first, second, ev)
     first, ev_first, second, ev = best
@@ -306,12 +353,12 @@ def _pair_step(ctx, base, before, scored, recal, rng, n_placebo, min_shrinkage, 
         ev_a = evaluate(ctx.r, base, make_a, first.settings, ctx.bounds, recal=recal)
         make_b = _placebo_make(ctx, second, rng)
         ev_b = evaluate(
-            ctx.r, _with(base, make_a, ev_a), make_b, second.settings, ctx.bounds, recal=recal
+            ctx.r, _with(base, ev_a.bank, ev_a), make_b, second.settings, ctx.bounds, recal=recal
         )
         placebo.append(_shrinkage(ev_b.rmse, before.rmse))
         if placebo[-1] >= shrink:  # not significant, whatever the others do
             break
-    return (shrink, first, ev_first, second, ev), np.array(placebo or [np.nan])
+    return (shrink, first, ev_first, second, ev), np.array(placebo or [np.nan]), len(placebo)
 
 
 def _prune(ctx, named, base, recal, tie_tolerance):
@@ -323,7 +370,7 @@ def _prune(ctx, named, base, recal, tie_tolerance):
     costs less than ``tie_tolerance`` of the held-out RMSE, the cheapest is
     dropped.
     """
-    designs = {id(c): fold_design(c.make, ev.choices) for c, ev, _ in named}
+    designs = {id(c): fold_design(ev.bank, ev.choices) for c, ev, _ in named}
     keep = [c for c, _, _ in named]
 
     def score(effects):
@@ -365,6 +412,7 @@ def _forward(
     min_shrinkage,
     max_effects,
     tie_tolerance,
+    counter,
 ):
     """Greedy forward naming: add the best significant effect until none is left."""
     steps, named = [], []
@@ -372,7 +420,7 @@ def _forward(
     while remaining:
         scored = []
         for cand in remaining:
-            ev = evaluate(ctx.r, base, cand.make, cand.settings, ctx.bounds, recal=recal)
+            ev = evaluate(ctx.r, base, cand.get_bank(), cand.settings, ctx.bounds, recal=recal)
             shrink = _shrinkage(ev.rmse, before.rmse)
             scored.append((shrink, cand, ev))
         scored.sort(key=lambda s: -s[0])
@@ -382,6 +430,7 @@ def _forward(
             placebo = _placebo_improvements(
                 ctx, base, before, best, rng, n_placebo, recal, beat=best_shrink
             )
+            counter[0] += placebo.size
         threshold = max(min_shrinkage, np.nan_to_num(_best(placebo), nan=-np.inf))
         significant = best_shrink > threshold and len(named) < max_effects
         ties = [c.effect for s, c, _ in scored[1:] if best_shrink - s <= tie_tolerance]
@@ -392,13 +441,17 @@ def _forward(
             "scored": scored,
             "threshold": threshold,
             "placebo_max": _best(placebo),
+            "p_value": _p_value(placebo, best_shrink),
+            "n_placebo": int(np.isfinite(placebo).sum()),
+            "held_before": before.held_out,
             "significant": significant,
             "ties": ties if significant else [],
         }
         if not significant and len(remaining) >= 2 and len(named) + 2 <= max_effects:
-            pair, placebo = _pair_step(
+            pair, placebo, drawn = _pair_step(
                 ctx, base, before, scored, recal, rng, n_placebo, min_shrinkage
             )
+            counter[0] += drawn
             shrink, first, ev_first, second, ev_second = pair
             threshold = max(min_shrinkage, np.nan_to_num(_best(placebo), nan=-np.inf))
             if shrink > threshold:
@@ -413,13 +466,16 @@ def _forward(
                         "scored": [],
                         "threshold": threshold,
                         "placebo_max": _best(placebo),
+                        "p_value": _p_value(placebo, shrink),
+                        "n_placebo": int(np.isfinite(placebo).sum()),
+                        "held_before": start.held_out,
                         "significant": True,
                         "ties": [],
                         "pair": partner.effect,
                     }
                     steps.append(step)
                     named.append((cand, ev, step))
-                base = _with(_with(base, first.make, ev_first), second.make, ev_second)
+                base = _with(_with(base, ev_first.bank, ev_first), ev_second.bank, ev_second)
                 before = ev_second
                 remaining = [c for c in remaining if c is not first and c is not second]
                 continue
@@ -427,7 +483,7 @@ def _forward(
         if not significant:
             break
         named.append((best, best_ev, step))
-        base = _with(base, best.make, best_ev)
+        base = _with(base, best_ev.bank, best_ev)
         before = best_ev
         remaining = [c for c in remaining if c is not best]
 
@@ -452,6 +508,7 @@ def diagnose_gap(
     recalibrate=True,
     sensitivities=None,
     tolerance=0.1,
+    custom_effects=None,
 ):
     """Locate the gap between a simulation and measured tests and name its cause.
 
@@ -464,6 +521,11 @@ def diagnose_gap(
     ``n_placebo`` random-walk placebos given the same freedom (as many
     variants and time constants). The best significant effect is added and the
     rest re-diagnosed on what is left, until nothing significant remains.
+
+    Abrupt events (a step or a spike in one test: a probe knocked, a
+    re-clamp) are located first (``ruptures``) and reported in ``events``;
+    they are held fixed while effects are fitted, so that an event is never
+    taken for ``drift`` or another effect. The report ends in a ``verdict``.
 
     Parameters
     ----------
@@ -517,10 +579,25 @@ def diagnose_gap(
         How far the simulation's parameters may be off (relative): the
         recalibration keeps every relative change within ±tolerance. What
         needs more is left for an unmodelled effect to explain.
+    custom_effects : dict, optional
+        Effects the library lacks, tried like the built-in ones and reported
+        under their names: ``{"coolant": ["coolant_on"]}`` puts the measured
+        columns (one variant each) through the two thermal lags of
+        ``heat_source``; ``{"door": f}`` calls ``f(real)`` (a copy of the
+        measured frame) for signature columns on the same rows (a DataFrame
+        indexed like ``real``, a Series or an array of shape (n,) or (n, k)),
+        whose gains are fitted. Each is compared with placebos given the same
+        freedom.
 
     Returns
     -------
     GapReport
+
+    Warns
+    -----
+    GapWarning
+        When a named effect's fitted time constant ends at the bound of its
+        search (often a ``time_s`` that is not in seconds).
 
     Examples
     --------
@@ -540,7 +617,7 @@ def diagnose_gap(
     if effects is None:
         effects = EFFECTS
     effects = list(dict.fromkeys(_as_names(effects, "effects")))
-    if not effects:
+    if not effects and not custom_effects:
         raise ValueError("effects= names no effect; leave it out (None) to try them all.")
     unknown = [e for e in effects if e not in EFFECTS]
     if unknown:
@@ -564,12 +641,11 @@ def diagnose_gap(
     ctx = build_context(
         real, sim, target=target, ambient=ambient, drivers=drivers, sensors=sensors, fbgs=fbgs
     )
+    custom = _custom_effects(custom_effects, real, ctx)
     rng = make_generator(random_state)
-    candidates, skipped = build_candidates(ctx, effects)
+    candidates, skipped = build_candidates(ctx, effects, custom=custom)
     n = len(ctx.r)
     base = [np.zeros((n, 0)) for _ in ctx.bounds]
-    before = evaluate(ctx.r, base, None, [()], ctx.bounds)
-    initial = before
     recalibrated = recal = None
     recal_detail, kept = "", False
     if recalibrate:
@@ -592,13 +668,29 @@ def diagnose_gap(
             )
         recalibrated = evaluate(ctx.r, base, None, [()], ctx.bounds, recal=recal)
     floor = noise_floor(ctx.r, ctx.bounds)
+    # Abrupt events, located on the gap the parameters leave, are held fixed
+    # (one column each, in every fold's base) while effects are fitted; those
+    # still in the remainder at the end are reported.
+    located = locate_events(
+        recalibrated.held_out if recalibrated is not None else ctx.r, ctx.bounds, floor
+    )
+    if located:
+        stops = [ctx.bounds[t][1] for t, *_ in located]
+        columns = event_columns([(*e, stop) for e, stop in zip(located, stops)], n)
+        base = [columns for _ in ctx.bounds]
+        if recal is not None:
+            recalibrated = evaluate(ctx.r, base, None, [()], ctx.bounds, recal=recal)
+    before = evaluate(ctx.r, base, None, [()], ctx.bounds)
+    initial = before
 
     rows = []
+    counter = [0]
     search = dict(
         n_placebo=n_placebo,
         min_shrinkage=min_shrinkage,
         max_effects=max_effects,
         tie_tolerance=tie_tolerance,
+        counter=counter,
     )
     alt_rng = np.random.default_rng(rng.integers(2**63))
     named, steps, before, dropped = _search(ctx, candidates, base, initial, None, rng, **search)
@@ -614,13 +706,34 @@ def diagnose_gap(
             named, steps, before, dropped = alt
             kept = True
 
+    unit = _time_unit_hint(ctx)
     for best, ev, step in named:
         detail = best.describe(best.variants[ev.variant], ev.tau)
+        bound = _at_bound(best, ev.tau)
+        if bound:
+            detail += f"; {bound}"
+            warnings.warn(
+                f"diagnose_gap: the time constant of {best.effect!r} ended at {bound}; the "
+                f"true one may lie beyond it. {unit}",
+                GapWarning,
+                stacklevel=2,
+            )
         if step["ties"]:
             detail += f"; indistinguishable from {', '.join(step['ties'])}"
         if step.get("pair"):
             detail += f"; named as a pair with {step['pair']} (together they beat the placebos)"
-        rows.append(_row(best.effect, detail, step, ev, True, step["step"], step["placebo_max"]))
+        rows.append(
+            _row(
+                best.effect,
+                detail,
+                step,
+                ev,
+                True,
+                step["step"],
+                step["placebo_max"],
+                bounds=ctx.bounds,
+            )
+        )
     last = steps[-1] if steps else None
     if last is not None and not last["significant"]:
         for _, cand, ev in last["scored"]:
@@ -628,7 +741,12 @@ def diagnose_gap(
             detail = cand.describe(cand.variants[ev.variant], ev.tau)
             rows.append(
                 _row(
-                    cand.effect, detail, last, ev, placebo=last["placebo_max"] if first else np.nan
+                    cand.effect,
+                    detail,
+                    last,
+                    ev,
+                    placebo=last["placebo_max"] if first else np.nan,
+                    bounds=ctx.bounds,
                 )
             )
     for cand in dropped:
@@ -648,7 +766,30 @@ def diagnose_gap(
         signals[name] = values
     drivers_frame = pd.DataFrame(dict(zip(ctx.driver_names, ctx.drivers.T)), index=ctx.index)
     where = gap_breakdown(r_series, drivers=drivers_frame if ctx.driver_names else None)
-    whiteness, xcorr = residual_diagnostics(r_series, pd.DataFrame(signals, index=ctx.index))
+    signal_frame = pd.DataFrame(signals, index=ctx.index)
+    whiteness, xcorr = residual_diagnostics(r_series, signal_frame)
+    corrected = pd.Series(final.held_out, index=ctx.index, name="gap_after")
+    remainder_where = gap_breakdown(corrected, drivers=drivers_frame if ctx.driver_names else None)
+    remainder_white, remainder_xcorr = residual_diagnostics(corrected, signal_frame)
+    times = ctx.index.get_level_values("time_s").to_numpy(dtype=float)
+    # the events reported are those still in what the named effects leave:
+    # one found in the gap before the search may have been a thermal bend
+    located = locate_events(final.held_out, ctx.bounds, floor)
+    events = pd.DataFrame(
+        {
+            "test": [ctx.labels[t] for t, *_ in located],
+            "time_s": [times[first] for _, first, *_ in located],
+            "size": [float(size) for _, _, size, _ in located],
+        },
+        columns=["test", "time_s", "size"],
+    )
+    descriptions = {e: DESCRIPTIONS[e] for e in EFFECTS}
+    for name, (kind, columns, _) in custom.items():
+        descriptions[name] = (
+            f"user-defined: {', '.join(columns)} through a thermal lag"
+            if kind == "columns"
+            else "user-defined signature"
+        )
     return GapReport(
         target=target,
         where=where,
@@ -664,11 +805,118 @@ def diagnose_gap(
         whiteness=whiteness,
         cross_correlation=xcorr,
         gap=r_series,
-        corrected=pd.Series(final.held_out, index=ctx.index, name="gap_after"),
-        descriptions={e: DESCRIPTIONS[e] for e in EFFECTS},
+        corrected=corrected,
+        descriptions=descriptions,
         recalibration=recal_detail,
         recalibration_kept=kept,
+        events=events,
+        n_placebo=counter[0],
+        remainder_where=remainder_where,
+        remainder_whiteness=remainder_white,
+        remainder_cross_correlation=remainder_xcorr,
     )
+
+
+def _time_unit_hint(ctx):
+    """What a time constant at its bound may say about the unit of time_s."""
+    lo = tau_grid(ctx.dt, ctx.durations)[0]
+    return (
+        f"Time constants are searched in seconds of time_s, from {lo:g} s "
+        f"({fmt_tau(lo)}) to twice the longest test ({2 * max(ctx.durations):g} s = "
+        f"{fmt_tau(2 * max(ctx.durations))}); if time_s holds minutes or hours, that is "
+        "the likely cause: convert it to seconds."
+    )
+
+
+def _at_bound(cand, setting, rtol=1e-9):
+    """Which search bound a setting's time constant sits on, in words; "" if none."""
+    if not setting or not cand.taus:
+        return ""
+    lo, hi = min(cand.taus), max(cand.taus)
+    for tau in setting:
+        if abs(tau - lo) <= rtol * lo:
+            return f"the shortest time constant searched ({lo:g} s = {fmt_tau(lo)})"
+        if abs(tau - hi) <= rtol * hi:
+            return f"the longest time constant searched ({hi:g} s = {fmt_tau(hi)})"
+    return ""
+
+
+def _custom_effects(custom_effects, real, ctx):
+    """Check ``custom_effects``: name -> (kind, column names, (n, k) array)."""
+    if custom_effects is None:
+        return {}
+    if not isinstance(custom_effects, dict):
+        raise TypeError(
+            "custom_effects= takes a dict {name: [columns] or callable}; got "
+            f"{type(custom_effects).__name__}."
+        )
+    out = {}
+    segments = test_segments(real)
+    for name, spec in custom_effects.items():
+        if not isinstance(name, str) or not name:
+            raise TypeError(f"custom_effects= needs effect names as strings; got {name!r}.")
+        if name in EFFECTS:
+            raise ValueError(
+                f"custom effect {name!r} has the name of a built-in effect; give it another "
+                f"name (the built-in effects are {list(EFFECTS)})."
+            )
+        if callable(spec):
+            values = spec(real.copy())
+            if isinstance(values, pd.Series):
+                values = values.to_frame()
+            if isinstance(values, pd.DataFrame):
+                if isinstance(values.index, pd.MultiIndex) and "time_s" in values.index.names:
+                    values = pd.DataFrame(
+                        _on_measured_rows(values, real, f"custom effect {name!r}"),
+                        columns=values.columns,
+                    )
+                names = [f"{name}: {c}" for c in values.columns]
+                values = values.to_numpy()
+            else:
+                values = np.asarray(values)
+                names = [name]
+            if values.dtype.kind not in "biuf":
+                raise TypeError(
+                    f"custom effect {name!r}: the callable must return numbers; got dtype "
+                    f"{values.dtype}."
+                )
+            values = values.astype(float)
+            if values.ndim == 1:
+                values = values[:, None]
+            if values.ndim != 2 or values.shape[0] != len(ctx.r) or values.shape[1] == 0:
+                raise ValueError(
+                    f"custom effect {name!r}: the callable must return signature columns on "
+                    f"the {len(ctx.r)} measured rows; got shape {values.shape}."
+                )
+            if len(names) != values.shape[1]:
+                names = [f"{name}[{j}]" for j in range(values.shape[1])]
+            for j in range(values.shape[1]):
+                _finite(values[:, j], f"Custom effect {name!r}", ctx.index, segments)
+            out[name] = ("signatures", names, values)
+            continue
+        columns = _as_names(spec, f"custom_effects[{name!r}]")
+        if not columns:
+            raise ValueError(f"custom effect {name!r} names no column.")
+        for column in columns:
+            if column not in real.columns:
+                raise ValueError(
+                    f"The column {column!r} of custom effect {name!r} is not in the measured "
+                    f"data; its columns are {list(real.columns)}."
+                )
+        values = np.empty((len(ctx.r), len(columns)))
+        for j, column in enumerate(columns):
+            series = real[column]
+            if not pd.api.types.is_numeric_dtype(series.dtype):
+                raise TypeError(
+                    f"Column {column!r} of custom effect {name!r} must hold numbers; it has "
+                    f"dtype {series.dtype}."
+                )
+            values[:, j] = series.to_numpy(dtype=float)
+            _finite(
+                values[:, j], f"Column {column!r} (custom effect {name!r})", ctx.index, segments
+            )
+        out[name] = ("columns", columns, values)
+    return out
 
 
 _CAUSE_COLUMNS = [
@@ -682,4 +930,7 @@ _CAUSE_COLUMNS = [
     "placebo_shrinkage",
     "peak_before",
     "peak_after",
+    "p_value",
+    "n_placebo",
+    "shrinkage_ci",
 ]

@@ -19,9 +19,19 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.signal import lfilter
 
-__all__ = ["EFFECTS", "Candidate", "LagCache", "first_order_lag", "tau_grid", "build_candidates"]
+from greyml.dynamic._kernels import lag_filter
+
+__all__ = [
+    "EFFECTS",
+    "Bank",
+    "Candidate",
+    "LagCache",
+    "first_order_lag",
+    "lag_bank",
+    "tau_grid",
+    "build_candidates",
+]
 
 #: The fixed names of the effects, in the order they are tried.
 EFFECTS = (
@@ -46,6 +56,39 @@ DESCRIPTIONS = {
 }
 
 
+def lag_bank(x, taus, dt, bounds):
+    """First-order lags of the columns of ``x`` at every time constant, from rest at 0.
+
+    y[k] = a·y[k−1] + (1 − a)·x[k] with a = exp(−dt/τ) and y = 0 before each
+    test: greyml's one lag kernel (:func:`greyml.dynamic._kernels.lag_filter`)
+    run on each test from a zero state.
+
+    Parameters
+    ----------
+    x : ndarray of shape (n, p)
+    taus : sequence of float
+        Time constants in seconds (> 0).
+    dt : sequence of float
+        Sampling interval of each test in seconds (one per bound).
+    bounds : sequence of (start, stop)
+
+    Returns
+    -------
+    lags : ndarray of shape (n, p, len(taus))
+    """
+    x = np.asarray(x, dtype=float)
+    taus = np.asarray(taus, dtype=float)
+    n, p = x.shape
+    out = np.empty((n, p, taus.size))
+    zero = np.zeros((p, taus.size))
+    for (start, stop), step in zip(bounds, dt):
+        steps = np.full(stop - start, float(step))
+        out[start:stop], _ = lag_filter(
+            x[start:stop], steps, taus, [(0, stop - start)], carry=True, initial=zero
+        )
+    return out
+
+
 def first_order_lag(x, tau_s, dt, bounds):
     """First-order lag of the columns of ``x`` within each test, from rest.
 
@@ -66,11 +109,8 @@ def first_order_lag(x, tau_s, dt, bounds):
     y : ndarray like ``x``
     """
     x = np.asarray(x, dtype=float)
-    y = np.empty_like(x)
-    for (start, stop), step in zip(bounds, dt):
-        a = np.exp(-step / tau_s)
-        y[start:stop] = lfilter([1.0 - a], [1.0, -a], x[start:stop], axis=0)
-    return y
+    y = lag_bank(x.reshape(len(x), -1), [tau_s], dt, bounds)[:, :, 0]
+    return y.reshape(x.shape)
 
 
 def tau_grid(dt, durations, n=12):
@@ -109,6 +149,39 @@ class LagCache:
         return np.stack([self(tau) for tau in setting], axis=2)
 
 
+class Bank:
+    """A candidate's signatures as one array of columns and the columns of each setting.
+
+    ``values`` (n, V, m) holds every column any setting uses, per variant;
+    ``picks`` (S, k) the columns of each setting (setting s, variant v:
+    ``values[:, v, picks[s]]``). A two-lag effect stores the lag at each of
+    the 12 time constants once, not at each of the 66 pairs. Cross products
+    per test are computed once and kept (:mod:`greyml.gap._fit`).
+    """
+
+    def __init__(self, values, picks):
+        self.values = np.asarray(values, dtype=float)
+        self.picks = np.asarray(picks, dtype=np.intp).reshape(len(picks), -1)
+        self.cache = {}
+
+    @classmethod
+    def of_make(cls, make, settings):
+        """The bank of any ``make(setting) -> (n, V, k)``: every setting's columns side by side."""
+        blocks = [np.asarray(make(s), dtype=float) for s in settings]
+        k = blocks[0].shape[2]
+        return cls(np.concatenate(blocks, axis=2), np.arange(len(blocks) * k).reshape(-1, k))
+
+    def features(self, index):
+        """(n, V, k): the signatures of setting number ``index``."""
+        return self.values[:, :, self.picks[index]]
+
+
+def lag_picks(settings, taus):
+    """The column of each time constant of each setting in a bank of lags at ``taus``."""
+    where = {float(t): j for j, t in enumerate(taus)}
+    return np.array([[where[float(t)] for t in s] for s in settings], dtype=np.intp)
+
+
 @dataclass
 class Candidate:
     """One effect's family of signatures.
@@ -125,9 +198,39 @@ class Candidate:
     make: object
     describe: object  # callable (variant label, setting) -> str
     n_features: int
+    bank: object = None  # Bank; built from ``make`` when not given
+    taus: tuple = ()  # the time constants the settings draw from (for placebos)
+    grid: tuple = ()  # the search grid: its ends are the bounds (for warnings)
 
     def features(self, setting):
         return self.make(setting)
+
+    def get_bank(self):
+        """The candidate's :class:`Bank` (built once from ``make`` if not given)."""
+        if self.bank is None:
+            self.bank = Bank.of_make(self.make, self.settings)
+        return self.bank
+
+
+def _bank_candidate(effect, variants, settings, values, picks, describe, taus=(), grid=()):
+    """A candidate whose signatures are columns of ``values`` (n, V, m) picked per setting."""
+    bank = Bank(values, picks)
+    index = {s: i for i, s in enumerate(settings)}
+
+    def make(setting, bank=bank, index=index):
+        return bank.features(index[setting])
+
+    return Candidate(
+        effect,
+        variants,
+        settings,
+        make,
+        describe,
+        bank.picks.shape[1],
+        bank,
+        tuple(float(t) for t in taus),
+        tuple(float(t) for t in grid),
+    )
 
 
 def _per_test_start(values, bounds):
@@ -147,7 +250,16 @@ def _taus(setting):
     return ", ".join(fmt_tau(t) for t in setting)
 
 
-def build_candidates(ctx, effects, max_sensor_lag_s=3600.0):
+def _two_lag_candidate(effect, variants, x, grid, ctx, describe):
+    """Two lags τ₁ < τ₂ of the columns of ``x`` (one variant per column)."""
+    settings = two_lags(grid)
+    values = lag_bank(x, grid, ctx.dt, ctx.bounds)
+    return _bank_candidate(
+        effect, variants, settings, values, lag_picks(settings, grid), describe, grid, grid
+    )
+
+
+def build_candidates(ctx, effects, max_sensor_lag_s=3600.0, custom=None):
     """The candidates of the requested effects that the available columns allow.
 
     Parameters
@@ -158,6 +270,11 @@ def build_candidates(ctx, effects, max_sensor_lag_s=3600.0):
     max_sensor_lag_s : float, default=3600
         Longest lag between the structure and a surface sensor tried; a
         longer one is no longer a sensor's lag but a different thermal path.
+    custom : dict, optional
+        User-defined effects: name -> ("columns", names, (n, p) array) for
+        measured columns through two thermal lags, as ``heat_source``; or
+        name -> ("signatures", names, (n, k) array) for signature columns
+        used as they are.
 
     Returns
     -------
@@ -174,31 +291,28 @@ def build_candidates(ctx, effects, max_sensor_lag_s=3600.0):
                 skipped[effect] = "needs the ambient column (ambient=)"
                 continue
             rise = ctx.ambient - _per_test_start(ctx.ambient, bounds)
-            lags = LagCache(rise[:, None], dt, bounds)
             out.append(
-                Candidate(
+                _two_lag_candidate(
                     effect,
                     [ctx.ambient_name],
-                    two_lags(grid),
-                    lags.stack,
+                    rise[:, None],
+                    grid,
+                    ctx,
                     lambda v, s: f"air {v} through two thermal lags ({_taus(s)})",
-                    2,
                 )
             )
         elif effect == "heat_source":
             if ctx.drivers.shape[1] == 0:
                 skipped[effect] = "needs at least one driver column (drivers=)"
                 continue
-            scale = np.abs(ctx.drivers).max(axis=0)
-            lags = LagCache(ctx.drivers / np.where(scale > 0, scale, 1.0), dt, bounds)
             out.append(
-                Candidate(
+                _two_lag_candidate(
                     effect,
                     list(ctx.driver_names),
-                    two_lags(grid),
-                    lags.stack,
+                    _scaled(ctx.drivers),
+                    grid,
+                    ctx,
                     lambda v, s: f"heat driven by {v}, thermal lags {_taus(s)}",
-                    2,
                 )
             )
         elif effect == "sensor_lag":
@@ -206,19 +320,20 @@ def build_candidates(ctx, effects, max_sensor_lag_s=3600.0):
                 skipped[effect] = "needs temperature sensor columns (sensors=)"
                 continue
             rise = ctx.sensors - _per_test_start(ctx.sensors, bounds)
-            lags = LagCache(rise, dt, bounds)
-
-            def lead(setting, rise=rise, lags=lags):
-                return (rise - lags(setting[0]))[:, :, None]
-
+            taus = grid[grid <= max_sensor_lag_s]
+            taus = taus if taus.size else grid[:1]
+            settings = one_lag(taus)
+            values = rise[:, :, None] - lag_bank(rise, taus, dt, bounds)
             out.append(
-                Candidate(
+                _bank_candidate(
                     effect,
                     list(ctx.sensor_names),
-                    one_lag(grid[grid <= max_sensor_lag_s]) or one_lag(grid[:1]),
-                    lead,
+                    settings,
+                    values,
+                    lag_picks(settings, taus),
                     lambda v, s: f"structure ahead of {v} by about {_taus(s)}",
-                    1,
+                    taus,
+                    (grid[0], max_sensor_lag_s),
                 )
             )
         elif effect == "initial_state":
@@ -231,30 +346,30 @@ def build_candidates(ctx, effects, max_sensor_lag_s=3600.0):
             start = np.column_stack([start.mean(axis=1), start])
             offset = _per_test_start(start, bounds)
             names = ["mean sensor"] + list(ctx.sensor_names)
-
-            def relax(setting, offset=offset):
-                return np.stack([offset * -np.expm1(-t / tau)[:, None] for tau in setting], axis=2)
-
+            settings = two_lags(grid)
+            values = offset[:, :, None] * -np.expm1(-t[:, None] / grid[None, :])[:, None, :]
             out.append(
-                Candidate(
+                _bank_candidate(
                     effect,
                     names,
-                    two_lags(grid),
-                    relax,
+                    settings,
+                    values,
+                    lag_picks(settings, grid),
                     lambda v, s: f"start offset of {v} from the air relaxing with {_taus(s)}",
-                    2,
+                    grid,
+                    grid,
                 )
             )
         elif effect == "drift":
             hours = (t / 3600.0)[:, None, None]
             out.append(
-                Candidate(
+                _bank_candidate(
                     effect,
                     ["time"],
                     [()],
-                    lambda s, hours=hours: hours,
+                    hours,
+                    [[0]],
                     lambda v, s: "linear in time since the test start",
-                    1,
                 )
             )
         elif effect == "fbg_temperature":
@@ -266,13 +381,13 @@ def build_candidates(ctx, effects, max_sensor_lag_s=3600.0):
                 continue
             rise = ctx.sensors - _per_test_start(ctx.sensors, bounds)
             out.append(
-                Candidate(
+                _bank_candidate(
                     effect,
                     list(ctx.sensor_names),
                     [()],
-                    lambda s, rise=rise: rise[:, :, None],
+                    rise[:, :, None],
+                    [[0]],
                     lambda v, s: f"proportional to the rise of {v}",
-                    1,
                 )
             )
         elif effect == "nonlinear_expansion":
@@ -283,18 +398,49 @@ def build_candidates(ctx, effects, max_sensor_lag_s=3600.0):
                 columns.append(rise.mean(axis=1) ** 2)
             square = np.column_stack(columns)[:, :, None]
             out.append(
-                Candidate(
+                _bank_candidate(
                     effect,
                     variants,
                     [()],
-                    lambda s, square=square: square,
+                    square,
+                    [[0]],
                     lambda v, s: f"proportional to {v}",
-                    1,
                 )
             )
         else:  # pragma: no cover - names are checked by the caller
             raise ValueError(effect)
+    for name, (kind, columns, values) in (custom or {}).items():
+        if kind == "columns":
+            out.append(
+                _two_lag_candidate(
+                    name,
+                    list(columns),
+                    _scaled(values),
+                    grid,
+                    ctx,
+                    lambda v, s: f"user-defined: {v} through thermal lags {_taus(s)}",
+                )
+            )
+        else:
+            label = ", ".join(columns)
+            k = values.shape[1]
+            out.append(
+                _bank_candidate(
+                    name,
+                    [label],
+                    [()],
+                    values[:, None, :],
+                    [list(range(k))],
+                    lambda v, s: f"user-defined signature ({v})",
+                )
+            )
     return out, skipped
+
+
+def _scaled(x):
+    """Columns scaled to their largest absolute value (a column of zeros stays)."""
+    scale = np.abs(x).max(axis=0)
+    return x / np.where(scale > 0, scale, 1.0)
 
 
 def recalibration_candidate(ctx):

@@ -10,7 +10,6 @@ to pick a time constant or to pick a variant.
 
 from __future__ import annotations
 
-import weakref
 from dataclasses import dataclass
 
 import numpy as np
@@ -37,6 +36,7 @@ class FoldChoice:
     tau: tuple  # the setting of the time constants (seconds)
     variant: int
     coef: np.ndarray
+    setting: int = 0  # its index among the settings tried
 
 
 @dataclass
@@ -49,6 +49,7 @@ class Evaluation:
     choices: list  # FoldChoice per fold
     tau: tuple  # the (setting, variant) most folds chose
     variant: int
+    bank: object = None  # the candidate's Bank, to rebuild each fold's design
 
 
 def _solve(G, g):
@@ -130,99 +131,164 @@ def fit_recalibration(r, make, settings, bounds, tolerance):
     return Recalibration(out_d, out_t, tolerance, out_s)
 
 
-def _select(tensors, grams, B, rz, cal, f, bounds, keep=1):
-    """The (setting, variant) that best fits ``rz`` on the calibration rows.
+def _as_bank(make, settings):
+    from greyml.gap._effects import Bank
 
-    ``tensors[i]`` is (n, V, k); ``grams[i]`` holds its (V·k)² cross products
-    over all rows and per test, so the calibration tests' products are the
-    total minus the held-out test's. ``B`` is the fold's base design, ``rz``
-    the gap with the held-out rows zeroed. Returns the best ``(sse, setting,
-    variant, coef)``, or with ``keep`` > 1 a list of the ``keep`` best.
+    if make is None or isinstance(make, Bank):
+        return make
+    return Bank.of_make(make, settings)
+
+
+def _per_test(bank, key, other, bounds):
+    """Per-test cross products of the bank's columns with ``other`` (n, q), kept in the bank.
+
+    Returns an array (T, V, m, q). ``other`` is held in the cache with the
+    result, so its ``id`` cannot be reused while the entry lives.
     """
+    hit = bank.cache.get(key)
+    if hit is not None and hit[0] is other:
+        return hit[1]
+    X = bank.values
+    n, V, m = X.shape
+    W = X.reshape(n, V * m)
+    out = np.stack([(W[a:b].T @ other[a:b]).reshape(V, m, -1) for a, b in bounds])
+    bank.cache[key] = (other, out)
+    return out
+
+
+def _grams(bank, bounds):
+    """Per-test cross products of each variant's columns (T, V, m, m), kept in the bank."""
+    key = ("grams", tuple(bounds))
+    if key not in bank.cache:
+        A = bank.values.transpose(1, 2, 0)  # (V, m, n)
+        bank.cache[key] = np.stack(
+            [A[:, :, a:b] @ A[:, :, a:b].transpose(0, 2, 1) for a, b in bounds]
+        )
+    return bank.cache[key]
+
+
+_CONSTANTS = {}
+
+
+def _fold_constants(r, B, D, f, bounds):
+    """Cross products of the base B and the parameters' design D with B, D and r on fold f.
+
+    They do not depend on the candidate: kept (with references to the arrays,
+    so that their ids stay theirs) while the same base is scored against
+    every candidate and placebo of a step.
+    """
+    key = (id(r), id(B), id(D), f, tuple(bounds))
+    hit = _CONSTANTS.get(key)
+    if hit is not None and hit[0] is r and hit[1] is B and hit[2] is D:
+        return hit[3]
+    if len(_CONSTANTS) > 512:
+        _CONSTANTS.clear()
     start, stop = bounds[f]
-    Bz = B * cal[:, None]
-    BB, Br = Bz.T @ B, Bz.T @ rz
-    kb = B.shape[1]
-    rr = rz @ rz
-    found = []
-    for i, X in enumerate(tensors):
-        if X is None:
-            coef = _solve(BB, Br) if kb else np.zeros(0)
-            best = (rr - coef @ Br, i, 0, coef)
-            return best if keep == 1 else [best]
-        n, V, k = X.shape
-        W = X.reshape(n, V * k)
-        total, per_test = grams[i]
-        WW = (total - per_test[f]).reshape(V, k, V, k)
-        G = np.empty((V, kb + k, kb + k))
-        G[:, :kb, :kb] = BB
-        BX = (Bz.T @ W).reshape(kb, V, k).transpose(1, 0, 2)
-        G[:, :kb, kb:] = BX
-        G[:, kb:, :kb] = np.swapaxes(BX, 1, 2)
-        idx = np.arange(V)
-        G[:, kb:, kb:] = WW[idx, :, idx, :]
-        g = np.empty((V, kb + k))
-        g[:, :kb] = Br
-        g[:, kb:] = (W.T @ rz).reshape(V, k)
+
+    def cal(a, b):
+        return a.T @ b - a[start:stop].T @ b[start:stop]
+
+    rc = r[:, None]
+    out = (
+        (cal(B, B), cal(B, rc)[:, 0], cal(B, D)),
+        (cal(D, D), cal(D, rc)[:, 0], float(cal(rc, rc)[0, 0])),
+    )
+    _CONSTANTS[key] = (r, B, D, out)
+    return out
+
+
+class _Fold:
+    """Everything of one fold's least squares that does not change while it is fitted.
+
+    The gap r, the base B (n, k_b), the parameters' design D (n, p; p may be
+    0) and the bank X, all over the fold's calibration rows: their cross
+    products. Sums over calibration tests are totals minus the held-out
+    test's.
+    """
+
+    def __init__(self, r, B, D, bank, f, bounds):
+        start, stop = bounds[f]
+        n = r.shape[0]
+        (self.BB, self.Br, self.BD), (self.DD, self.Dr, self.rr) = _fold_constants(
+            r, B, D, f, bounds
+        )
+        self.bank = bank
+        if bank is not None:
+            grams = _grams(bank, bounds)
+            self.WW = grams.sum(axis=0) - grams[f]
+            wr = _per_test(bank, ("r", id(r)), r[:, None], bounds)
+            self.Wr = (wr.sum(axis=0) - wr[f])[..., 0]
+            if D.shape[1]:
+                wd = _per_test(bank, ("D", id(D)), D, bounds)
+                self.WD = wd.sum(axis=0) - wd[f]
+            else:
+                self.WD = np.zeros(self.Wr.shape + (0,))
+            V, m = self.Wr.shape
+            kb = B.shape[1]
+            if kb:
+                W = bank.values.reshape(n, V * m)
+                BW = B.T @ W - B[start:stop].T @ W[start:stop]
+                self.BW = BW.reshape(kb, V, m)
+            else:
+                self.BW = np.zeros((0, V, m))
+
+    def select(self, theta, keep=1):
+        """The ``keep`` best (sse, setting, variant, coef) fitting r − Dθ with B and one setting."""
+        kb = self.BB.shape[0]
+        Br = self.Br - self.BD @ theta
+        rr = self.rr - 2.0 * theta @ self.Dr + theta @ self.DD @ theta
+        if self.bank is None:
+            coef = _solve(self.BB, Br) if kb else np.zeros(0)
+            return [(float(rr - coef @ Br), 0, 0, coef)]
+        picks = self.bank.picks
+        S, k = picks.shape
+        V = self.Wr.shape[0]
+        gx = self.Wr - self.WD @ theta  # (V, m)
+        G = np.empty((S, V, kb + k, kb + k))
+        G[:, :, :kb, :kb] = self.BB
+        BX = self.BW[:, :, picks].transpose(2, 1, 0, 3)  # (S, V, kb, k)
+        G[:, :, :kb, kb:] = BX
+        G[:, :, kb:, :kb] = np.swapaxes(BX, 2, 3)
+        G[:, :, kb:, kb:] = self.WW[:, picks[:, :, None], picks[:, None, :]].transpose(1, 0, 2, 3)
+        g = np.empty((S, V, kb + k))
+        g[:, :, :kb] = Br
+        g[:, :, kb:] = gx[:, picks].transpose(1, 0, 2)
         coef = _solve(G, g)
-        sse = rr - np.einsum("vk,vk->v", coef, g)
-        for v in np.argsort(sse)[:keep]:
-            found.append((float(sse[v]), i, int(v), coef[v]))
-    found.sort(key=lambda x: x[0])
-    return found[0] if keep == 1 else found[:keep]
+        sse = (rr - np.einsum("svk,svk->sv", coef, g)).ravel()
+        order = np.argsort(sse, kind="stable")[:keep]
+        coef = coef.reshape(S * V, kb + k)
+        return [(float(sse[j]), int(j // V), int(j % V), coef[j]) for j in order]
+
+    def joint(self, i, v, tolerance):
+        """Bounded joint fit of the parameters, B and setting ``i`` of variant ``v``."""
+        p, kb = self.DD.shape[0], self.BB.shape[0]
+        if self.bank is None:
+            k = 0
+        else:
+            cols = self.bank.picks[i]
+            k = cols.size
+        K = p + kb + k
+        G = np.empty((K, K))
+        G[:p, :p] = self.DD
+        G[:p, p : p + kb] = self.BD.T
+        G[p : p + kb, :p] = self.BD
+        G[p : p + kb, p : p + kb] = self.BB
+        g = np.empty(K)
+        g[:p], g[p : p + kb] = self.Dr, self.Br
+        if k:
+            DX = self.WD[v][cols].T  # (p, k)
+            BX = self.BW[:, v, cols]  # (kb, k)
+            G[:p, p + kb :] = DX
+            G[p + kb :, :p] = DX.T
+            G[p : p + kb, p + kb :] = BX
+            G[p + kb :, p : p + kb] = BX.T
+            G[p + kb :, p + kb :] = self.WW[v][np.ix_(cols, cols)]
+            g[p + kb :] = self.Wr[v, cols]
+        coef = box_solve(G, g, p, tolerance)
+        return self.rr - 2.0 * coef @ g + coef @ G @ coef, coef
 
 
-_GRAMS = weakref.WeakKeyDictionary()
-
-
-def _cached_grams(make, setting, X, bounds):
-    """:func:`_grams` of ``make(setting)``, remembered for as long as ``make`` lives.
-
-    A candidate is scored at every step of the search with the same
-    signatures; only the base and the gap change.
-    """
-    try:
-        store = _GRAMS.setdefault(make, {})
-    except TypeError:  # not weak-referenceable: no cache
-        return _grams(X, bounds)
-    key = (setting, tuple(bounds))
-    if key not in store:
-        store[key] = _grams(X, bounds)
-    return store[key]
-
-
-def _grams(X, bounds):
-    """Cross products of the (n, V·k) signatures: over all rows and per test."""
-    if X is None:
-        return None
-    n, V, k = X.shape
-    W = X.reshape(n, V * k)
-    per_test = [W[a:b].T @ W[a:b] for a, b in bounds]
-    return W.T @ W, per_test
-
-
-def _joint_fit(r, fixed, B, X, cal, tolerance):
-    """Bounded joint fit of the parameters (bounded), base B and one signature X.
-
-    ``fixed`` holds the fold's products of the parameters' design D that do
-    not change between fits: (D·cal, DᵀD and Dᵀr over the calibration rows,
-    rᵀr); only the products with [B, X] are formed here.
-    """
-    Dz, DD, Dr, rr = fixed
-    E = B if X is None else np.hstack([B, X])
-    Ez = E * cal[:, None]
-    p, m = DD.shape[0], E.shape[1]
-    G = np.empty((p + m, p + m))
-    G[:p, :p] = DD
-    G[:p, p:] = Dz.T @ E
-    G[p:, :p] = G[:p, p:].T
-    G[p:, p:] = Ez.T @ E
-    g = np.concatenate([Dr, Ez.T @ r])
-    coef = box_solve(G, g, p, tolerance)
-    return rr - 2.0 * coef @ g + coef @ G @ coef, coef
-
-
-def _joint_choice(r, tensors, grams, B, recal, f, cal, bounds, max_rounds, shortlist):
+def _joint_choice(fold, recal, f, max_rounds, shortlist):
     """The (setting, variant) and coefficients that fit best with the parameters.
 
     Candidates are short-listed by how well they fit the gap that the
@@ -231,25 +297,16 @@ def _joint_choice(r, tensors, grams, B, recal, f, cal, bounds, max_rounds, short
     jointly with the bounded parameters, and the best joint fit gives the
     parameters for the next round, until the choice settles.
     """
-    D = recal.designs[f]
-    p = D.shape[1]
-    Dz = D * cal[:, None]
-    rz = r * cal
-    fixed = (Dz, Dz.T @ D, Dz.T @ r, rz @ r)
+    p = fold.DD.shape[0]
     starts = [recal.theta[f], np.zeros(p)]
     picked, best = None, None
     for _ in range(max_rounds):
         pool = {}
         for theta in starts:
-            for _, i, v, _ in _select(
-                tensors, grams, B, (r - D @ theta) * cal, cal, f, bounds, keep=shortlist
-            ):
+            for _, i, v, _ in fold.select(theta, keep=shortlist):
                 pool[(i, v)] = None
         for i, v in pool:
-            X = tensors[i]
-            sse, coef = _joint_fit(
-                r, fixed, B, None if X is None else X[:, v, :], cal, recal.tolerance
-            )
+            sse, coef = fold.joint(i, v, recal.tolerance)
             if best is None or sse < best[0]:
                 best = (sse, (i, v), coef)
         if best[1] == picked:
@@ -268,9 +325,10 @@ def evaluate(r, base, make, settings, bounds, recal=None, max_rounds=3, shortlis
         The gap.
     base : list of ndarray
         One design (n, k_b) per fold (k_b may be 0): terms already in the model.
-    make : callable or None
-        ``setting -> ndarray (n, V, k)``: the candidate's signatures for one
-        setting of its time constants; ``None`` scores the base alone.
+    make : Bank, callable or None
+        The candidate's signatures: a :class:`~greyml.gap._effects.Bank`, or
+        ``setting -> ndarray (n, V, k)`` for one setting of its time
+        constants; ``None`` scores the base alone.
     settings : sequence
         The settings to try (tuples of time constants; ``()`` when the
         candidate has none).
@@ -294,29 +352,24 @@ def evaluate(r, base, make, settings, bounds, recal=None, max_rounds=3, shortlis
     n = r.shape[0]
     held = np.empty(n)
     choices = []
-    tensors = [make(s) for s in settings] if make is not None else [None]
-    settings = list(settings) if make is not None else [()]
-    grams = [
-        None if X is None else _cached_grams(make, s, X, bounds) for X, s in zip(tensors, settings)
-    ]
+    bank = _as_bank(make, settings)
+    settings = list(settings) if bank is not None else [()]
+    empty = np.zeros((n, 0))
     for f, (start, stop) in enumerate(bounds):
-        cal = np.ones(n, dtype=bool)
-        cal[start:stop] = False
         B = base[f]
+        D = recal.designs[f] if recal is not None else empty
+        fold = _Fold(r, B, D, bank, f, bounds)
         if recal is None:
-            _, i, v, coef = _select(tensors, grams, B, r * cal, cal, f, bounds)
+            _, i, v, coef = fold.select(np.zeros(0))[0]
         else:
-            (i, v), coef = _joint_choice(
-                r, tensors, grams, B, recal, f, cal, bounds, max_rounds, shortlist
-            )
-        X = tensors[i]
-        design = B if X is None else np.hstack([B, X[:, v, :]])
-        if recal is not None:
-            design = np.hstack([recal.designs[f], design])
-        design = design[start:stop]
+            (i, v), coef = _joint_choice(fold, recal, f, max_rounds, shortlist)
+        design = [D[start:stop], B[start:stop]]
+        if bank is not None:
+            design.append(bank.values[start:stop, v][:, bank.picks[i]])
+        design = np.hstack(design)
         pred = design @ coef if design.shape[1] else np.zeros(stop - start)
         held[start:stop] = r[start:stop] - pred
-        choices.append(FoldChoice(settings[i], int(v), coef))
+        choices.append(FoldChoice(settings[i], int(v), coef, i))
     picked = [(c.tau, c.variant) for c in choices]
     common = max(set(picked), key=picked.count)
     return Evaluation(
@@ -326,11 +379,16 @@ def evaluate(r, base, make, settings, bounds, recal=None, max_rounds=3, shortlis
         choices=choices,
         tau=common[0],
         variant=common[1],
+        bank=bank,
     )
 
 
 def fold_design(make, choices):
     """The design (n, k) each fold's choice of a candidate gives, one per fold."""
+    from greyml.gap._effects import Bank
+
+    if isinstance(make, Bank):
+        return [make.values[:, c.variant][:, make.picks[c.setting]] for c in choices]
     out = []
     cache = {}
     for choice in choices:

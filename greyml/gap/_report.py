@@ -8,7 +8,31 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-__all__ = ["GapReport"]
+__all__ = ["GapReport", "GapWarning", "VERDICTS"]
+
+#: The verdicts of a diagnosis, from best to worst.
+VERDICTS = ("within_noise", "explained", "partial", "unexplained")
+#: A held-out remainder up to this multiple of the noise floor counts as noise.
+NOISE_RATIO = 1.5
+
+
+class GapWarning(UserWarning):
+    """A gap diagnosis whose result needs a second look.
+
+    Raised when a named effect's fitted time constant ends at the bound of
+    its search: the true one may lie beyond, and a ``time_s`` column in
+    minutes or hours labelled as seconds shows itself this way.
+
+    Examples
+    --------
+    >>> import warnings
+    >>> from greyml.gap import GapWarning
+    >>> with warnings.catch_warnings(record=True) as caught:
+    ...     warnings.simplefilter("always")
+    ...     warnings.warn("time constant at its bound", GapWarning)
+    >>> caught[0].category.__name__
+    'GapWarning'
+    """
 
 #: Units of greyml's column suffixes, for axis labels.
 _UNITS = {"um": "µm", "mm": "mm", "C": "°C", "ue": "µε"}
@@ -72,6 +96,23 @@ class GapReport:
     gap, corrected : Series
         The gap, and what is left of it on held-out tests once the named
         effects are added.
+    verdict : str
+        ``"within_noise"``, ``"explained"``, ``"partial"`` or
+        ``"unexplained"`` (see :attr:`verdict`).
+    unexplained_rms, remainder_ratio : float
+        Held-out RMSE of the remainder, and its ratio to the noise floor.
+    events : DataFrame
+        Located events (a step or a spike in one test), never attributed to
+        an effect: ``test``, ``time_s`` (where it starts) and ``size`` (its
+        height, in the target's unit).
+    n_placebo : int
+        Placebos drawn in the whole diagnosis. ``causes`` gains, per effect
+        scored against placebos, ``p_value`` (sequential, Besag and
+        Clifford (1991)), ``n_placebo`` and ``shrinkage_ci``, a 95 %
+        interval of the held-out shrinkage over the held-out tests
+        (bootstrap of tests).
+    remainder_where, remainder_whiteness, remainder_cross_correlation
+        ``where``, ``whiteness`` and ``cross_correlation`` of the remainder.
 
     Examples
     --------
@@ -92,7 +133,9 @@ class GapReport:
     2       B   0.33
     3       C   0.33
     >>> sorted(report.to_dict())[:4]
-    ['cause', 'causes', 'cross_correlation', 'named']
+    ['cause', 'causes', 'cross_correlation', 'events']
+    >>> report.verdict, len(report.events)
+    ('explained', 0)
     """
 
     target: str
@@ -113,6 +156,111 @@ class GapReport:
     descriptions: dict = field(default_factory=dict)
     recalibration: str = ""
     recalibration_kept: bool = False
+    events: pd.DataFrame = field(
+        default_factory=lambda: pd.DataFrame(columns=["test", "time_s", "size"])
+    )
+    n_placebo: int = 0
+    remainder_where: pd.DataFrame | None = None
+    remainder_whiteness: dict = field(default_factory=dict)
+    remainder_cross_correlation: pd.DataFrame | None = None
+
+    @property
+    def unexplained_rms(self):
+        """Held-out RMSE of what the named effects leave (``rmse_after``)."""
+        return self.rmse_after
+
+    @property
+    def remainder_ratio(self):
+        """``unexplained_rms`` over the noise floor (inf when the floor is 0 and a gap remains)."""
+        if self.noise_floor > 0:
+            return self.rmse_after / self.noise_floor
+        return np.inf if self.rmse_after > 0 else 0.0
+
+    @property
+    def verdict(self):
+        """``"within_noise"``, ``"explained"``, ``"partial"`` or ``"unexplained"``.
+
+        A remainder is significant when it exceeds 1.5 times the noise floor
+        or holds a located event; with no effect named the verdict is
+        ``"within_noise"`` or ``"unexplained"``, with effects named
+        ``"explained"`` or ``"partial"``.
+        """
+        remains = self.remainder_ratio > NOISE_RATIO or len(self.events) > 0
+        if self.named:
+            return "partial" if remains else "explained"
+        return "unexplained" if remains else "within_noise"
+
+    def verdict_sentence(self):
+        """The verdict in one sentence."""
+        ratio = self.remainder_ratio
+        floor = f"noise floor {self.noise_floor:.3g}"
+        named = ", ".join(self.named)
+        events = len(self.events)
+        at = f"; {events} located event{'s' if events != 1 else ''}" if events else ""
+        if self.verdict == "within_noise":
+            return (
+                f"Verdict: within noise. The held-out gap (RMSE {self.rmse_after:.3g}) is "
+                f"{ratio:.1f}× the {floor}; the data need no unmodelled effect."
+            )
+        if self.verdict == "explained":
+            return (
+                f"Verdict: explained. {named} bring{'s' if len(self.named) == 1 else ''} the "
+                f"held-out gap from RMSE {self.rmse_before:.3g} to {self.rmse_after:.3g}, "
+                f"{ratio:.1f}× the {floor}."
+            )
+        if self.verdict == "partial":
+            return (
+                f"Verdict: partial. {named} explain{'s' if len(self.named) == 1 else ''} part of "
+                f"the gap (RMSE {self.rmse_before:.3g} -> {self.rmse_after:.3g}), but "
+                f"{ratio:.1f}× the {floor} remains{at}."
+            )
+        return (
+            f"Verdict: unexplained. A held-out gap of RMSE {self.rmse_after:.3g}, "
+            f"{ratio:.1f}× the {floor}{at}, that no candidate effect explains."
+        )
+
+    def where_remains(self):
+        """Where the remainder lies, in a few lines (empty when it is within the noise)."""
+        lines = []
+        if self.verdict in ("within_noise", "explained"):
+            return lines
+        table = self.remainder_where if self.remainder_where is not None else self.where
+        parts = []
+        for by in ("test", "time", "band"):
+            rows = table[table["by"] == by]
+            if len(rows) > 1:
+                top = rows.loc[rows["share"].idxmax()]
+                label = {"test": "test ", "time": "", "band": "band "}[by]
+                parts.append(f"{label}{top['segment']} ({top['share']:.0%})")
+        if parts:
+            lines.append(
+                "Where it remains (share of the squared remainder): " + ", ".join(parts) + "."
+            )
+        white = self.remainder_whiteness or self.whiteness
+        if white:
+            state = "white" if white.get("white") else "not white"
+            lines.append(
+                f"The remainder is {state} (Ljung-Box p = {white['p_value']:.2g}, lag-1 "
+                f"autocorrelation {white['lag1_autocorrelation']:.2f})."
+            )
+        xcorr = (
+            self.remainder_cross_correlation
+            if self.remainder_cross_correlation is not None
+            else self.cross_correlation
+        )
+        if xcorr is not None and len(xcorr):
+            top = xcorr.loc[xcorr["peak_corr"].abs().idxmax()]
+            lines.append(
+                f"Strongest cross-correlation: {top['signal']} {top['peak_corr']:+.2f} at a lag "
+                f"of {top['peak_lag_s']:g} s."
+            )
+        for _, event in self.events.iterrows():
+            lines.append(
+                f"Located event: test {event['test']} at time_s={event['time_s']:g}, a jump of "
+                f"{event['size']:+.3g} (not a physical effect: a probe knocked, a re-clamp, a "
+                "door opened?)."
+            )
+        return lines
 
     @property
     def shrinkage(self):
@@ -125,6 +273,11 @@ class GapReport:
         """A JSON-ready dict with ``cause``, ``causes``, ``where`` and the summary."""
         return _plain(
             {
+                "verdict": self.verdict,
+                "unexplained_rms": self.unexplained_rms,
+                "remainder_ratio": self.remainder_ratio,
+                "events": self.events.to_dict(orient="records"),
+                "n_placebo": self.n_placebo,
                 "target": self.target,
                 "cause": self.cause,
                 "named": list(self.named),
@@ -141,6 +294,12 @@ class GapReport:
                 "noise_floor": self.noise_floor,
                 "whiteness": dict(self.whiteness),
                 "cross_correlation": self.cross_correlation.to_dict(orient="records"),
+                "remainder_where": (
+                    None
+                    if self.remainder_where is None
+                    else self.remainder_where.to_dict(orient="records")
+                ),
+                "remainder_whiteness": dict(self.remainder_whiteness),
             }
         )
 
@@ -149,7 +308,8 @@ class GapReport:
         return json.dumps(self.to_dict(), ensure_ascii=False, **kwargs)
 
     def __str__(self):
-        lines = [
+        lines = [self.verdict_sentence(), *self.where_remains()]
+        lines += [
             f"Gap of {self.target}: held-out RMSE {self.rmse_before:.3g}, peak "
             f"{self.peak_before:.3g}; noise floor {self.noise_floor:.3g}."
         ]
@@ -167,8 +327,9 @@ class GapReport:
                 lines.append(
                     f"{int(row['step'])}. {row['effect']} ({row['detail']}): RMSE "
                     f"{row['rmse_before']:.3g} -> {row['rmse_after']:.3g} "
-                    f"(shrinkage {row['shrinkage']:.0%}, best placebo "
-                    f"{row['placebo_shrinkage']:.0%})"
+                    f"(shrinkage {row['shrinkage']:.0%}, 95% CI over tests "
+                    f"{row['shrinkage_ci'][0]:.0%} to {row['shrinkage_ci'][1]:.0%}; best placebo "
+                    f"{row['placebo_shrinkage']:.0%}, p = {row['p_value']:.3f})"
                 )
             ratio = (
                 f" ({self.rmse_after / self.noise_floor:.1f}× the noise floor)"
@@ -179,6 +340,7 @@ class GapReport:
                 f"With {', '.join(self.named)} added: RMSE {self.rmse_after:.3g}{ratio}, "
                 f"peak {self.peak_after:.3g}."
             )
+        lines.append(f"Placebos drawn: {self.n_placebo}.")
         return "\n".join(lines)
 
     def plot(self, axes=None):

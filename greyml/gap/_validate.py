@@ -14,6 +14,7 @@ to its own parameters, as a user could compute for theirs).
 from __future__ import annotations
 
 import time
+import warnings
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -21,6 +22,8 @@ import pandas as pd
 
 from greyml.datasets import make_tests
 from greyml.datasets._simulated import _machine, main_target
+from greyml.gap._effects import EFFECTS
+from greyml.gap._report import GapWarning
 from greyml.simulation import Effects, HeatingTest, Programme, diurnal
 
 __all__ = [
@@ -217,6 +220,8 @@ class WithheldCase:
     effect: np.ndarray  # the withheld effects' part of the measured target
     parameter_gap: np.ndarray  # what the simulation's parameter error alone misses
     noise: np.ndarray  # the measurement noise of the target
+    custom_effects: dict | None = None  # what the diagnosis is told of a "custom" case
+    event: tuple | None = None  # (test, time_s, size) of an "event" case's step
 
 
 def withheld_case(
@@ -249,9 +254,16 @@ def withheld_case(
     m = _machine(machine)
     target = target or main_target(m)
     withheld = tuple(withheld)
+    if withheld in (("event",), ("custom",)):
+        return _extra_case(
+            withheld[0], size, seed, m, target, param_error, kind, n_tests, n_sensors
+        )
     unknown = [w for w in withheld if w not in WITHHELD]
     if unknown:
-        raise ValueError(f"Cannot withhold {unknown}; the effects are {list(WITHHELD)}.")
+        raise ValueError(
+            f"Cannot withhold {unknown}; the effects are {list(WITHHELD)} (or 'event' or "
+            "'custom' alone)."
+        )
     rng = np.random.default_rng(seed)
     tests = random_tests(m, rng, n_tests)
     quiet = Effects().without("noise")
@@ -295,6 +307,94 @@ def withheld_case(
     )
 
 
+#: The logged column of a "custom" case and the name the diagnosis is told.
+CUSTOM_COLUMN, CUSTOM_NAME = "pump_kW", "hydraulics"
+
+
+def _with_pump(m):
+    """The machine with a hydraulic unit on its base, driven by a third logged input."""
+    from greyml.simulation import HeatSource
+
+    node = "base" if "base" in m.nodes else m.nodes[-1]
+    pump = HeatSource("hydraulic unit", "c_rpm", {node: 1.0}, power_W=150.0, reference=1.0)
+    return replace(
+        m,
+        sources=tuple(m.sources) + (pump,),
+        inputs=tuple(m.inputs) + ("c_rpm",),
+        max_input={**m.max_input, "c_rpm": 1.0},
+    )
+
+
+def _extra_case(kind_of_case, size, seed, m, target, param_error, kind, n_tests, n_sensors):
+    """A case outside the library: a step in the probe reading, or a custom heat input.
+
+    ``"event"``: nothing withheld; the probe reading of one test (drawn)
+    steps by 3 to 6 times the noise (drawn, either sign) at a time drawn
+    between 10 % and 90 % of the test. ``"custom"``: the real machine has a
+    hydraulic unit on its base, driven by a logged column (``pump_kW``) that
+    the simulation lacks; its part of the target peaks at ``size`` times the
+    noise, and the diagnosis is told of the column only as the custom effect
+    ``"hydraulics"``.
+    """
+    rng = np.random.default_rng(seed)
+    real_m = _with_pump(m) if kind_of_case == "custom" else m
+    sim_m = replace(real_m, sources=m.sources)
+    tests = random_tests(real_m, rng, n_tests)
+    quiet = Effects().without("noise")
+    full = make_tests(real_m, tests, effects=quiet).frame
+    real = make_tests(real_m, tests, effects=Effects(), random_state=seed).frame
+    noise = (real[target] - full[target]).to_numpy()
+    sigma = float(np.std(noise))
+    sim_true = make_tests(sim_m, tests, effects=quiet).frame[target].to_numpy()
+    effect = np.zeros(len(full))
+    custom, event = None, None
+    if kind_of_case == "custom":
+        part = full[target].to_numpy() - sim_true
+        effect = size * sigma / float(np.max(np.abs(part))) * part
+        real = real.rename(columns={"c_rpm": CUSTOM_COLUMN})
+        custom = {CUSTOM_NAME: [CUSTOM_COLUMN]}
+    else:
+        labels = real.index.get_level_values("test")
+        times = real.index.get_level_values("time_s").to_numpy(dtype=float)
+        test = str(rng.choice(pd.unique(labels)))
+        rows = np.flatnonzero(labels == test)
+        t0, t1 = times[rows[0]], times[rows[-1]]
+        at = float(rng.uniform(t0 + 0.1 * (t1 - t0), t0 + 0.9 * (t1 - t0)))
+        step = float(rng.uniform(3.0, 6.0) * rng.choice([-1.0, 1.0]) * sigma)
+        hit = rows[times[rows] >= at]
+        effect[hit] = step
+        event = (test, float(times[hit[0]]), step)
+    real = real.copy()
+    real[target] = sim_true + effect + noise
+    wrong = (
+        perturb_parameters(sim_m, param_error, np.random.default_rng([seed, 1]))
+        if param_error
+        else sim_m
+    )
+    sim = make_tests(wrong, tests, effects=quiet).frame[[target]]
+    sensitivities = simulator_sensitivities(wrong, tests, target, effects=quiet)
+    names = list(m.temperature_names)
+    sensors = names[:: max(1, len(names) // n_sensors)][:n_sensors]
+    roles = {
+        "target": target,
+        "ambient": "ambient_C",
+        "drivers": list(m.inputs),
+        "sensors": sensors,
+    }
+    return WithheldCase(
+        real=real,
+        sim=sim,
+        sensitivities=sensitivities,
+        roles=roles,
+        withheld=(kind_of_case,),
+        effect=effect,
+        parameter_gap=sim_true - sim[target].to_numpy(),
+        noise=noise,
+        custom_effects=custom,
+        event=event,
+    )
+
+
 def _rms(x):
     return float(np.sqrt(np.mean(np.square(x))))
 
@@ -303,6 +403,7 @@ def _run_case(spec, machine, target, kind, n_tests, n_sensors, use_sensitivities
     from greyml.gap._diagnose import diagnose_gap
 
     withheld, size, param_error, seed = spec
+    extra = withheld in (("event",), ("custom",))
     case = withheld_case(
         withheld,
         size,
@@ -315,15 +416,26 @@ def _run_case(spec, machine, target, kind, n_tests, n_sensors, use_sensitivities
         n_sensors=n_sensors,
     )
     start = time.perf_counter()
-    report = diagnose_gap(
-        case.real,
-        case.sim,
-        **case.roles,
-        sensitivities=case.sensitivities if use_sensitivities else None,
-        random_state=seed,
-        **kwargs,
-    )
+    with warnings.catch_warnings(record=True) as caught:
+        # a time constant at its search bound is counted, not raised
+        warnings.simplefilter("always", GapWarning)
+        report = diagnose_gap(
+            case.real,
+            case.sim,
+            **case.roles,
+            sensitivities=case.sensitivities if use_sensitivities else None,
+            random_state=seed,
+            custom_effects=case.custom_effects,
+            **kwargs,
+        )
     seconds = time.perf_counter() - start
+    located = False
+    if case.event is not None:
+        test, at, _ = case.event
+        events = report.events
+        located = bool(
+            ((events["test"].astype(str) == test) & ((events["time_s"] - at).abs() <= 600)).any()
+        )
     fitted = report.gap.to_numpy() - report.corrected.to_numpy()
     true_gap = case.effect + case.parameter_gap
     ranked = list(report.causes.dropna(subset=["shrinkage"])["effect"])
@@ -335,9 +447,12 @@ def _run_case(spec, machine, target, kind, n_tests, n_sensors, use_sensitivities
         "seed": int(seed),
         "cause": report.cause or "none",
         "named": "+".join(report.named) if report.named else "none",
-        "top1": bool(withheld) and report.cause in withheld,
-        "top2": bool(withheld) and any(w in ranked[:2] for w in withheld),
-        "all_named": bool(withheld) and set(withheld) <= set(report.named),
+        "top1": bool(withheld) and report.cause in _named_as(withheld),
+        "top2": bool(withheld) and any(w in ranked[:2] for w in _named_as(withheld)),
+        "all_named": bool(withheld) and set(_named_as(withheld)) <= set(report.named),
+        "physical_named": any(e in EFFECTS for e in report.named),
+        "event_located": located,
+        "event_size": case.event[2] / _rms(case.noise) if case.event else np.nan,
         "false_alarm": not withheld and report.cause is not None,
         "rmse_before": report.rmse_before,
         "rmse_recalibrated": report.rmse_recalibrated,
@@ -345,9 +460,19 @@ def _run_case(spec, machine, target, kind, n_tests, n_sensors, use_sensitivities
         "noise": _rms(case.noise),
         "shrinkage": report.shrinkage,
         "oracle_shrinkage": 1.0 - _rms(case.noise) / report.rmse_before,
+        "extra": extra,
         "clean_shrinkage": 1.0 - _rms(true_gap - fitted) / clean if clean > 0 else np.nan,
+        "verdict": report.verdict,
+        "remainder_ratio": report.remainder_ratio,
+        "n_events": len(report.events),
+        "bound_warnings": sum(issubclass(w.category, GapWarning) for w in caught),
         "seconds": seconds,
     }
+
+
+def _named_as(withheld):
+    """The names the diagnosis should give: the custom effect's name for a custom case."""
+    return (CUSTOM_NAME,) if withheld == ("custom",) else withheld
 
 
 @dataclass
@@ -370,9 +495,46 @@ class WithheldValidation:
 
     cases: pd.DataFrame
 
+    def _library(self):
+        """Cases of the library's effects and null cases (not the event and custom ones)."""
+        if "extra" not in self.cases:
+            return self.cases
+        return self.cases[~self.cases["extra"].astype(bool)]
+
+    def events(self):
+        """Step cases: verdict not explained, no physical effect named, the step located."""
+        cases = self.cases[self.cases["withheld"] == "event"]
+        ok = cases["verdict"].isin(["unexplained", "partial"])
+        return (
+            cases.assign(verdict_ok=ok, clean=ok & ~cases["physical_named"].astype(bool))
+            .groupby("param_error")[["verdict_ok", "clean", "event_located"]]
+            .mean()
+            .assign(n=cases.groupby("param_error").size())
+        )
+
+    def custom(self):
+        """Custom-effect cases: named under the custom name, median held-out shrinkage."""
+        cases = self.cases[self.cases["withheld"] == "custom"]
+        return (
+            cases.groupby("param_error")
+            .agg(
+                top1=("top1", "mean"),
+                named=("all_named", "mean"),
+                shrinkage=("shrinkage", "median"),
+            )
+            .assign(n=cases.groupby("param_error").size())
+        )
+
+    def verdicts(self):
+        """Verdicts by withheld effect (rows) and parameter error."""
+        return pd.crosstab(
+            [self.cases["param_error"], self.cases["withheld"]], self.cases["verdict"]
+        )
+
     def recall(self):
         """Top-1 and top-2 recall by parameter error, withheld effect and size."""
-        single = self.cases[~self.cases["withheld"].str.contains(r"\+|none")]
+        single = self._library()
+        single = single[~single["withheld"].str.contains(r"\+|none")]
         return (
             single.groupby(["param_error", "withheld", "size"])[["top1", "top2"]]
             .agg(["mean"])
@@ -382,7 +544,8 @@ class WithheldValidation:
 
     def confusion(self, param_error=None, min_size=None):
         """Withheld effect (rows, single effects and none) against the named cause."""
-        cases = self.cases[~self.cases["withheld"].str.contains(r"\+")]
+        cases = self._library()
+        cases = cases[~cases["withheld"].str.contains(r"\+")]
         if param_error is not None:
             cases = cases[np.isclose(cases["param_error"], param_error)]
         if min_size is not None:
@@ -405,7 +568,8 @@ class WithheldValidation:
 
     def shrinkage(self, min_size=None):
         """Median held-out shrinkage, the oracle's and the noise-free one."""
-        cases = self.cases[self.cases["withheld"] != "none"]
+        cases = self._library()
+        cases = cases[cases["withheld"] != "none"]
         if min_size is not None:
             cases = cases[cases["size"] >= min_size]
         return cases.groupby(["param_error", "withheld"])[
@@ -430,6 +594,9 @@ def validate_withheld(
     sensitivities=True,
     random_state=0,
     n_jobs=None,
+    n_events=0,
+    n_custom=0,
+    custom_size=10,
     **diagnose_kwargs,
 ):
     """Run the diagnosis on many withheld-effect cases of greyml's simulator.
@@ -466,7 +633,17 @@ def validate_withheld(
     random_state : int
         Seeds the cases (case seeds are ``random_state`` + a case counter).
     n_jobs : int, optional
-        Cases run in parallel with joblib.
+        Cases run in parallel with joblib (module-level workers, so that
+        joblib's ``dask`` backend runs them on a cluster with the same
+        results).
+    n_events : int, default=0
+        Cases per parameter error with a step of 3-6 times the probe noise in
+        the probe reading of one test (``withheld == "event"``).
+    n_custom : int, default=0
+        Cases per parameter error with a heat input driven by a logged
+        column that the diagnosis is told of only as a custom effect
+        (``withheld == "custom"``), at ``custom_size`` times the noise.
+    custom_size : float, default=10
     **diagnose_kwargs
         Passed to :func:`diagnose_gap`.
 
@@ -500,6 +677,12 @@ def validate_withheld(
             for _ in range(n_seeds):
                 specs.append((tuple(pair), pair_size, param_error, counter))
                 counter += 1
+        for _ in range(n_events):
+            specs.append((("event",), 0.0, param_error, counter))
+            counter += 1
+        for _ in range(n_custom):
+            specs.append((("custom",), custom_size, param_error, counter))
+            counter += 1
     rows = Parallel(n_jobs=n_jobs)(
         delayed(_run_case)(
             spec, machine, target, kind, n_tests, n_sensors, sensitivities, diagnose_kwargs
