@@ -84,6 +84,8 @@ class LagFeatures(TransformerMixin, BaseEstimator):
     model; :class:`greyml.dynamic.Compensator` runs such a model sample by
     sample in a controller.
 
+    Read more in the :ref:`User Guide <ug-lag-features>`.
+
     Parameters
     ----------
     time_constants : float or sequence of float

@@ -233,6 +233,8 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
     default sensor bank, and fits the drivers' and the chosen sensors' lags
     (a shared bank for the sensors).
 
+    Read more in the :ref:`User Guide <ug-thermal-transfer-function>`.
+
     Parameters
     ----------
     drivers : sequence of str, default=()

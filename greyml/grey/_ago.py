@@ -33,6 +33,8 @@ class AGO(OneToOneFeatureMixin, TransformerMixin, BaseEstimator):
     DataFrame in, a DataFrame with the same index comes out, so the boundaries
     survive a Pipeline.
 
+    Read more in the :ref:`User Guide <ug-ago>`.
+
     Attributes
     ----------
     n_features_in_ : int
@@ -126,6 +128,8 @@ class AccumulatedTargetRegressor(RegressorMixin, BaseEstimator):
     next. Here the tests are read from ``X`` (its ``test`` index level, which
     greyml's transformers hand on through a Pipeline); a plain array is one
     test.
+
+    Read more in the :ref:`User Guide <ug-selection-flows>`.
 
     Parameters
     ----------

@@ -78,6 +78,8 @@ class CuckooSearch(PopulationOptimizer):
     iteration evaluates the population twice, so
     ``nfev = n_nests·(1 + 2·max_iter)``.
 
+    Read more in the :ref:`User Guide <ug-gmc-calibration>`.
+
     Parameters
     ----------
     n_nests : int, default=25

@@ -29,6 +29,8 @@ class ParticleSwarm(PopulationOptimizer):
     particles on the bounds; on a 12-parameter fit in ``benchmarks/`` that made
     the median best value about twice as large.)
 
+    Read more in the :ref:`User Guide <ug-gmc-calibration>`.
+
     Parameters
     ----------
     n_particles : int, default=25

@@ -39,6 +39,8 @@ class GreyInfluenceSelector(SelectorMixin, BaseEstimator):
     kept. The sensors are normalised first, so that their weights can be
     compared.
 
+    Read more in the :ref:`User Guide <ug-grey-influence-selector>`.
+
     Parameters
     ----------
     n_clusters : int, default=5

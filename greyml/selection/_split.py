@@ -31,6 +31,8 @@ class TrainOnOneTest(BaseCrossValidator):
     tests come from ``groups`` or, when ``groups`` is not given, from the
     ``test`` index level of ``X``.
 
+    Read more in the :ref:`User Guide <ug-train-on-one-test>`.
+
     Parameters
     ----------
     train_tests : sequence or None, default=None
