@@ -79,6 +79,7 @@ class Compensator(BaseEstimator):
     See Also
     --------
     greyml.LagFeatures : the same lags, computed for whole tests.
+    greyml.ThermalTransferFunction : a model whose ``compensator()`` gives one.
 
     Notes
     -----

@@ -140,7 +140,9 @@ class LagFeatures(TransformerMixin, BaseEstimator):
 
     See Also
     --------
-    greyml.dynamic.Compensator : the lags and a linear model, sample by sample.
+    greyml.Compensator : the lags and a linear model, sample by sample.
+    greyml.ThermalTransferFunction : the lags, with the time constants and
+        sensors chosen in ``fit``.
 
     Notes
     -----

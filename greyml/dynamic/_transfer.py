@@ -326,6 +326,8 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
     See Also
     --------
     greyml.GMC : one first-order grey response driven by all sensors.
+    greyml.LagFeatures : the same lags as a transformer, for any linear model.
+    greyml.Compensator : runs a fitted model row by row, from ``compensator()``.
 
     Notes
     -----

@@ -45,6 +45,7 @@ class AGO(OneToOneFeatureMixin, TransformerMixin, BaseEstimator):
     See Also
     --------
     greyml.GMC : grey model that works on accumulated series.
+    greyml.AccumulatedTargetRegressor : accumulates the target for any regressor.
 
     References
     ----------
@@ -144,6 +145,11 @@ class AccumulatedTargetRegressor(RegressorMixin, BaseEstimator):
     n_features_in_ : int
     feature_names_in_ : ndarray of shape (``n_features_in_``,)
         Column names seen in ``fit`` (DataFrame input only).
+
+    See Also
+    --------
+    greyml.AGO : the same accumulation for the inputs, the step in front of it.
+    greyml.GMC : a grey model that accumulates and differences by itself.
 
     Notes
     -----

@@ -484,6 +484,7 @@ class GMC(_GreyConvolutionModel):
     See Also
     --------
     greyml.AGO : the accumulation on its own.
+    greyml.GNNMCI : the same time response as a grey neural network.
 
     Notes
     -----

@@ -143,6 +143,7 @@ class MLPBaseline(RegressorMixin, BaseEstimator):
     --------
     sklearn.neural_network.MLPRegressor : first-order (Adam, SGD) or L-BFGS
         training of deeper networks.
+    greyml.ANFISFCM : the fuzzy model it is the baseline for.
 
     Notes
     -----

@@ -93,6 +93,11 @@ class CuckooSearch(PopulationOptimizer):
     beta : float, default=1.5
         Lévy exponent (Yang & Deb 2009).
 
+    See Also
+    --------
+    greyml.optimize.ParticleSwarm : the other population optimiser.
+    greyml.GMC : calibrated by cuckoo search with ``solver="cs"``.
+
     References
     ----------
     Yang, X.-S. and Deb, S. (2009). Cuckoo search via Lévy flights. World Congress

@@ -47,6 +47,12 @@ class ParticleSwarm(PopulationOptimizer):
         (not given by the seeds; 0.2 measured best of 0.2 and 0.5 in
         ``benchmarks/bench_optimizers.py``).
 
+    See Also
+    --------
+    greyml.optimize.CuckooSearch : the other population optimiser.
+    greyml.GMC : calibrated by a particle swarm with ``solver="pso"``.
+    greyml.GNNMCI : its weights are trained by a particle swarm.
+
     References
     ----------
     Kennedy, J. and Eberhart, R. (1995). Particle swarm optimization. Proc. IEEE

@@ -95,6 +95,7 @@ class GreyInfluenceSelector(SelectorMixin, BaseEstimator):
     See Also
     --------
     greyml.fit_gm1n : the GM(1,N) least squares on its own.
+    greyml.TrainOnOneTest : the papers' validation, calibrating on one test.
 
     Notes
     -----

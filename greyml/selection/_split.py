@@ -39,6 +39,12 @@ class TrainOnOneTest(BaseCrossValidator):
         Only these tests are calibrated on (e.g. ``["IV"]`` for Abdulshahed et al.'s (2015)
         protocol); ``None`` calibrates on each test in turn.
 
+    See Also
+    --------
+    greyml.test_ids : the test label of every row, for ``groups=``.
+    greyml.GreyInfluenceSelector : the sensor selection validated this way by
+        Abdulshahed et al. (2015).
+
     Examples
     --------
     >>> import numpy as np
