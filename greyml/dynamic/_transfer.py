@@ -320,7 +320,7 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
         :meth:`describe`: 1 for a sensor, the power of ten below a driver's
         largest training value (1000 for a spindle up to 5000 rpm).
     n_features_in_ : int
-    feature_names_in_ : ndarray of shape (n_features_in_,)
+    feature_names_in_ : ndarray of shape (``n_features_in_``,)
         Defined only when ``X`` has string column names.
 
     See Also
