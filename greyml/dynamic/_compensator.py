@@ -47,6 +47,8 @@ class Compensator(BaseEstimator):
     with :meth:`from_pipeline`: streaming a test row by row then gives the
     pipeline's ``predict`` on that test.
 
+    Read more in the :ref:`User Guide <ug-compensator>`.
+
     Parameters
     ----------
     inputs : list of str
@@ -77,6 +79,7 @@ class Compensator(BaseEstimator):
     See Also
     --------
     greyml.LagFeatures : the same lags, computed for whole tests.
+    greyml.ThermalTransferFunction : a model whose ``compensator()`` gives one.
 
     Notes
     -----

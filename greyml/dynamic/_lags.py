@@ -84,6 +84,8 @@ class LagFeatures(TransformerMixin, BaseEstimator):
     model; :class:`greyml.dynamic.Compensator` runs such a model sample by
     sample in a controller.
 
+    Read more in the :ref:`User Guide <ug-lag-features>`.
+
     Parameters
     ----------
     time_constants : float or sequence of float
@@ -138,7 +140,9 @@ class LagFeatures(TransformerMixin, BaseEstimator):
 
     See Also
     --------
-    greyml.dynamic.Compensator : the lags and a linear model, sample by sample.
+    greyml.Compensator : the lags and a linear model, sample by sample.
+    greyml.ThermalTransferFunction : the lags, with the time constants and
+        sensors chosen in ``fit``.
 
     Notes
     -----

@@ -233,6 +233,8 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
     default sensor bank, and fits the drivers' and the chosen sensors' lags
     (a shared bank for the sensors).
 
+    Read more in the :ref:`User Guide <ug-thermal-transfer-function>`.
+
     Parameters
     ----------
     drivers : sequence of str, default=()
@@ -318,12 +320,14 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
         :meth:`describe`: 1 for a sensor, the power of ten below a driver's
         largest training value (1000 for a spindle up to 5000 rpm).
     n_features_in_ : int
-    feature_names_in_ : ndarray of shape (n_features_in_,)
+    feature_names_in_ : ndarray of shape (``n_features_in_``,)
         Defined only when ``X`` has string column names.
 
     See Also
     --------
     greyml.GMC : one first-order grey response driven by all sensors.
+    greyml.LagFeatures : the same lags as a transformer, for any linear model.
+    greyml.Compensator : runs a fitted model row by row, from ``compensator()``.
 
     Notes
     -----

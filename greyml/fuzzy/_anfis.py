@@ -269,6 +269,8 @@ class ANFISGrid(_ANFISBase):
     the epoch with the lowest checking error (or training error, without
     checking data) are kept, as MATLAB's ``anfis`` does.
 
+    Read more in the :ref:`User Guide <ug-anfis-grid>`.
+
     Parameters
     ----------
     n_mfs : int or sequence of int, default=2
@@ -486,6 +488,8 @@ class ANFISFCM(_ANFISBase):
     with the cluster's fuzzy standard deviation along each input. Jang's hybrid
     learning then tunes the rules as in :class:`ANFISGrid`. The rule count is
     ``n_clusters`` whatever the number of inputs.
+
+    Read more in the :ref:`User Guide <ug-anfis-fcm>`.
 
     Parameters
     ----------

@@ -33,6 +33,8 @@ class AGO(OneToOneFeatureMixin, TransformerMixin, BaseEstimator):
     DataFrame in, a DataFrame with the same index comes out, so the boundaries
     survive a Pipeline.
 
+    Read more in the :ref:`User Guide <ug-ago>`.
+
     Attributes
     ----------
     n_features_in_ : int
@@ -43,6 +45,7 @@ class AGO(OneToOneFeatureMixin, TransformerMixin, BaseEstimator):
     See Also
     --------
     greyml.GMC : grey model that works on accumulated series.
+    greyml.AccumulatedTargetRegressor : accumulates the target for any regressor.
 
     References
     ----------
@@ -127,6 +130,8 @@ class AccumulatedTargetRegressor(RegressorMixin, BaseEstimator):
     greyml's transformers hand on through a Pipeline); a plain array is one
     test.
 
+    Read more in the :ref:`User Guide <ug-selection-flows>`.
+
     Parameters
     ----------
     regressor : estimator or None, default=None
@@ -140,6 +145,11 @@ class AccumulatedTargetRegressor(RegressorMixin, BaseEstimator):
     n_features_in_ : int
     feature_names_in_ : ndarray of shape (``n_features_in_``,)
         Column names seen in ``fit`` (DataFrame input only).
+
+    See Also
+    --------
+    greyml.AGO : the same accumulation for the inputs, the step in front of it.
+    greyml.GMC : a grey model that accumulates and differences by itself.
 
     Notes
     -----

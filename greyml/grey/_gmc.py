@@ -403,6 +403,8 @@ class GMC(_GreyConvolutionModel):
     whose discrete time response (a convolution, evaluated in O(n) by a
     first-order recursion) is differenced back (IAGO) into the prediction.
 
+    Read more in the :ref:`User Guide <ug-gmc>`.
+
     Parameters
     ----------
     solver : {"ls", "pso", "cs"} or PopulationOptimizer, default="ls"
@@ -482,6 +484,7 @@ class GMC(_GreyConvolutionModel):
     See Also
     --------
     greyml.AGO : the accumulation on its own.
+    greyml.GNNMCI : the same time response as a grey neural network.
 
     Notes
     -----

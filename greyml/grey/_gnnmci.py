@@ -26,6 +26,8 @@ class GNNMCI(_GreyConvolutionModel):
     the training tests, with Abdulshahed et al.'s (2016) swarm: 90 particles, c₁ = 1.5,
     c₂ = 2, inertia 0.9 → 0.4, 100 epochs.
 
+    Read more in the :ref:`User Guide <ug-gnnmci>`.
+
     Parameters
     ----------
     n_particles : int, default=90

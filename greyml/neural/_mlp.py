@@ -69,6 +69,8 @@ class MLPBaseline(RegressorMixin, BaseEstimator):
     independent samples (a static map from sensor readings to displacement);
     test boundaries matter only for choosing the checking data.
 
+    Read more in the :ref:`User Guide <ug-mlp-baseline>`.
+
     Parameters
     ----------
     hidden_layer_sizes : int or tuple of one int, default=10
@@ -141,6 +143,7 @@ class MLPBaseline(RegressorMixin, BaseEstimator):
     --------
     sklearn.neural_network.MLPRegressor : first-order (Adam, SGD) or L-BFGS
         training of deeper networks.
+    greyml.ANFISFCM : the fuzzy model it is the baseline for.
 
     Notes
     -----

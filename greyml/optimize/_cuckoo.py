@@ -78,6 +78,8 @@ class CuckooSearch(PopulationOptimizer):
     iteration evaluates the population twice, so
     ``nfev = n_nests·(1 + 2·max_iter)``.
 
+    Read more in the :ref:`User Guide <ug-gmc-calibration>`.
+
     Parameters
     ----------
     n_nests : int, default=25
@@ -90,6 +92,11 @@ class CuckooSearch(PopulationOptimizer):
         Step-size scale of the Lévy flights (Yang 2010).
     beta : float, default=1.5
         Lévy exponent (Yang & Deb 2009).
+
+    See Also
+    --------
+    greyml.optimize.ParticleSwarm : the other population optimiser.
+    greyml.GMC : calibrated by cuckoo search with ``solver="cs"``.
 
     References
     ----------

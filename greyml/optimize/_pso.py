@@ -29,6 +29,8 @@ class ParticleSwarm(PopulationOptimizer):
     particles on the bounds; on a 12-parameter fit in ``benchmarks/`` that made
     the median best value about twice as large.)
 
+    Read more in the :ref:`User Guide <ug-gmc-calibration>`.
+
     Parameters
     ----------
     n_particles : int, default=25
@@ -44,6 +46,12 @@ class ParticleSwarm(PopulationOptimizer):
         κ, the largest step per iteration as a fraction of each parameter's range
         (not given by the seeds; 0.2 measured best of 0.2 and 0.5 in
         ``benchmarks/bench_optimizers.py``).
+
+    See Also
+    --------
+    greyml.optimize.CuckooSearch : the other population optimiser.
+    greyml.GMC : calibrated by a particle swarm with ``solver="pso"``.
+    greyml.GNNMCI : its weights are trained by a particle swarm.
 
     References
     ----------

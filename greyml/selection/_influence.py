@@ -39,6 +39,8 @@ class GreyInfluenceSelector(SelectorMixin, BaseEstimator):
     kept. The sensors are normalised first, so that their weights can be
     compared.
 
+    Read more in the :ref:`User Guide <ug-grey-influence-selector>`.
+
     Parameters
     ----------
     n_clusters : int, default=5
@@ -93,6 +95,7 @@ class GreyInfluenceSelector(SelectorMixin, BaseEstimator):
     See Also
     --------
     greyml.fit_gm1n : the GM(1,N) least squares on its own.
+    greyml.TrainOnOneTest : the papers' validation, calibrating on one test.
 
     Notes
     -----

@@ -31,11 +31,19 @@ class TrainOnOneTest(BaseCrossValidator):
     tests come from ``groups`` or, when ``groups`` is not given, from the
     ``test`` index level of ``X``.
 
+    Read more in the :ref:`User Guide <ug-train-on-one-test>`.
+
     Parameters
     ----------
     train_tests : sequence or None, default=None
         Only these tests are calibrated on (e.g. ``["IV"]`` for Abdulshahed et al.'s (2015)
         protocol); ``None`` calibrates on each test in turn.
+
+    See Also
+    --------
+    greyml.test_ids : the test label of every row, for ``groups=``.
+    greyml.GreyInfluenceSelector : the sensor selection validated this way by
+        Abdulshahed et al. (2015).
 
     Examples
     --------
