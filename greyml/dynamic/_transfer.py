@@ -344,12 +344,13 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
 
     Examples
     --------
-    A displacement that follows a heat source through a 15-minute lag:
+    A displacement that follows a heat source through a 15-minute lag, from a
+    machine at rest (spindle on from minute 10 to minute 120):
 
     >>> import numpy as np, pandas as pd
     >>> from greyml import ThermalTransferFunction, make_test_index
     >>> t = np.arange(0.0, 4 * 3600, 60.0)
-    >>> rpm = np.where(t < 2 * 3600, 3000.0, 0.0)
+    >>> rpm = np.where((t >= 600) & (t < 2 * 3600), 3000.0, 0.0)
     >>> lag = np.empty_like(rpm); s = 0.0
     >>> for k, x in enumerate(rpm):
     ...     s = np.exp(-60.0 / 900.0) * s + (1 - np.exp(-60.0 / 900.0)) * x; lag[k] = s
@@ -358,8 +359,8 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
     >>> model = ThermalTransferFunction(drivers=["spindle_rpm"]).fit(X, y)
     >>> float(np.abs(model.predict(X) - y).max()) < 0.05
     True
-    >>> round(float(model.step_response("spindle_rpm").iloc[-1]), 1)
-    2.0
+    >>> model.terms_[0][:3]  # (input, power, time constant): the static term
+    ('spindle_rpm', 1, None)
     """
 
     def __init__(
