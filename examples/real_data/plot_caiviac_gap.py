@@ -63,9 +63,9 @@ see whether the answer is about the air at all.
   the best placebo's.
   T4 also rises with the spindle, by 2 to 5 °C at 2500 rpm and above: it is
   no clean air sensor. ``initial_state`` is not named.
-* *What we believe*: the sensors that do best as the "air" in the scan are
-  T1, T2, T3 (and T9), and they are no air sensors either. In cycles 3 and 4
-  they rise by about 3 °C from the moment the spindle starts and turn within
+* *What we believe*: no sensor passes the scan as the "air" (the
+  shrinkages it prints; the best of sixteen tries would be flattered anyway).
+  T1, T2 and T3 show what the gap does. In cycles 3 and 4 they rise by about 3 °C from the moment the spindle starts and turn within
   half an hour of its stop; in cycles 1, 2 and 5 they do not rise at all (they
   drift down, as in the night: their 1 h moving minima are 24 h apart). ch3
   does the same: it falls about 60 µm in cycles 3 and 4 and 13 to 22 µm in

@@ -24,6 +24,11 @@ EVENT_Z = 5.0
 _WINDOW = (10, 60)
 #: Penalty of a change point in the segmentation, in noise variances × log(n).
 _PEN = 3.0
+#: At most this many events per test, the most significant kept: events are
+#: rare (a probe knocked, a re-clamp); a recording whose noise floor is far
+#: below its gap would otherwise turn every bend into an event, and every
+#: event is a column of every fit that follows.
+MAX_EVENTS_PER_TEST = 5
 
 
 def _edge_value(y, at_end):
@@ -86,8 +91,9 @@ def locate_events(r, bounds, sigma, *, z=EVENT_Z):
             best = max(range(lo, hi + 1), key=lambda j: abs(_jump(x, j, w)[0]), default=k)
             size, var = _jump(x, best, w)
             if np.isfinite(var) and abs(size) > z * sigma * np.sqrt(var):
-                kept.append((best, size))
-        kept = sorted(dict(kept).items())
+                kept.append((best, size, abs(size) / np.sqrt(var)))
+        kept.sort(key=lambda e: -e[2])
+        kept = sorted(dict((k, size) for k, size, _ in kept[:MAX_EVENTS_PER_TEST]).items())
         # two opposite jumps closer than a window: one spike
         i = 0
         while i < len(kept):
