@@ -7,6 +7,7 @@ the exit code, that an error is one line on standard error, and what it names.
 
 import csv
 import os
+import re
 import subprocess
 import sys
 import textwrap
@@ -403,7 +404,8 @@ def test_progress_on_a_terminal_and_quiet(case, tmp_path):
     assert code == 0, screen
     for step in ("[1/4] reading the model", "[2/4] reading", "[3/4] predicting 80 rows"):
         assert step in screen, screen
-    assert "[4/4] writing" in screen and "00:0" in screen  # the elapsed time
+    assert "[4/4] writing" in screen
+    assert re.search(r"\d\d:\d\d", screen), screen  # an elapsed time is shown, whatever it is
     assert "\r" not in out and "[1/4]" not in out and out.startswith("wrote 80 rows")
     code, out, screen = _on_a_terminal([*argv, "--force", "--quiet"])
     assert code == 0 and screen == "" and out.startswith("wrote 80 rows")
