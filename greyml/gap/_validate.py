@@ -282,11 +282,23 @@ def withheld_case(
     sim_true = make_tests(m, tests, effects=off).frame[target].to_numpy()
     real = real.copy()
     real[target] = sim_true + effect + noise
-    wrong = (
-        perturb_parameters(m, param_error, np.random.default_rng([seed, 1])) if param_error else m
+    return _case(
+        m, m, tests, target, off, param_error, seed, n_sensors, real, sim_true, noise,
+        withheld=withheld, effect=effect,
     )
-    sim = make_tests(wrong, tests, effects=off).frame[[target]]
-    sensitivities = simulator_sensitivities(wrong, tests, target, effects=off)
+
+
+def _case(m, sim_m, tests, target, effects, param_error, seed, n_sensors, real, sim_true, noise,
+          **extra):
+    """The simulation the diagnosis is given (``sim_m`` with its parameters
+    ``param_error`` off), its sensitivities and the roles of the columns."""
+    wrong = (
+        perturb_parameters(sim_m, param_error, np.random.default_rng([seed, 1]))
+        if param_error
+        else sim_m
+    )
+    sim = make_tests(wrong, tests, effects=effects).frame[[target]]
+    sensitivities = simulator_sensitivities(wrong, tests, target, effects=effects)
     names = list(m.temperature_names)
     sensors = names[:: max(1, len(names) // n_sensors)][:n_sensors]
     roles = {
@@ -300,10 +312,9 @@ def withheld_case(
         sim=sim,
         sensitivities=sensitivities,
         roles=roles,
-        withheld=withheld,
-        effect=effect,
         parameter_gap=sim_true - sim[target].to_numpy(),
         noise=noise,
+        **extra,
     )
 
 
@@ -366,32 +377,9 @@ def _extra_case(kind_of_case, size, seed, m, target, param_error, kind, n_tests,
         event = (test, float(times[hit[0]]), step)
     real = real.copy()
     real[target] = sim_true + effect + noise
-    wrong = (
-        perturb_parameters(sim_m, param_error, np.random.default_rng([seed, 1]))
-        if param_error
-        else sim_m
-    )
-    sim = make_tests(wrong, tests, effects=quiet).frame[[target]]
-    sensitivities = simulator_sensitivities(wrong, tests, target, effects=quiet)
-    names = list(m.temperature_names)
-    sensors = names[:: max(1, len(names) // n_sensors)][:n_sensors]
-    roles = {
-        "target": target,
-        "ambient": "ambient_C",
-        "drivers": list(m.inputs),
-        "sensors": sensors,
-    }
-    return WithheldCase(
-        real=real,
-        sim=sim,
-        sensitivities=sensitivities,
-        roles=roles,
-        withheld=(kind_of_case,),
-        effect=effect,
-        parameter_gap=sim_true - sim[target].to_numpy(),
-        noise=noise,
-        custom_effects=custom,
-        event=event,
+    return _case(
+        m, sim_m, tests, target, quiet, param_error, seed, n_sensors, real, sim_true, noise,
+        withheld=(kind_of_case,), effect=effect, custom_effects=custom, event=event,
     )
 
 
