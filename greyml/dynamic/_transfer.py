@@ -42,6 +42,8 @@ __all__ = ["ThermalTransferFunction"]
 DEFAULT_TIME_CONSTANTS = (300.0, 900.0, 2700.0, 8100.0)
 #: Ridge penalties tried, per row of the (standardised) design.
 DEFAULT_ALPHAS = tuple(np.logspace(-6, 0, 13))
+#: Relative improvement of the held-out score below which forward selection adds no sensor.
+_RESOLUTION = 1e-6
 
 
 # ------------------------------------------------------------------------------
@@ -210,7 +212,9 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
       of whole sensors (a sensor's static term and all its lags enter
       together), each step adding the sensor that lowers the mean held-out
       RMSE most, then keeping the number of sensors (up to ``max_sensors``)
-      whose held-out RMSE is lowest. Forward selection rather than a group
+      whose held-out RMSE is lowest (a longer list must lower it by more
+      than one part in a million of the first step's RMSE, so that rounding
+      never adds a sensor). Forward selection rather than a group
       lasso because it scores exactly what is asked (held-out error of whole
       tests with a hard budget of sensors), its penalty does not shrink the
       gains that are kept, and with per-test Gram matrices a step costs only
@@ -764,13 +768,18 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
         return chosen, alpha, score, path
 
     def _forward(self, evaluate, everything, sensors, col_group, n_total):
-        """Greedy forward selection; the best prefix up to ``max_sensors`` by held-out score."""
-        chosen, path = [], []
-        best = None
+        """Greedy forward selection; the best prefix up to ``max_sensors`` by held-out score.
+
+        A longer prefix is kept only when it lowers the score by more than
+        ``_RESOLUTION`` times the first step's score: a sensor whose gain is
+        at the level of rounding (noise-free data fitted to 1e-7) is not
+        chosen by the last digits of a floating-point sum.
+        """
+        chosen, path, prefixes = [], [], []
         if (col_group == -1).any() or n_total > len(col_group):
             score, alpha = evaluate([])
             path.append((None, score, alpha))
-            best = (score, [], alpha)
+            prefixes.append((score, [], alpha))
         for _ in range(self.max_sensors):
             trial = []
             for k in everything:
@@ -783,9 +792,10 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
             score, k, alpha = min(trial)
             chosen = [*chosen, k]
             path.append((sensors[k], score, alpha))
-            if best is None or score < best[0]:
-                best = (score, list(chosen), alpha)
-        score, keep, alpha = best
+            prefixes.append((score, list(chosen), alpha))
+        lowest = min(score for score, _, _ in prefixes)
+        within = lowest + _RESOLUTION * abs(prefixes[0][0])
+        score, keep, alpha = next(p for p in prefixes if p[0] <= within)
         return keep, alpha, score, path
 
     def _fit_taus(
