@@ -18,6 +18,8 @@ from greyml._cli._predict import _add_predict_parser
 from greyml._cli._select import _add_select_parser
 from greyml._cli._simulate import _add_simulate_parser
 
+__all__ = ["build_parser", "main"]
+
 
 def _version():
     """greyml's version, or the installed distribution's, or ``"unknown"``."""
