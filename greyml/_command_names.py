@@ -2,7 +2,7 @@
 
 :mod:`greyml.cli` builds its parser from them without importing the numerical
 code, so that ``greyml --help`` and ``greyml --version`` answer at once;
-:mod:`greyml._commands` uses the same names.
+:mod:`greyml._cli` uses the same names.
 """
 
 __all__ = ["CSV_TIME_UNITS", "MACHINES", "MODEL_NAMES"]

@@ -17,7 +17,7 @@ import pandas as pd
 import pytest
 
 from greyml import make_test_index
-from greyml._commands import Progress
+from greyml._cli._printing import Progress
 from greyml.cli import main
 from greyml.datasets import load_vmc_tests
 from greyml.io import read_tests_csv, write_tests_csv

@@ -359,7 +359,7 @@ def test_terminal_control_in_metadata_is_not_printed(capsys, tmp_path):
 
 
 def test_printable_strips_escapes():
-    from greyml._commands import printable
+    from greyml._cli._printing import printable
 
     assert printable("0.1\x1b]0;title\x07\x1b[2J\x1b[31m.dev\x1b[0m\u202e\nX") == "0.1.dev X"
 
@@ -415,7 +415,7 @@ def test_progress_redraws_the_elapsed_time_while_a_step_runs(monkeypatch):
     import io
     import threading
 
-    from greyml._commands import Progress
+    from greyml._cli._printing import Progress
 
     class Terminal(io.StringIO):
         def isatty(self):

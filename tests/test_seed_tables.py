@@ -2,35 +2,22 @@
 
 The figures asserted here are the ones the benchmark reaches on greyml's simulated
 data (deterministic: the data sets and every model have fixed seeds), with a modest
-margin. The configurations are the benchmark's own, loaded from its file, so these
-tests guard exactly the numbers it prints.
+margin. The configurations are the benchmark's own, from :mod:`greyml._seeds` (which
+the benchmark and ``greyml demo`` import too), so these tests guard exactly the
+numbers it prints.
 """
-
-import importlib.util
-import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
 from threadpoolctl import threadpool_limits
 
+from greyml import _seeds
 from greyml.datasets import load_gantry_tests, load_vmc_tests
-
-BENCH = Path(__file__).resolve().parents[1] / "benchmarks" / "bench_seed_tables.py"
 
 
 @pytest.fixture(scope="module")
 def bench():
-    spec = importlib.util.spec_from_file_location("bench_seed_tables", BENCH)
-    module = importlib.util.module_from_spec(spec)
-    sys.modules[spec.name] = module  # dataclasses look their module up
-    sys.path.insert(0, str(BENCH.parent))  # the script imports benchmarks/_common.py
-    try:
-        spec.loader.exec_module(module)
-    finally:
-        sys.path.remove(str(BENCH.parent))
-    yield module
-    sys.modules.pop(spec.name, None)
+    return _seeds
 
 
 def _by(records, model):

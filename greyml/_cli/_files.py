@@ -1,0 +1,166 @@
+"""Files of the ``greyml`` subcommands: reading CSV tests, checking columns, output paths.
+
+A user error (a missing column, an existing output file, a test that is not
+in the data) is raised as a :class:`ValueError` whose message names the file,
+column or test; the command line prints it as one line.
+"""
+
+from __future__ import annotations
+
+import os
+from pathlib import Path
+
+#: Columns that are operating inputs, not sensors: left out of the candidate
+#: sensors unless named with ``--sensors``.
+OPERATING_COLUMNS = ("spindle_rpm", "feed_mm_min", "c_rpm", "ambient_C")
+
+
+def _prepare_output_folder(out, force):
+    """Create ``out`` or check that it is an empty folder (any folder with ``force``)."""
+    out = Path(out)
+    if out.exists():
+        if not out.is_dir():
+            raise ValueError(f"--out {os.fspath(out)!r} is a file, not a folder.")
+        if any(out.iterdir()) and not force:
+            raise ValueError(
+                f"the output folder {os.fspath(out)!r} is not empty; choose another --out, "
+                "or pass --force to write into it (files of the same names are replaced)."
+            )
+    else:
+        try:
+            out.mkdir(parents=True)
+        except OSError as exc:
+            reason = exc.strerror or type(exc).__name__
+            raise ValueError(
+                f"cannot create the output folder {os.fspath(out)!r}: {reason}."
+            ) from None
+    if not os.access(out, os.W_OK | os.X_OK):
+        raise ValueError(f"cannot write to the output folder {os.fspath(out)!r}.")
+    return out
+
+
+def _check_output_file(path, force, what="--out"):
+    """Refuse an existing ``path`` without ``force`` or a folder that does not exist."""
+    path = Path(path)
+    name = os.fspath(path)
+    if path.is_dir():
+        raise ValueError(f"{what} {name!r} is a folder; give a file name.")
+    if path.exists() and not force:
+        raise ValueError(f"{what} {name!r} exists; pass --force to replace it.")
+    parent = path.parent
+    if parent.exists() and not parent.is_dir():
+        raise ValueError(f"cannot write {what} {name!r}: {os.fspath(parent)!r} is not a folder.")
+    if not parent.is_dir():
+        raise ValueError(f"the folder of {what} {name!r} does not exist: {os.fspath(parent)!r}.")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise ValueError(f"cannot write {what} {name!r}: its folder is not writable.")
+    return path
+
+
+def _write_text(path, text, force):
+    """Write ``text`` to ``path`` through a temporary file; an existing file only if ``force``."""
+    import secrets
+
+    folder = os.path.dirname(os.path.abspath(path))
+    temp = os.path.join(folder, f".{os.path.basename(path)}.{secrets.token_hex(4)}.part")
+    fd = os.open(temp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
+    try:
+        with open(fd, "w", encoding="utf-8") as fh:
+            fh.write(text)
+        if force:
+            os.replace(temp, path)
+        else:
+            try:
+                os.link(temp, path)  # FileExistsError if the file appeared meanwhile
+            except FileExistsError:
+                raise ValueError(f"--json {path!r} exists; pass --force to replace it.") from None
+            except OSError:  # no hard links on this file system
+                os.replace(temp, path)
+            else:
+                os.unlink(temp)
+    finally:
+        if os.path.exists(temp):
+            os.unlink(temp)
+
+
+def _read(path, csv_options=None):
+    """Read a CSV of tests; ``csv_options`` are ``time_unit``, ``sep``, ``decimal``."""
+    from greyml.io import read_tests_csv
+
+    return read_tests_csv(path, **(csv_options or {}))
+
+
+def _where(frame, row, path):
+    """``line L (test 'T', time_s S)`` of data row ``row`` of ``path``."""
+    test, time_s = frame.index[row]
+    return f"line {row + 2} of {os.fspath(path)!r} (test {test!r}, time_s {time_s:g})"
+
+
+def _require_columns(frame, columns, path, flag):
+    missing = [c for c in columns if c not in frame.columns]
+    if missing:
+        have = ", ".join(map(str, frame.columns[:12])) + (", ..." if frame.shape[1] > 12 else "")
+        raise ValueError(
+            f"{flag} names {', '.join(repr(c) for c in missing)}, not a column of "
+            f"{os.fspath(path)!r} (its columns: {have})."
+        )
+
+
+def _require_values(frame, columns, path, role):
+    """Every cell of ``columns`` must hold a number."""
+    import numpy as np
+
+    for c in columns:
+        gaps = np.flatnonzero(frame[c].isna().to_numpy())
+        if gaps.size:
+            raise ValueError(
+                f"{role} column {c!r} has no value (NaN) at {_where(frame, gaps[0], path)}; "
+                f"{gaps.size} row(s) are empty. Fill or drop them first."
+            )
+
+
+def _candidates(frame, target, sensors, path):
+    if sensors:
+        _require_columns(frame, sensors, path, "--sensors")
+        if target in sensors:
+            raise ValueError(f"--sensors names the target {target!r}; leave it out.")
+        return list(sensors)
+    names = [
+        c
+        for c in frame.columns
+        if c != target and c not in OPERATING_COLUMNS and not str(c).endswith("_um")
+    ]
+    if not names:
+        raise ValueError(
+            f"{os.fspath(path)!r} has no sensor columns (0 features) besides the target "
+            f"{target!r}; name them with --sensors."
+        )
+    return names
+
+
+def _rows_of_tests(frame, tests, path, flag):
+    import numpy as np
+
+    from greyml import test_ids
+
+    labels = test_ids(frame)
+    have = list(dict.fromkeys(labels))
+    missing = [t for t in tests if t not in have]
+    if missing:
+        raise ValueError(
+            f"{flag}: test {', '.join(repr(t) for t in missing)} is not in "
+            f"{os.fspath(path)!r} (its tests: {', '.join(map(str, have))})."
+        )
+    return np.isin(labels, list(tests))
+
+
+def _load_training(data, target, sensors, tests, flag, csv_options=None):
+    """The rows and columns to train on, checked."""
+    frame = _read(data, csv_options)
+    _require_columns(frame, [target], data, "--target")
+    columns = _candidates(frame, target, sensors, data)
+    if tests:
+        frame = frame[_rows_of_tests(frame, tests, data, flag)]
+    _require_values(frame, [target], data, "target")
+    _require_values(frame, columns, data, "sensor")
+    return frame, columns

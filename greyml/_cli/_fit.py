@@ -1,0 +1,316 @@
+"""``greyml fit``: train a named model and save it."""
+
+from __future__ import annotations
+
+import argparse
+import io
+import os
+
+from greyml._cli._files import _check_output_file, _load_training, _require_columns, _require_values
+from greyml._cli._fitting import _final_step, _fit_quietly, _predict_quietly, _selector
+from greyml._cli._flags import (
+    _CLUSTER_HELP,
+    _EXIT_CODES,
+    _SENSORS_HELP,
+    _add_csv_options,
+    _add_quiet,
+    _count,
+    _csv_options,
+    _Deprecated,
+    _name,
+    _names,
+    _subparser,
+    _unique,
+)
+from greyml._cli._printing import _progress, _tests_words, _warn, printable
+from greyml._command_names import MODEL_NAMES
+
+_FIT_EPILOG = (
+    """\
+Models (the seeds' settings):
+  gmc         GMC(1,N) by least squares, b1 >= 0 (GMC-LS)
+  gnnmci      GNNMCI(1,N), particle swarm of 90 x 100 iterations (Abdulshahed et al. (2016))
+  anfis-grid  ANFIS with 3 Gaussian MFs per input, 100 epochs (Abdulshahed et al. (2015);
+              3^5 = 243 rules on 5 inputs, so give few inputs)
+  anfis-fcm   ANFIS with 3 fuzzy c-means rules, 100 epochs (Abdulshahed et al. (2015))
+  mlp         one hidden layer of 10, Levenberg-Marquardt (Abdulshahed et al.'s (2016) baseline)
+  transfer-function
+              thermal transfer functions: each input through first-order lags of
+              5, 15, 45 and 135 min (Mares, Horejs et al. (2020)); --drivers for
+              what the controller knows, --max-sensors for a sensor budget
+
+--n-sensors N puts GreyInfluenceSelector before the model in one Pipeline, so the
+saved model chooses its own sensors. The model is saved with
+greyml.persist.save_model (a file that holds no code); apply it with greyml
+predict.
+
+Inputs are used as they are in the file. When tests start at different
+temperatures, the static models (anfis-grid, anfis-fcm, mlp) carry over to new
+tests far better on temperature rises from each test's start than on absolute
+temperatures (greyml demo uses rises): write rises into the CSV if so.
+
+Examples:
+  greyml simulate --machine vmc --out vmc.csv
+  greyml fit vmc.csv --target dy_um --model anfis-fcm --n-sensors 5 \\
+      --train-tests IV --out vmc-anfis.greyml
+  greyml fit vmc.csv --target dy_um --model gmc --sensors T18_C,T55_C,T63_C \\
+      --out vmc-gmc.greyml
+  greyml fit vmc.csv --target dy_um --model transfer-function \\
+      --drivers spindle_rpm --max-sensors 5 --out vmc-ttf.greyml
+"""
+    + _EXIT_CODES
+)
+
+
+def _add_fit_parser(subparsers):
+    parser = _subparser(
+        subparsers,
+        "fit",
+        help="train a thermal-error model on tests and save it",
+        description=(
+            "Train one of greyml's thermal-error models (optionally after sensor "
+            "selection) on the tests of a CSV file and save it to a model file."
+        ),
+        epilog=_FIT_EPILOG,
+    )
+    parser.add_argument("data", metavar="DATA.csv", help="training tests (CSV)")
+    parser.add_argument(
+        "--target", required=True, type=_name, metavar="COL", help="target column, e.g. dy_um"
+    )
+    parser.add_argument("--model", required=True, choices=list(MODEL_NAMES), help="the model")
+    parser.add_argument("--out", required=True, metavar="MODEL.file", help="model file to write")
+    parser.add_argument(
+        "--n-sensors",
+        type=_count,
+        metavar="N",
+        help="keep N sensors with GreyInfluenceSelector before the model; --select N is "
+        "its deprecated spelling",
+    )
+    parser.add_argument(
+        "--select",
+        dest="n_sensors",
+        type=_count,
+        action=_Deprecated,
+        new="--n-sensors",
+        metavar="N",
+        help=argparse.SUPPRESS,
+    )
+    parser.add_argument(
+        "--cluster-on",
+        choices=("series", "influence"),
+        help="the selector's grouping, with --n-sensors: " + _CLUSTER_HELP.split(": ", 1)[1],
+    )
+    parser.add_argument(
+        "--drivers",
+        type=_names,
+        action="extend",
+        metavar="A,B",
+        help="--model transfer-function: columns the controller knows (spindle speed, "
+        "feed), always inputs and not counted as sensors",
+    )
+    parser.add_argument(
+        "--max-sensors",
+        type=_count,
+        metavar="N",
+        help="--model transfer-function: at most N temperature sensors, chosen inside the "
+        "fit on held-out whole tests",
+    )
+    parser.add_argument(
+        "--sensors",
+        type=_names,
+        action="extend",
+        metavar="A,B",
+        help="the model's inputs, or the selector's candidates with --n-sensors, "
+        + _SENSORS_HELP.split("candidate sensor columns, ", 1)[1],
+    )
+    parser.add_argument(
+        "--train-tests",
+        type=_names,
+        action="extend",
+        metavar="A,B",
+        help="train on these tests only (default: all tests)",
+    )
+    parser.add_argument(
+        "--random-state",
+        type=int,
+        default=0,
+        metavar="N",
+        help="seed of the model's random choices (default: 0)",
+    )
+    parser.add_argument("--force", action="store_true", help="replace MODEL.file if it exists")
+    _add_csv_options(parser)
+    _add_quiet(parser)
+    parser.set_defaults(handler=_run_fit, parser=parser)
+
+
+def _run_fit(args):
+    return run_fit(
+        args.data,
+        args.target,
+        args.model,
+        args.out,
+        select=args.n_sensors,
+        cluster_on=args.cluster_on,
+        sensors=_unique(args.sensors),
+        train_tests=_unique(args.train_tests),
+        random_state=args.random_state,
+        force=args.force,
+        csv_options=_csv_options(args),
+        quiet=args.quiet,
+        drivers=_unique(args.drivers),
+        max_sensors=args.max_sensors,
+    )
+
+
+def run_fit(
+    data,
+    target,
+    model,
+    out,
+    *,
+    select=None,
+    cluster_on=None,
+    sensors=None,
+    train_tests=None,
+    random_state=0,
+    force=False,
+    csv_options=None,
+    quiet=False,
+    drivers=None,
+    max_sensors=None,
+):
+    """``greyml fit``: train a named model and save it with :func:`greyml.persist.save_model`.
+
+    Parameters
+    ----------
+    data : str or path-like
+        CSV file of tests.
+    target : str
+        Target column.
+    model : {"gmc", "gnnmci", "anfis-grid", "anfis-fcm", "mlp"}
+    out : str or path-like
+        Model file to write.
+    select : int, optional
+        Put a GreyInfluenceSelector keeping this many sensors before the
+        model, in one Pipeline.
+    cluster_on : {"series", "influence"}, optional
+        The selector's grouping; GreyInfluenceSelector's default when None.
+    sensors : list of str, optional
+        The model's inputs, or the selector's candidates with ``select``.
+    train_tests : list of str, optional
+        Train on these tests; all by default.
+    random_state : int, default=0
+    force : bool, default=False
+        Replace ``out`` if it exists.
+    csv_options : dict, optional
+        ``time_unit``, ``sep`` and ``decimal`` of :func:`greyml.io.read_tests_csv`.
+    quiet : bool, default=False
+        No progress on standard error.
+    drivers : list of str, optional
+        ``"transfer-function"`` only: columns the controller knows (spindle
+        speed, feed), always inputs, not counted as sensors.
+    max_sensors : int, optional
+        ``"transfer-function"`` only: the budget of temperature sensors, chosen
+        inside the fit on held-out whole tests.
+
+    Returns
+    -------
+    int
+        0.
+    """
+    from sklearn.pipeline import Pipeline
+
+    from greyml._seeds import make_model, scores
+    from greyml.persist import save_model
+
+    if model not in MODEL_NAMES:
+        raise ValueError(f"unknown model {model!r}; choose one of {', '.join(MODEL_NAMES)}.")
+    dynamic = model == "transfer-function"
+    drivers = list(drivers or [])
+    if not dynamic and (drivers or max_sensors is not None):
+        raise ValueError(
+            "--drivers and --max-sensors are for --model transfer-function; "
+            f"{model} takes its inputs from --sensors or --n-sensors."
+        )
+    if dynamic and select is not None:
+        raise ValueError(
+            "--model transfer-function chooses its own sensors: give the budget with "
+            "--max-sensors instead of --n-sensors."
+        )
+    path = _check_output_file(out, force)
+    with _progress(4, quiet) as progress:
+        progress.step(f"reading {os.fspath(data)!r}")
+        frame, columns = _load_training(
+            data, target, sensors, train_tests, "--train-tests", csv_options
+        )
+        if dynamic:
+            _require_columns(frame, drivers, data, "--drivers")
+            _require_values(frame, drivers, data, "driver")
+            columns = drivers + [c for c in columns if c not in drivers]
+            if max_sensors is not None and max_sensors > len(columns) - len(drivers):
+                raise ValueError(
+                    f"--max-sensors {max_sensors} is more than the {len(columns) - len(drivers)} "
+                    "sensor column(s) besides the drivers."
+                )
+        estimator, settings = make_model(
+            model, random_state=random_state, drivers=drivers, max_sensors=max_sensors
+        )
+        n_inputs = select if select is not None else len(columns)
+        if select is not None and select > len(columns):
+            raise ValueError(
+                f"--n-sensors {select} asks for more sensors than the {len(columns)} "
+                "candidate(s)."
+            )
+        if model == "anfis-grid" and n_inputs > 6:
+            raise ValueError(
+                f"anfis-grid on {n_inputs} inputs would need {estimator.n_mfs}^{n_inputs} "
+                "rules; keep a few sensors with --n-sensors 5 or --sensors, or use anfis-fcm."
+            )
+        if select is not None:
+            estimator = Pipeline(
+                [("select", _selector(select, cluster_on, random_state)), ("model", estimator)]
+            )
+        X, y = frame[columns], frame[target]
+        progress.step(f"fitting {MODEL_NAMES[model]} on {len(frame)} rows")
+        seconds, fit_messages = _fit_quietly(estimator, X, y)
+        progress.step("predicting the training rows")
+        pred, messages = _predict_quietly(estimator, X)
+        fit_scores = scores(y.to_numpy(), pred)
+        final = _final_step(estimator)
+        # predict names its columns after the target: remember it in the model
+        final.target_name_ = str(target)
+        progress.step(f"saving {os.fspath(path)!r}")
+        saved = save_model(estimator, path, overwrite=force)
+    _warn("fit", fit_messages)
+    _warn("fit", messages)
+    inputs = list(estimator[0].selected_) if select is not None else columns
+    tests = list(dict.fromkeys(frame.index.get_level_values("test")))
+    print(f"trained {MODEL_NAMES[model]} ({settings}) in {seconds:.1f} s")
+    print(
+        f"  data: {_tests_words(tests)} of {os.fspath(data)!r} ({len(frame)} rows), "
+        f"target {printable(target)!r}"
+    )
+    if select is not None:
+        print(
+            f"  inputs: {', '.join(inputs)} (kept by GreyInfluenceSelector from "
+            f"{len(columns)} candidates)"
+        )
+    elif dynamic:
+        kept = ", ".join(map(printable, estimator.selected_sensors_)) or "none"
+        print(
+            f"  inputs: drivers {', '.join(map(printable, drivers)) or 'none'}; sensors {kept} "
+            f"(chosen inside the fit from {len(columns) - len(drivers)})"
+        )
+        buffer = io.StringIO()
+        estimator.describe(file=buffer)
+        for line in buffer.getvalue().splitlines():
+            print(f"  {line}")
+    else:
+        shown = ", ".join(inputs[:10]) + (", ..." if len(inputs) > 10 else "")
+        print(f"  inputs ({len(inputs)}): {shown}")
+    print(
+        f"  on the training rows: RMSE {fit_scores['RMSE']:.3g}, ±res {fit_scores['band']:.3g}, "
+        f"R {fit_scores['R']:.3f} (validate on other tests with greyml predict)"
+    )
+    print(f"saved to {os.fspath(saved)!r}")
+    return 0

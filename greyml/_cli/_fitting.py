@@ -1,0 +1,44 @@
+"""Fitting and predicting for the ``greyml`` subcommands, with warnings collected."""
+
+from __future__ import annotations
+
+import time
+import warnings
+
+
+def _selector(n, cluster_on, random_state, *, quick=False):
+    """GreyInfluenceSelector keeping ``n`` sensors; ``cluster_on=None`` is its default."""
+    from greyml import GreyInfluenceSelector
+
+    selector = GreyInfluenceSelector(n, n_init=3 if quick else 10, random_state=random_state)
+    if cluster_on is not None:
+        selector.set_params(cluster_on=cluster_on)
+    return selector
+
+
+def _fit_quietly(estimator, X, y):
+    """Fit ``estimator``; return the seconds taken and the distinct warnings raised."""
+    from threadpoolctl import threadpool_limits
+
+    # one BLAS thread: the products are small, and on a busy machine more
+    # threads only wait for each other (see greyml._threads)
+    with threadpool_limits(limits=1, user_api="blas"), warnings.catch_warnings(record=True) as w:
+        warnings.simplefilter("always")
+        start = time.perf_counter()
+        estimator.fit(X, y)
+        seconds = time.perf_counter() - start
+    return seconds, list(dict.fromkeys(f"{x.category.__name__}: {x.message}" for x in w))
+
+
+def _predict_quietly(estimator, X, **params):
+    import numpy as np
+
+    with warnings.catch_warnings(record=True) as w:
+        warnings.simplefilter("always")
+        pred = np.asarray(estimator.predict(X, **params), dtype=float)
+    return pred, list(dict.fromkeys(f"{x.category.__name__}: {x.message}" for x in w))
+
+
+def _final_step(estimator):
+    steps = getattr(estimator, "steps", None)
+    return steps[-1][1] if steps else estimator

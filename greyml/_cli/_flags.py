@@ -1,0 +1,171 @@
+"""Flags shared by the ``greyml`` subcommands: argument types, the one-line parser.
+
+Light on purpose: :mod:`greyml._cli._parser` builds ``greyml --help`` from
+these without importing NumPy, pandas or scikit-learn.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+import textwrap
+
+from greyml._command_names import CSV_TIME_UNITS
+
+#: Exit codes, also listed in the ``--help`` text.
+EXIT_OK = 0
+EXIT_ERROR = 2
+
+
+def _names(text):
+    """Split a comma-separated list of names: whitespace stripped, empty items dropped."""
+    return [item.strip() for item in text.split(",") if item.strip()]
+
+
+def _unique(names):
+    """The names in their first order, each once (a flag may be repeated)."""
+    return list(dict.fromkeys(names or ()))
+
+
+def _name(text):
+    """One column name, whitespace stripped."""
+    return text.strip()
+
+
+class _Parser(argparse.ArgumentParser):
+    """An argument parser that can report a usage error on one line.
+
+    With ``one_line=True`` a usage error prints only
+    ``greyml <command>: error: <message> (see greyml <command> --help)`` and
+    exits with code 2; otherwise it behaves as :class:`argparse.ArgumentParser`
+    (usage, then the error).
+    """
+
+    def __init__(self, *args, one_line=False, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.one_line = one_line
+
+    def error(self, message):
+        if not self.one_line:
+            super().error(message)
+        self.exit(EXIT_ERROR, f"{self.prog}: error: {message} (see {self.prog} --help)\n")
+
+    def format_help(self):
+        if callable(self.epilog):  # an epilog that needs a heavy import, made when shown
+            self.epilog = self.epilog()
+        return super().format_help()
+
+
+class _Deprecated(argparse.Action):
+    """An old spelling of an option: works, with a one-line message on standard error.
+
+    ``new`` is the option to use instead; ``extend=True`` adds the value to a
+    list (as ``action="extend"``), ``as_list=True`` adds one value.
+    """
+
+    def __init__(self, option_strings, dest, *, new, extend=False, as_list=False, **kwargs):
+        self.new = new
+        self.extend = extend
+        self.as_list = as_list
+        super().__init__(option_strings, dest, **kwargs)
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        print(
+            f"{parser.prog}: warning: {option_string} is deprecated and will be removed in the "
+            f"next release; use {self.new}",
+            file=sys.stderr,
+        )
+        if self.extend or self.as_list:
+            items = list(getattr(namespace, self.dest, None) or [])
+            items += values if self.extend else [values]
+            values = items
+        setattr(namespace, self.dest, values)
+
+
+def _add_quiet(parser):
+    parser.add_argument(
+        "--quiet",
+        action="store_true",
+        help="no progress on standard error (shown only on a terminal, for steps that "
+        "can take seconds)",
+    )
+
+
+def _separator(text):
+    """``--sep``: one character; ``tab`` or ``\\t`` for a tab."""
+    value = {"tab": "\t", "\\t": "\t"}.get(text.strip().lower(), text)
+    if len(value) != 1:
+        raise argparse.ArgumentTypeError(f"must be one character or 'tab'; got {text!r}")
+    return value
+
+
+def _add_csv_options(parser):
+    """``--time-unit``, ``--sep`` and ``--decimal`` of a command that reads CSV files."""
+    group = parser.add_argument_group("reading the CSV files")
+    group.add_argument(
+        "--time-unit",
+        choices=CSV_TIME_UNITS,
+        default="s",
+        help="unit of the time_s column in the files, converted to seconds (default: s)",
+    )
+    group.add_argument(
+        "--sep",
+        type=_separator,
+        metavar="C",
+        help="separator: one character, or tab (default: the first of , ; and tab that "
+        "splits the header into test and time_s)",
+    )
+    group.add_argument(
+        "--decimal",
+        choices=(".", ","),
+        help="decimal mark (default: '.', or ',' when a ;- or tab-separated file "
+        "has numbers like 20,5)",
+    )
+
+
+def _csv_options(args):
+    """The keyword arguments of ``read_tests_csv`` from the parsed options."""
+    return {"time_unit": args.time_unit, "sep": args.sep, "decimal": args.decimal}
+
+
+def _count(text):
+    """A whole number of at least 1 (a count of sensors)."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"must be a whole number; got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"must be at least 1; got {value}")
+    return value
+
+
+def _subparser(subparsers, name, *, help, description, epilog):
+    """A subcommand whose usage errors are one line, with a readable help text."""
+    return subparsers.add_parser(
+        name,
+        help=help,
+        description=textwrap.fill(description, width=79),
+        epilog=epilog,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+        one_line=True,
+    )
+
+
+_EXIT_CODES = f"""
+Exit codes:
+  {EXIT_OK}  success
+  {EXIT_ERROR}  usage error, unreadable or unwritable file, or unusable data (one line
+     on standard error: greyml <command>: error: <message>)
+"""
+
+
+_SENSORS_HELP = (
+    "candidate sensor columns, comma-separated (default: every column except the "
+    "target, the displacements *_um and the operating inputs spindle_rpm, "
+    "feed_mm_min, c_rpm, ambient_C)"
+)
+_CLUSTER_HELP = (
+    "what fuzzy c-means groups: influence (default, as GreyInfluenceSelector; "
+    "Abdulshahed et al. (2015): sensors of similar influence weight) or series "
+    "(sensors that move together)"
+)

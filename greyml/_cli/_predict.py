@@ -1,0 +1,270 @@
+"""``greyml predict``: apply a saved model to tests and write the compensation."""
+
+from __future__ import annotations
+
+import os
+import warnings
+from pathlib import Path
+
+from greyml._cli._files import _check_output_file, _read, _require_values, _where
+from greyml._cli._fitting import _final_step, _predict_quietly
+from greyml._cli._flags import _EXIT_CODES, _add_csv_options, _add_quiet, _csv_options, _subparser
+from greyml._cli._printing import _progress, _warn, printable
+
+_PREDICT_EPILOG = (
+    """\
+DATA.csv needs the sensor columns the model reads (a model fitted with --select
+reads only the sensors it kept). PRED.csv has the columns test, time_s,
+predicted_<target> (the thermal error the model predicts, in the target's
+unit) and compensation_<target> = -predicted_<target> (the correction to add to
+the axis). When DATA.csv also holds the measured target, the accuracy is
+printed. A grey model predicts the change since each test's first row: for a
+test that starts mid-run, give the measured target there with
+--initial-displacement (a warning names a test whose sensors start away from
+where the training tests started).
+printed. A model that predicts NaN or an infinite value for any row is an
+error (exit 2), and no PRED.csv is written; the file is written to a
+temporary name and renamed, so a failure never leaves a partial PRED.csv.
+Test labels a spreadsheet would run as formulas (=, +, -, @) get a leading '.
+
+Examples:
+  greyml simulate --machine vmc --tests IV --out train.csv
+  greyml simulate --machine vmc --tests V,VI --out new-tests.csv
+  greyml fit train.csv --target dy_um --model anfis-fcm --select 5 --out vmc.greyml
+  greyml predict vmc.greyml new-tests.csv --out compensation.csv
+  greyml predict gmc.greyml tail.csv --out comp.csv --initial-displacement V=-48.5
+"""
+    + _EXIT_CODES
+)
+
+
+def _add_predict_parser(subparsers):
+    parser = _subparser(
+        subparsers,
+        "predict",
+        help="apply a saved model to tests and write the compensation",
+        description=(
+            "Apply a model saved by greyml fit to new tests and write the predicted "
+            "thermal error and the compensation value of every row to a CSV file."
+        ),
+        epilog=_PREDICT_EPILOG,
+    )
+    parser.add_argument("model", metavar="MODEL.file", help="model file from greyml fit")
+    parser.add_argument("data", metavar="DATA.csv", help="tests (CSV) with the model's sensors")
+    parser.add_argument("--out", required=True, metavar="PRED.csv", help="CSV file to write")
+    parser.add_argument("--force", action="store_true", help="replace PRED.csv if it exists")
+    parser.add_argument(
+        "--initial-displacement",
+        metavar="VALUE|TEST=VALUE[,TEST=VALUE]",
+        help=(
+            "grey models (gmc, gnnmci) only: the measured target at the first row of "
+            "every test (VALUE) or of the tests named, for tests that start mid-run"
+        ),
+    )
+    _add_csv_options(parser)
+    _add_quiet(parser)
+    parser.set_defaults(handler=_run_predict, parser=parser)
+
+
+def _run_predict(args):
+    return run_predict(
+        args.model,
+        args.data,
+        args.out,
+        force=args.force,
+        initial_displacement=args.initial_displacement,
+        csv_options=_csv_options(args),
+        quiet=args.quiet,
+    )
+
+
+def _load(model_path):
+    """Load a model file (:func:`greyml.persist.load_model`); return it and its warnings.
+
+    A file that is not a greyml model, was altered, or names a class greyml
+    does not create is a ValueError with one line naming the file.
+    """
+    from greyml.persist import load_model
+
+    name = os.fspath(model_path)
+    if not Path(model_path).is_file():
+        what = "is a folder, not a model file" if Path(model_path).is_dir() else "does not exist"
+        raise ValueError(f"the model file {name!r} {what}.")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            estimator = load_model(model_path)
+        except (OSError, ValueError):  # persist's messages are one line naming the file
+            raise
+        except Exception as exc:  # anything else: still the file's fault
+            raise ValueError(
+                f"{name!r} is not a greyml model file ({type(exc).__name__}: {exc})."
+            ) from None
+    if not hasattr(estimator, "predict"):
+        raise ValueError(
+            f"{name!r} holds a {type(estimator).__name__}, which does not predict; "
+            "give a model written by greyml fit."
+        )
+    return estimator, [str(w.message) for w in caught]
+
+
+def _model_inputs(estimator, path):
+    """The columns a model takes, and those it reads (after its selector, if any)."""
+    inputs = getattr(estimator, "feature_names_in_", None)
+    if inputs is None:
+        raise ValueError(
+            f"the model {os.fspath(path)!r} does not record its input columns; "
+            "train it on a CSV file with greyml fit."
+        )
+    inputs = [str(c) for c in inputs]
+    steps = getattr(estimator, "steps", None)
+    first = steps[0][1] if steps else None
+    if first is not None and hasattr(first, "get_support") and len(steps) > 1:
+        return inputs, [c for c, kept in zip(inputs, first.get_support()) if kept]
+    return inputs, inputs
+
+
+def _initial_displacement(text, tests, model):
+    """``--initial-displacement``: a number, or TEST=VALUE pairs, for ``predict``."""
+    import numpy as np
+
+    from greyml.grey._gmc import _GreyConvolutionModel
+
+    if text is None:
+        return {}
+    if not isinstance(_final_step(model), _GreyConvolutionModel):
+        raise ValueError(
+            "--initial-displacement is for grey models (gmc, gnnmci); this model is "
+            f"{type(_final_step(model)).__name__}, which predicts each row on its own."
+        )
+
+    def number(word, what):
+        try:
+            value = float(word)
+        except ValueError:
+            value = float("nan")
+        if not np.isfinite(value):
+            raise ValueError(
+                f"--initial-displacement: {what} must be a finite number; got {word!r}."
+            )
+        return value
+
+    if "=" not in text:
+        return {"initial_displacement": number(text.strip(), "VALUE")}
+    by_name = {str(t): t for t in tests}
+    values = {}
+    for item in text.split(","):
+        name, sep, word = item.partition("=")
+        name = name.strip()
+        if not sep or name not in by_name:
+            raise ValueError(
+                f"--initial-displacement: {item.strip()!r} is not TEST=VALUE for a test of the "
+                f"data (its tests: {', '.join(list(by_name)[:10])})."
+            )
+        values[by_name[name]] = number(word.strip(), f"the value of test {name!r}")
+    return {"initial_displacement": values}
+
+
+def _require_finite_predictions(pred, frame, model, data):
+    """Refuse NaN or infinite predictions: an empty compensation cell moves no axis."""
+    import numpy as np
+
+    bad = ~np.isfinite(pred)
+    if bad.any():
+        row = int(np.flatnonzero(bad)[0])
+        what = "every row" if bad.all() else f"{int(bad.sum())} of {bad.size} rows"
+        raise ValueError(
+            f"the model {os.fspath(model)!r} predicts {pred[row]} for {what} of "
+            f"{os.fspath(data)!r}, first at {_where(frame, row, data)}; its coefficients may "
+            "be NaN or the inputs far outside its training range. No compensation written."
+        )
+
+
+def run_predict(
+    model, data, out, *, force=False, csv_options=None, quiet=False, initial_displacement=None
+):
+    """``greyml predict``: apply a saved model to tests and write the compensation.
+
+    Parameters
+    ----------
+    model : str or path-like
+        Model file written by ``greyml fit``.
+    data : str or path-like
+        CSV file of tests with the model's sensor columns.
+    out : str or path-like
+        CSV file to write: ``test``, ``time_s``, ``predicted_<target>`` and
+        ``compensation_<target>`` (the negated prediction: the correction to
+        add to the axis position).
+    force : bool, default=False
+        Replace ``out`` if it exists.
+    csv_options : dict, optional
+        ``time_unit``, ``sep`` and ``decimal`` of :func:`greyml.io.read_tests_csv`.
+    quiet : bool, default=False
+        No progress on standard error.
+    initial_displacement : str or None, default=None
+        Grey models only: ``"VALUE"`` (every test) or ``"TEST=VALUE,..."``, the
+        measured target at the first row of tests that start mid-run (passed to
+        the model's ``predict``).
+
+    Returns
+    -------
+    int
+        0.
+
+    Raises
+    ------
+    ValueError
+        Besides bad files and columns: when the model predicts NaN or an
+        infinite value for any row (no compensation file is written then).
+    """
+    import pandas as pd
+
+    from greyml._seeds import scores
+    from greyml.io import write_tests_csv
+
+    path = _check_output_file(out, force)
+    with _progress(4, quiet) as progress:
+        progress.step(f"reading the model {os.fspath(model)!r}")
+        estimator, load_messages = _load(model)
+        progress.step(f"reading {os.fspath(data)!r}")
+        frame = _read(data, csv_options)
+        inputs, used = _model_inputs(estimator, model)
+        missing = [c for c in used if c not in frame.columns]
+        if missing:
+            have = [str(c) for c in frame.columns]
+            shown = ", ".join(have[:12]) + (", ..." if len(have) > 12 else "")
+            raise ValueError(
+                f"the model {os.fspath(model)!r} needs the sensor column(s) "
+                f"{', '.join(missing)}, which {os.fspath(data)!r} lacks (its columns: "
+                f"{shown or 'none, 0 features'})."
+            )
+        _require_values(frame, used, data, "sensor")
+        # a selector's dropped candidates are never read: the data need not have them
+        X = pd.DataFrame(
+            {c: frame[c] if c in frame.columns else 0.0 for c in inputs}, index=frame.index
+        )
+        progress.step(f"predicting {len(frame)} rows")
+        tests = list(dict.fromkeys(frame.index.get_level_values("test")))
+        params = _initial_displacement(initial_displacement, tests, estimator)
+        pred, messages = _predict_quietly(estimator, X, **params)
+        _require_finite_predictions(pred, frame, model, data)
+        measured = getattr(_final_step(estimator), "target_name_", None) or "target"
+        target = printable(measured)
+        result = pd.DataFrame(
+            {f"predicted_{target}": pred, f"compensation_{target}": -pred}, index=frame.index
+        )
+        progress.step(f"writing {os.fspath(path)!r}")
+        write_tests_csv(result, path, overwrite=force)
+    _warn("predict", load_messages)
+    _warn("predict", messages)
+    print(
+        f"wrote {len(result)} rows of {len(tests)} test(s) to {os.fspath(path)!r}: "
+        f"predicted_{target} and compensation_{target} = -predicted_{target}."
+    )
+    if measured in frame.columns and not frame[measured].isna().any():
+        s = scores(frame[measured].to_numpy(), pred)
+        print(
+            f"  against the measured {target} in {os.fspath(data)!r}: RMSE {s['RMSE']:.3g}, "
+            f"±res {s['band']:.3g}, R {s['R']:.3f}, E {s['E']:.3f}"
+        )
+    return 0
