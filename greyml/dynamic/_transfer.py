@@ -27,14 +27,21 @@ import numbers
 
 import numpy as np
 import pandas as pd
-from scipy.linalg import LinAlgError, cho_factor, cho_solve
 from scipy.optimize import minimize
 from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.utils.validation import check_is_fitted
 
 from greyml._sequences import TIME_LEVEL, segment_label
 from greyml._validation import column_names, require_y, validate_sequences
-from greyml.dynamic._kernels import lag_filter
+from greyml.dynamic._gram import (
+    _cols_all,
+    design,
+    held_out_scores,
+    select_sensors,
+    solve_all,
+    test_grams,
+)
+from greyml.dynamic._transfer_readout import _round_step, _TransferReadout
 
 __all__ = ["ThermalTransferFunction"]
 
@@ -42,154 +49,9 @@ __all__ = ["ThermalTransferFunction"]
 DEFAULT_TIME_CONSTANTS = (300.0, 900.0, 2700.0, 8100.0)
 #: Ridge penalties tried, per row of the (standardised) design.
 DEFAULT_ALPHAS = tuple(np.logspace(-6, 0, 13))
-#: Relative improvement of the held-out score below which forward selection adds no sensor.
-_RESOLUTION = 1e-6
 
 
-# ------------------------------------------------------------------------------
-# Pure array functions
-# ------------------------------------------------------------------------------
-
-
-def _features(x, dt, bounds, spec, carry):
-    """Design columns for inputs ``x`` (n, q) given ``spec``.
-
-    ``spec`` is a list of (column, power, taus) blocks; each block contributes a
-    static column ``x[:, column] ** power`` followed by its lags at ``taus``.
-    Blocks with the same taus are filtered together (one kernel call).
-    Returns ``F`` of shape (n, n_columns).
-    """
-    n = x.shape[0]
-    widths = [1 + len(taus) for _, _, taus in spec]
-    F = np.empty((n, int(sum(widths))))
-    offsets = np.concatenate(([0], np.cumsum(widths)))
-    by_taus = {}
-    for b, (_col, _power, taus) in enumerate(spec):
-        by_taus.setdefault(tuple(taus), []).append(b)
-    for taus, blocks in by_taus.items():
-        cols = np.column_stack([x[:, spec[b][0]] ** spec[b][1] for b in blocks])
-        for k, b in enumerate(blocks):
-            F[:, offsets[b]] = cols[:, k]
-        if taus:
-            lags, _ = lag_filter(cols, dt, np.asarray(taus), bounds, carry=carry)
-            for k, b in enumerate(blocks):
-                F[:, offsets[b] + 1 : offsets[b + 1]] = lags[:, k, :]
-    return F
-
-
-def _test_grams(A, y, w, bounds):
-    """Per-test weighted Gram matrices ``A'WA``, ``A'Wy``, ``y'Wy`` and weight sums."""
-    G, b, yy, sw = [], [], [], []
-    for start, stop in bounds:
-        a, t, v = A[start:stop], y[start:stop], w[start:stop]
-        av = a * v[:, None]
-        G.append(av.T @ a)
-        b.append(av.T @ t)
-        yy.append(float(t @ (v * t)))
-        sw.append(float(v.sum()))
-    return np.array(G), np.array(b), np.array(yy), np.array(sw)
-
-
-def _ridge(G, b, alpha, penalised):
-    """Solve (G + alpha·diag(penalised)) w = b; falls back to lstsq when singular."""
-    M = G + np.diag(alpha * penalised)
-    try:
-        return cho_solve(cho_factor(M, check_finite=False), b, check_finite=False)
-    except (LinAlgError, ValueError):
-        return np.linalg.lstsq(M, b, rcond=None)[0]
-
-
-def _standardised(G, b, sw, pen):
-    """Gram of the design with unit weighted standard deviation per column.
-
-    ``G``, ``b`` are the summed raw Grams of some tests and ``sw`` their weight.
-    Where a column is unpenalised (the intercept, always last) the others are
-    scaled by their centred deviation, which with an unpenalised intercept is
-    the same ridge as on centred columns. Returns (G', b', scale).
-    """
-    m2 = np.diag(G) / sw
-    if (pen == 0).any():
-        var = m2 - (G[-1] / sw) ** 2
-    else:
-        var = m2
-    scale = np.sqrt(np.maximum(var, 0.0))
-    scale = np.where((scale > 0) & (var > 1e-14 * np.maximum(m2, 1e-300)) & (pen > 0), scale, 1.0)
-    d = 1.0 / scale
-    return G * d[:, None] * d[None, :], b * d, scale
-
-
-def _solve_all(G, b, sw, alphas, pen):
-    """Ridge coefficients (raw units) for every alpha: columns of a (p, n_alphas) array.
-
-    The penalty is ``alpha`` per unit of weight (per row with unit weights) on
-    the standardised columns, so a fit on fewer tests is penalised in proportion.
-    """
-    Gn, bn, scale = _standardised(G, b, sw, pen)
-    alphas = np.asarray(alphas, dtype=float)
-    if (pen > 0).all():
-        # one eigendecomposition serves every alpha
-        lam, V = np.linalg.eigh(Gn)
-        lam = np.maximum(lam, 0.0)
-        coefs = V @ ((V.T @ bn)[:, None] / (lam[:, None] + alphas[None, :] * sw))
-    else:
-        coefs = np.column_stack([_ridge(Gn, bn, a * sw, pen) for a in alphas])
-    return coefs / scale[:, None]
-
-
-def _held_out_scores(grams, cols, alphas, pen, folds):
-    """Mean held-out RMSE over ``folds`` for each alpha, on design columns ``cols``.
-
-    ``grams`` are the per-test raw (G, b, yy, sw); each fold holds out one test,
-    standardises and solves the ridge on the others exactly as a refit on them
-    would, and scores the held-out test from its own Gram. Returns an array
-    (n_alphas,) of mean per-test RMSE.
-    """
-    G, b, yy, sw = grams
-    ix = np.ix_(cols, cols)
-    Gs = G[:, ix[0], ix[1]]
-    bs = b[:, cols]
-    Gt, bt, st = Gs.sum(axis=0), bs.sum(axis=0), sw.sum()
-    pen = pen[cols]
-    out = np.zeros(len(alphas))
-    for h in folds:
-        coefs = _solve_all(Gt - Gs[h], bt - bs[h], st - sw[h], alphas, pen)
-        sse = yy[h] - 2.0 * (bs[h] @ coefs) + np.einsum("ia,ij,ja->a", coefs, Gs[h], coefs)
-        out += np.sqrt(np.maximum(sse, 0.0) / sw[h])
-    return out / len(folds)
-
-
-def _train_scores(grams, cols, alphas, pen):
-    """Training RMSE (all tests pooled) for each alpha, when too few tests to hold one out."""
-    G, b, yy, sw = grams
-    ix = np.ix_(cols, cols)
-    Gt, bt = G[:, ix[0], ix[1]].sum(axis=0), b[:, cols].sum(axis=0)
-    coefs = _solve_all(Gt, bt, sw.sum(), alphas, pen[cols])
-    sse = yy.sum() - 2.0 * (bt @ coefs) + np.einsum("ia,ij,ja->a", coefs, Gt, coefs)
-    return np.sqrt(np.maximum(sse, 0.0) / sw.sum())
-
-
-# ------------------------------------------------------------------------------
-# The estimator
-# ------------------------------------------------------------------------------
-
-
-def _fmt_tau(tau):
-    minutes = tau / 60.0
-    if minutes >= 1 and abs(minutes - round(minutes)) < 1e-9:
-        return f"{int(round(minutes))} min"
-    if minutes >= 1:
-        return f"{minutes:.3g} min"
-    return f"{tau:.3g} s"
-
-
-def _round_step(peak):
-    """A round step size for a driver: the power of ten below its largest value."""
-    if not np.isfinite(peak) or peak <= 0:
-        return 1.0
-    return float(10.0 ** np.floor(np.log10(peak)))
-
-
-class ThermalTransferFunction(RegressorMixin, BaseEstimator):
+class ThermalTransferFunction(_TransferReadout, RegressorMixin, BaseEstimator):
     """Displacement as a sum of each input's first-order thermal responses.
 
     Every input reaches the displacement through a transfer function of its
@@ -538,7 +400,7 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
         return spec, groups, labels
 
     def _design(self, x, dt, bounds, spec):
-        F = _features(x, dt, bounds, spec, self.state == "carry")
+        F = design(x, dt, bounds, spec, self.state == "carry")
         if self.relative_to_start:
             for start, stop in bounds:
                 F[start:stop] -= F[start].copy()
@@ -610,7 +472,9 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
                 "Give more rows, fewer sensors or fewer time constants."
             )
         grams, pen = self._grams(F, y_fit, w, bounds)
-        chosen, alpha, score, path = self._select(grams, pen, col_group, sensors, alphas, folds)
+        chosen, alpha, score, path = select_sensors(
+            grams, pen, col_group, sensors, alphas, folds, self.max_sensors, self.selection
+        )
         if fit_taus and folds is not None:
             taus, driver_taus = self._fit_taus(
                 Xa,
@@ -629,13 +493,13 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
             )
             spec, groups, labels, F = build(taus, driver_taus)
             grams, pen = self._grams(F, y_fit, w, bounds)
-            cols = self._cols_all(col_group, chosen, grams[0].shape[1])
-            sc = _held_out_scores(grams, cols, alphas, pen, folds)
+            cols = _cols_all(col_group, chosen, grams[0].shape[1])
+            sc = held_out_scores(grams, cols, alphas, pen, folds)
             alpha, score = float(alphas[np.argmin(sc)]), float(sc.min())
-        cols = self._cols_all(col_group, chosen, grams[0].shape[1])
+        cols = _cols_all(col_group, chosen, grams[0].shape[1])
         G, b = grams[0].sum(axis=0), grams[1].sum(axis=0)
         coef = np.zeros(grams[0].shape[1])
-        coef[cols] = _solve_all(G[np.ix_(cols, cols)], b[cols], grams[3].sum(), [alpha], pen[cols])[
+        coef[cols] = solve_all(G[np.ix_(cols, cols)], b[cols], grams[3].sum(), [alpha], pen[cols])[
             :, 0
         ]
 
@@ -696,107 +560,7 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
         pen = np.ones(A.shape[1])
         if not self.relative_to_start:
             pen[-1] = 0.0
-        return _test_grams(A, y, w, bounds), pen
-
-    @staticmethod
-    def _cols(col_group, chosen):
-        keep = np.isin(col_group, [-1, *chosen])
-        return np.flatnonzero(keep)
-
-    def _cols_all(self, col_group, chosen, n_total):
-        cols = list(self._cols(col_group, chosen))
-        if n_total > len(col_group):
-            cols.append(len(col_group))
-        return np.asarray(cols, dtype=int)
-
-    def _score(self, grams, cols, alphas, pen, folds):
-        if folds is None:
-            return _train_scores(grams, cols, alphas, pen)
-        return _held_out_scores(grams, cols, alphas, pen, folds)
-
-    def _select(self, grams, pen, col_group, sensors, alphas, folds):
-        """Forward selection of whole sensors; returns (chosen, alpha, score, path)."""
-        n_total = grams[0].shape[1]
-
-        def evaluate(chosen):
-            cols = self._cols_all(col_group, chosen, n_total)
-            sc = self._score(grams, cols, alphas, pen, folds)
-            i = int(np.argmin(sc))
-            return float(sc[i]), float(alphas[i])
-
-        everything = list(range(len(sensors)))
-        if self.max_sensors is None:
-            score, alpha = evaluate(everything)
-            return everything, alpha, score, []
-        if self.selection == "stable" and folds is not None and len(folds) >= 4:
-            return self._stable(grams, pen, col_group, sensors, alphas, folds, evaluate)
-        return self._forward(evaluate, everything, sensors, col_group, n_total)
-
-    def _stable(self, grams, pen, col_group, sensors, alphas, folds, evaluate):
-        """Forward selection repeated without each test in turn; keep the sensors most runs chose.
-
-        A sensor enters when at least half of the runs chose it (at most
-        ``max_sensors``, most votes first, then earliest on average); the
-        penalty is then chosen by leave one test out on all tests.
-        """
-        votes, rank = {}, {}
-        n_total = grams[0].shape[1]
-        for t in folds:
-            without = tuple(a.copy() for a in grams)
-            for a in without:
-                a[t] = 0.0
-            rest = [f for f in folds if f != t]
-
-            def evaluate_without(chosen, without=without, rest=rest):
-                cols = self._cols_all(col_group, chosen, n_total)
-                sc = _held_out_scores(without, cols, alphas, pen, rest)
-                i = int(np.argmin(sc))
-                return float(sc[i]), float(alphas[i])
-
-            keep, _, _, _ = self._forward(
-                evaluate_without, list(range(len(sensors))), sensors, col_group, n_total
-            )
-            for position, k in enumerate(keep):
-                votes[k] = votes.get(k, 0) + 1
-                rank[k] = rank.get(k, 0) + position
-        order = sorted(votes, key=lambda k: (-votes[k], rank[k] / votes[k], k))
-        chosen = [k for k in order if 2 * votes[k] >= len(folds)][: self.max_sensors]
-        if not chosen and order:
-            chosen = order[:1]
-        score, alpha = evaluate(chosen)
-        path = [(sensors[k], float(votes[k]) / len(folds)) for k in order]
-        return chosen, alpha, score, path
-
-    def _forward(self, evaluate, everything, sensors, col_group, n_total):
-        """Greedy forward selection; the best prefix up to ``max_sensors`` by held-out score.
-
-        A longer prefix is kept only when it lowers the score by more than
-        ``_RESOLUTION`` times the first step's score: a sensor whose gain is
-        at the level of rounding (noise-free data fitted to 1e-7) is not
-        chosen by the last digits of a floating-point sum.
-        """
-        chosen, path, prefixes = [], [], []
-        if (col_group == -1).any() or n_total > len(col_group):
-            score, alpha = evaluate([])
-            path.append((None, score, alpha))
-            prefixes.append((score, [], alpha))
-        for _ in range(self.max_sensors):
-            trial = []
-            for k in everything:
-                if k in chosen:
-                    continue
-                score, alpha = evaluate([*chosen, k])
-                trial.append((score, k, alpha))
-            if not trial:
-                break
-            score, k, alpha = min(trial)
-            chosen = [*chosen, k]
-            path.append((sensors[k], score, alpha))
-            prefixes.append((score, list(chosen), alpha))
-        lowest = min(score for score, _, _ in prefixes)
-        within = lowest + _RESOLUTION * abs(prefixes[0][0])
-        score, keep, alpha = next(p for p in prefixes if p[0] <= within)
-        return keep, alpha, score, path
+        return test_grams(A, y, w, bounds), pen
 
     def _fit_taus(
         self,
@@ -832,7 +596,7 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
             F = self._design(Xa, dt, bounds, spec)
             grams, pen = self._grams(F, y, w, bounds)
             cols = np.arange(grams[0].shape[1])
-            return float(_held_out_scores(grams, cols, alphas, pen, folds).min())
+            return float(held_out_scores(grams, cols, alphas, pen, folds).min())
 
         z0 = np.log(np.concatenate([taus, driver_taus]))
         f0 = objective(z0)
@@ -844,134 +608,6 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
         )
         best = result.x if result.fun < f0 else z0
         return unpack(best)
-
-    # -- readable -------------------------------------------------------------
-
-    @property
-    def selection_(self):
-        """The selection's path as a table (see the class's Attributes)."""
-        check_is_fitted(self)
-        return pd.DataFrame(self._selection_path_, columns=self._selection_columns_)
-
-    @property
-    def gains_(self):
-        """Each input's gains as a table (see the class's Attributes)."""
-        check_is_fitted(self)
-        return self._gain_table()
-
-    def _terms(self):
-        terms = []
-        c = 0
-        for (_col, power, taus), (name, _) in zip(self._spec_, self._labels_):
-            for tau in (None, *taus):
-                weight = float(self.feature_coef_[c])
-                if weight != 0.0:
-                    terms.append((name, power, None if tau is None else float(tau), weight))
-                c += 1
-        return terms
-
-    def _gain_table(self):
-        rows, index = [], []
-        all_taus = sorted({t for _, _, taus in self._spec_ for t in taus})
-        columns = ["static"] + [f"lag {_fmt_tau(t)}" for t in all_taus]
-        c = 0
-        for (_col, power, taus), (name, _) in zip(self._spec_, self._labels_):
-            row = dict.fromkeys(columns, np.nan)
-            row["static"] = self.feature_coef_[c]
-            for j, tau in enumerate(taus):
-                row[f"lag {_fmt_tau(tau)}"] = self.feature_coef_[c + 1 + j]
-            c += 1 + len(taus)
-            group_in = name in self.drivers_ or name in self.selected_sensors_
-            if group_in:
-                rows.append(row)
-                index.append((name, power))
-        table = pd.DataFrame(rows, columns=columns)
-        table.index = pd.MultiIndex.from_tuples(index, names=["input", "power"])
-        return table
-
-    def step_response(self, input, step=None, *, start=0.0, times=None):
-        """Displacement after a step of one input, all other inputs held.
-
-        Parameters
-        ----------
-        input : str
-            A driver or a selected sensor.
-        step : float, optional
-            Size of the step in the input's unit; default ``step_sizes_[input]``
-            (1 K for a sensor, e.g. 1000 rpm for a spindle).
-        start : float, default=0.0
-            Value before the step (matters for powers above 1).
-        times : array-like, optional
-            Seconds after the step; default 0 to five times the largest time
-            constant, 200 points.
-
-        Returns
-        -------
-        response : Series
-            Displacement change (units of y) indexed by ``time_s``.
-        """
-        check_is_fitted(self)
-        if input not in self.step_sizes_:
-            raise ValueError(
-                f"step_response: {input!r} is not an input of this model (inputs: "
-                f"{', '.join(self.step_sizes_)})."
-            )
-        step = self.step_sizes_[input] if step is None else float(step)
-        if times is None:
-            top = 5.0 * max(self.time_constants_.max(), self.driver_time_constants_.max())
-            times = np.linspace(0.0, top, 200)
-        times = np.asarray(times, dtype=float)
-        out = np.zeros_like(times)
-        for name, power, tau, weight in self.terms_:
-            if name != input:
-                continue
-            jump = (start + step) ** power - start**power
-            shape = np.ones_like(times) if tau is None else 1.0 - np.exp(-times / tau)
-            out += weight * jump * shape
-        return pd.Series(out, index=pd.Index(times, name=TIME_LEVEL), name=input)
-
-    def describe(self, unit="µm", *, file=None):
-        """Print one line per input: its step response in words.
-
-        Parameters
-        ----------
-        unit : str, default="µm"
-            Unit of the displacement.
-        file : file-like, optional
-            Where to print (default standard output).
-
-        Returns
-        -------
-        text : str
-            The lines printed.
-        """
-        check_is_fitted(self)
-        lines = []
-        for name in self.drivers_ + self.selected_sensors_:
-            step = self.step_sizes_[name]
-            is_driver = name in self.drivers_
-            per = f"{step:g} {'rpm' if 'rpm' in name else 'units'}" if is_driver else "1 K"
-            long = 5.0 * max(self.time_constants_.max(), self.driver_time_constants_.max())
-            grid = np.linspace(0.0, long, 2001)
-            r = self.step_response(name, step, times=grid).to_numpy()
-            final = float(self.step_response(name, step, times=[np.inf]).iloc[0])
-            at_once = r[0]
-            at45 = float(self.step_response(name, step, times=[2700.0]).iloc[0])
-            if abs(final) > 0:
-                reached = np.flatnonzero(np.abs(r - at_once) >= 0.632 * abs(final - at_once))
-                t63 = grid[reached[0]] / 60.0 if reached.size and final != at_once else 0.0
-                within = f"63 % of the lagged part within {t63:.0f} min"
-            else:
-                within = "no response"
-            lines.append(
-                f"{name}: {final:.3g} {unit} per {per} at steady state, {at_once:.3g} {unit} "
-                f"at once, {at45:.3g} {unit} after 45 min; {within}"
-            )
-        text = "\n".join(lines)
-        print(text, file=file)
-        return text
-
-    # -- predict --------------------------------------------------------------
 
     def predict(self, X):
         """Predicted displacement of every row.

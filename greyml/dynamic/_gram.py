@@ -1,0 +1,246 @@
+"""Ridge regression on per-test Gram matrices, and whole-sensor selection with it.
+
+The pure array functions behind :class:`greyml.ThermalTransferFunction`: the
+design of lag features, per-test Gram matrices, ridge solutions for every
+penalty at once, held-out scores of whole tests computed from the Grams (a
+candidate costs a few small linear solves, not a refit), and the forward and
+stable selection of whole sensors under a budget. No validation, no pandas.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.linalg import LinAlgError, cho_factor, cho_solve
+
+from greyml.dynamic._kernels import lag_filter
+
+__all__ = ["design", "held_out_scores", "select_sensors", "solve_all", "test_grams", "train_scores"]
+
+#: Relative improvement of the held-out score below which forward selection adds no sensor.
+_RESOLUTION = 1e-6
+
+
+def design(x, dt, bounds, spec, carry):
+    """Design columns for inputs ``x`` (n, q) given ``spec``.
+
+    ``spec`` is a list of (column, power, taus) blocks; each block contributes a
+    static column ``x[:, column] ** power`` followed by its lags at ``taus``.
+    Blocks with the same taus are filtered together (one kernel call).
+    Returns ``F`` of shape (n, n_columns).
+    """
+    n = x.shape[0]
+    widths = [1 + len(taus) for _, _, taus in spec]
+    F = np.empty((n, int(sum(widths))))
+    offsets = np.concatenate(([0], np.cumsum(widths)))
+    by_taus = {}
+    for b, (_col, _power, taus) in enumerate(spec):
+        by_taus.setdefault(tuple(taus), []).append(b)
+    for taus, blocks in by_taus.items():
+        cols = np.column_stack([x[:, spec[b][0]] ** spec[b][1] for b in blocks])
+        for k, b in enumerate(blocks):
+            F[:, offsets[b]] = cols[:, k]
+        if taus:
+            lags, _ = lag_filter(cols, dt, np.asarray(taus), bounds, carry=carry)
+            for k, b in enumerate(blocks):
+                F[:, offsets[b] + 1 : offsets[b + 1]] = lags[:, k, :]
+    return F
+
+
+def test_grams(A, y, w, bounds):
+    """Per-test weighted Gram matrices ``A'WA``, ``A'Wy``, ``y'Wy`` and weight sums."""
+    G, b, yy, sw = [], [], [], []
+    for start, stop in bounds:
+        a, t, v = A[start:stop], y[start:stop], w[start:stop]
+        av = a * v[:, None]
+        G.append(av.T @ a)
+        b.append(av.T @ t)
+        yy.append(float(t @ (v * t)))
+        sw.append(float(v.sum()))
+    return np.array(G), np.array(b), np.array(yy), np.array(sw)
+
+
+def _ridge(G, b, alpha, penalised):
+    """Solve (G + alpha·diag(penalised)) w = b; falls back to lstsq when singular."""
+    M = G + np.diag(alpha * penalised)
+    try:
+        return cho_solve(cho_factor(M, check_finite=False), b, check_finite=False)
+    except (LinAlgError, ValueError):
+        return np.linalg.lstsq(M, b, rcond=None)[0]
+
+
+def _standardised(G, b, sw, pen):
+    """Gram of the design with unit weighted standard deviation per column.
+
+    ``G``, ``b`` are the summed raw Grams of some tests and ``sw`` their weight.
+    Where a column is unpenalised (the intercept, always last) the others are
+    scaled by their centred deviation, which with an unpenalised intercept is
+    the same ridge as on centred columns. Returns (G', b', scale).
+    """
+    m2 = np.diag(G) / sw
+    if (pen == 0).any():
+        var = m2 - (G[-1] / sw) ** 2
+    else:
+        var = m2
+    scale = np.sqrt(np.maximum(var, 0.0))
+    scale = np.where((scale > 0) & (var > 1e-14 * np.maximum(m2, 1e-300)) & (pen > 0), scale, 1.0)
+    d = 1.0 / scale
+    return G * d[:, None] * d[None, :], b * d, scale
+
+
+def solve_all(G, b, sw, alphas, pen):
+    """Ridge coefficients (raw units) for every alpha: columns of a (p, n_alphas) array.
+
+    The penalty is ``alpha`` per unit of weight (per row with unit weights) on
+    the standardised columns, so a fit on fewer tests is penalised in proportion.
+    """
+    Gn, bn, scale = _standardised(G, b, sw, pen)
+    alphas = np.asarray(alphas, dtype=float)
+    if (pen > 0).all():
+        # one eigendecomposition serves every alpha
+        lam, V = np.linalg.eigh(Gn)
+        lam = np.maximum(lam, 0.0)
+        coefs = V @ ((V.T @ bn)[:, None] / (lam[:, None] + alphas[None, :] * sw))
+    else:
+        coefs = np.column_stack([_ridge(Gn, bn, a * sw, pen) for a in alphas])
+    return coefs / scale[:, None]
+
+
+def held_out_scores(grams, cols, alphas, pen, folds):
+    """Mean held-out RMSE over ``folds`` for each alpha, on design columns ``cols``.
+
+    ``grams`` are the per-test raw (G, b, yy, sw); each fold holds out one test,
+    standardises and solves the ridge on the others exactly as a refit on them
+    would, and scores the held-out test from its own Gram. Returns an array
+    (n_alphas,) of mean per-test RMSE.
+    """
+    G, b, yy, sw = grams
+    ix = np.ix_(cols, cols)
+    Gs = G[:, ix[0], ix[1]]
+    bs = b[:, cols]
+    Gt, bt, st = Gs.sum(axis=0), bs.sum(axis=0), sw.sum()
+    pen = pen[cols]
+    out = np.zeros(len(alphas))
+    for h in folds:
+        coefs = solve_all(Gt - Gs[h], bt - bs[h], st - sw[h], alphas, pen)
+        sse = yy[h] - 2.0 * (bs[h] @ coefs) + np.einsum("ia,ij,ja->a", coefs, Gs[h], coefs)
+        out += np.sqrt(np.maximum(sse, 0.0) / sw[h])
+    return out / len(folds)
+
+
+def train_scores(grams, cols, alphas, pen):
+    """Training RMSE (all tests pooled) for each alpha, when too few tests to hold one out."""
+    G, b, yy, sw = grams
+    ix = np.ix_(cols, cols)
+    Gt, bt = G[:, ix[0], ix[1]].sum(axis=0), b[:, cols].sum(axis=0)
+    coefs = solve_all(Gt, bt, sw.sum(), alphas, pen[cols])
+    sse = yy.sum() - 2.0 * (bt @ coefs) + np.einsum("ia,ij,ja->a", coefs, Gt, coefs)
+    return np.sqrt(np.maximum(sse, 0.0) / sw.sum())
+
+
+def _cols(col_group, chosen):
+    keep = np.isin(col_group, [-1, *chosen])
+    return np.flatnonzero(keep)
+
+
+def _cols_all(col_group, chosen, n_total):
+    cols = list(_cols(col_group, chosen))
+    if n_total > len(col_group):
+        cols.append(len(col_group))
+    return np.asarray(cols, dtype=int)
+
+
+def _score(grams, cols, alphas, pen, folds):
+    if folds is None:
+        return train_scores(grams, cols, alphas, pen)
+    return held_out_scores(grams, cols, alphas, pen, folds)
+
+
+def select_sensors(grams, pen, col_group, sensors, alphas, folds, max_sensors, selection):
+    """Whole sensors chosen under a budget; returns (chosen, alpha, score, path).
+
+    ``max_sensors`` None keeps every sensor (the penalty is still chosen);
+    ``selection`` is "forward" or "stable" (stable needs four scored tests).
+    """
+    n_total = grams[0].shape[1]
+
+    def evaluate(chosen):
+        cols = _cols_all(col_group, chosen, n_total)
+        sc = _score(grams, cols, alphas, pen, folds)
+        i = int(np.argmin(sc))
+        return float(sc[i]), float(alphas[i])
+
+    everything = list(range(len(sensors)))
+    if max_sensors is None:
+        score, alpha = evaluate(everything)
+        return everything, alpha, score, []
+    if selection == "stable" and folds is not None and len(folds) >= 4:
+        return _stable(grams, pen, col_group, sensors, alphas, folds, evaluate, max_sensors)
+    return _forward(evaluate, everything, sensors, col_group, n_total, max_sensors)
+
+
+def _stable(grams, pen, col_group, sensors, alphas, folds, evaluate, max_sensors):
+    """Forward selection repeated without each test in turn; keep the sensors most runs chose.
+
+    A sensor enters when at least half of the runs chose it (at most
+    ``max_sensors``, most votes first, then earliest on average); the
+    penalty is then chosen by leave one test out on all tests.
+    """
+    votes, rank = {}, {}
+    n_total = grams[0].shape[1]
+    for t in folds:
+        without = tuple(a.copy() for a in grams)
+        for a in without:
+            a[t] = 0.0
+        rest = [f for f in folds if f != t]
+
+        def evaluate_without(chosen, without=without, rest=rest):
+            cols = _cols_all(col_group, chosen, n_total)
+            sc = held_out_scores(without, cols, alphas, pen, rest)
+            i = int(np.argmin(sc))
+            return float(sc[i]), float(alphas[i])
+
+        keep, _, _, _ = _forward(
+            evaluate_without, list(range(len(sensors))), sensors, col_group, n_total, max_sensors
+        )
+        for position, k in enumerate(keep):
+            votes[k] = votes.get(k, 0) + 1
+            rank[k] = rank.get(k, 0) + position
+    order = sorted(votes, key=lambda k: (-votes[k], rank[k] / votes[k], k))
+    chosen = [k for k in order if 2 * votes[k] >= len(folds)][:max_sensors]
+    if not chosen and order:
+        chosen = order[:1]
+    score, alpha = evaluate(chosen)
+    path = [(sensors[k], float(votes[k]) / len(folds)) for k in order]
+    return chosen, alpha, score, path
+
+
+def _forward(evaluate, everything, sensors, col_group, n_total, max_sensors):
+    """Greedy forward selection; the best prefix up to ``max_sensors`` by held-out score.
+
+    A longer prefix is kept only when it lowers the score by more than
+    ``_RESOLUTION`` times the first step's score: a sensor whose gain is
+    at the level of rounding (noise-free data fitted to 1e-7) is not
+    chosen by the last digits of a floating-point sum.
+    """
+    chosen, path, prefixes = [], [], []
+    if (col_group == -1).any() or n_total > len(col_group):
+        score, alpha = evaluate([])
+        path.append((None, score, alpha))
+        prefixes.append((score, [], alpha))
+    for _ in range(max_sensors):
+        trial = []
+        for k in everything:
+            if k in chosen:
+                continue
+            score, alpha = evaluate([*chosen, k])
+            trial.append((score, k, alpha))
+        if not trial:
+            break
+        score, k, alpha = min(trial)
+        chosen = [*chosen, k]
+        path.append((sensors[k], score, alpha))
+        prefixes.append((score, list(chosen), alpha))
+    lowest = min(score for score, _, _ in prefixes)
+    within = lowest + _RESOLUTION * abs(prefixes[0][0])
+    score, keep, alpha = next(p for p in prefixes if p[0] <= within)
+    return keep, alpha, score, path
