@@ -428,6 +428,20 @@ def transfer_models(reference):
         ),
     ]
     if reference == "cycle":
+        # fitted to the displacement from the recording's start (one intercept for
+        # every cycle), scored on the held-out cycle's change since its first row
+        out.append(
+            (
+                f"TTF<={MAX_SENSORS} rec-fit",
+                ThermalTransferFunction(
+                    drivers=[DRIVER],
+                    max_sensors=MAX_SENSORS,
+                    state="carry",
+                    relative_to_start=False,
+                ),
+                "recording",
+            )
+        )
         out.append(
             (
                 f"TTF<={MAX_SENSORS} restart",
@@ -438,7 +452,7 @@ def transfer_models(reference):
     return out
 
 
-def dynamic_loco(X, y, rpm, reference):
+def dynamic_loco(X, y, rpm, reference, recording=None):
     """Per held-out cycle: ridge-16 and every ThermalTransferFunction variant.
 
     Carried lags: each model is given the whole recording with sample weight
@@ -446,6 +460,11 @@ def dynamic_loco(X, y, rpm, reference):
     as a controller's would; its displacement is never seen) and predicts the
     whole recording, scored on the held-out rows. Restarted lags: the model
     sees the four training cycles only and predicts the held-out cycle alone.
+    Variants marked ``"recording"`` (cycle reference only; ``recording`` is
+    the (X, y) of the recording reference) are fitted to the displacement
+    from the recording's start and scored on the held-out cycle's change
+    since its first row: their prediction minus its value at that row. So is
+    "ridge-16 rec-fit", ridge-16 trained the same way.
     """
     from sklearn.base import clone
 
@@ -468,9 +487,22 @@ def dynamic_loco(X, y, rpm, reference):
             "selected": {},
             "alpha": {},
         }
+        if recording is not None:
+            Xr, yr = recording
+            pred = ridge_all().fit(Xr[train], yr[train]).predict(Xr[held])
+            row["rmse"]["ridge-16 rec-fit"] = float(rmse(y_true, pred - pred[0]))
         for label, template, carry in models:
             model = clone(template)
-            if carry:
+            if carry == "recording":
+                if recording is None:
+                    continue
+                Xr, yr = recording
+                Xrd = Xr.copy()
+                Xrd.insert(0, DRIVER, rpm.to_numpy())
+                model.fit(Xrd, yr, sample_weight=train.astype(float))
+                pred = model.predict(Xrd)[held]
+                pred = pred - pred[0]
+            elif carry:
                 model.fit(Xd, y, sample_weight=train.astype(float))
                 pred = model.predict(Xd)[held]
             else:
@@ -549,7 +581,11 @@ def print_dynamic(target, reference, rows, summ, labels, seed_note):
         )
     if seed_note:
         print("  " + seed_note)
-    for label in (f"TTF<={MAX_SENSORS}", f"TTF<={MAX_SENSORS} stable"):
+    for label in (
+        f"TTF<={MAX_SENSORS}",
+        f"TTF<={MAX_SENSORS} stable",
+        f"TTF<={MAX_SENSORS} rec-fit",
+    ):
         if reference != "cycle" or target not in DYN_GOALS:
             break
         goal = DYN_GOALS[target]
@@ -562,6 +598,13 @@ def print_dynamic(target, reference, rows, summ, labels, seed_note):
             f"{summ[label]['worst']:.2f} vs ridge-16's worst {summ['ridge-16']['worst']:.2f}: "
             f"{'PASS' if worst_ok else 'MISS'}"
         )
+        if "ridge-16 rec-fit" in summ:
+            other = summ["ridge-16 rec-fit"]
+            print(
+                f"    beside ridge-16 fitted the same way (rec-fit: median {other['median']:.2f}, "
+                f"worst {other['worst']:.2f} um): "
+                f"{100 * (1.0 - summ[label]['median'] / other['median']):.1f} % below"
+            )
 
 
 SENSITIVITY_BANKS = {"5/15/45/135 min": None, "10/45/180 min": (600.0, 2700.0, 10800.0)}
@@ -594,6 +637,13 @@ def run_sensitivity(args):
                 return None
             Xd = X.copy()
             Xd.insert(0, DRIVER, data.frame[DRIVER].to_numpy())
+            fits = {"": (Xd, y, reference == "cycle", False)}
+            if reference == "cycle":
+                # fitted from the recording's start, scored on each cycle's change
+                Xr, yr, _ = load(args.data, target, "recording", 1)
+                Xrd = Xr.copy()
+                Xrd.insert(0, DRIVER, data.frame[DRIVER].to_numpy())
+                fits["rec-fit"] = (Xrd, yr, False, True)
             groups = np.asarray(test_ids(X))
             cycles = list(dict.fromkeys(groups))
             ridge = []
@@ -608,49 +658,61 @@ def run_sensitivity(args):
                 f"{ridge_median:.2f}, worst {ridge_worst:.2f} um; goal {100 * goal:.0f} % =="
             )
             rows = []
-            for budget in SENSITIVITY_BUDGETS:
-                for bank_label, bank in SENSITIVITY_BANKS.items():
-                    for selection in ("forward", "stable"):
-                        template = ThermalTransferFunction(
-                            drivers=[DRIVER],
-                            max_sensors=budget,
-                            time_constants=bank,
-                            state="carry",
-                            relative_to_start=reference == "cycle",
-                            selection=selection,
-                        )
-                        per = []
-                        with threadpool_limits(limits=1):
-                            for cycle in cycles:
-                                held = groups == cycle
-                                model = clone(template).fit(
-                                    Xd, y, sample_weight=(~held).astype(float)
-                                )
-                                pred = model.predict(Xd)[held]
-                                per.append(float(rmse(y[held].to_numpy(), pred)))
-                        median, worst = float(np.median(per)), max(per)
-                        reduction = 1.0 - median / ridge_median
-                        ok = reduction >= goal and worst <= ridge_worst
-                        rows.append(
-                            {
-                                "max_sensors": budget,
-                                "bank": bank_label,
-                                "selection": selection,
-                                "rmse": per,
-                                "median": median,
-                                "worst": worst,
-                                "reduction": reduction,
-                                "both_lines": bool(ok),
-                            }
-                        )
-                        print(
-                            f"  <= {budget} sensors, {bank_label:15s} {selection:8s} "
-                            + " ".join(f"{v:6.2f}" for v in per)
-                            + f" | median {median:5.2f} ({100 * reduction:+4.0f} %), worst "
-                            f"{worst:5.2f}: {'both lines hold' if ok else 'a line misses'}"
-                        )
+            variants = [
+                (fit, budget, bank_label, bank, selection)
+                for fit in fits
+                for budget in SENSITIVITY_BUDGETS
+                for bank_label, bank in SENSITIVITY_BANKS.items()
+                for selection in ("forward", "stable")
+            ]
+            for fit, budget, bank_label, bank, selection in variants:
+                Xf, yf, relative, rezero = fits[fit]
+                template = ThermalTransferFunction(
+                    drivers=[DRIVER],
+                    max_sensors=budget,
+                    time_constants=bank,
+                    state="carry",
+                    relative_to_start=relative,
+                    selection=selection,
+                )
+                per = []
+                with threadpool_limits(limits=1):
+                    for cycle in cycles:
+                        held = groups == cycle
+                        model = clone(template).fit(Xf, yf, sample_weight=(~held).astype(float))
+                        pred = model.predict(Xf)[held]
+                        if rezero:
+                            pred = pred - pred[0]
+                        per.append(float(rmse(y[held].to_numpy(), pred)))
+                median, worst = float(np.median(per)), max(per)
+                reduction = 1.0 - median / ridge_median
+                ok = reduction >= goal and worst <= ridge_worst
+                rows.append(
+                    {
+                        "fit": fit or reference,
+                        "max_sensors": budget,
+                        "bank": bank_label,
+                        "selection": selection,
+                        "rmse": per,
+                        "median": median,
+                        "worst": worst,
+                        "reduction": reduction,
+                        "both_lines": bool(ok),
+                    }
+                )
+                print(
+                    f"  {fit or '':7s} <= {budget} sensors, {bank_label:15s} {selection:8s} "
+                    + " ".join(f"{v:6.2f}" for v in per)
+                    + f" | median {median:5.2f} ({100 * reduction:+4.0f} %), worst "
+                    f"{worst:5.2f}: {'both lines hold' if ok else 'a line misses'}"
+                )
+            for fit in fits:
+                mine = [r for r in rows if r["fit"] == (fit or reference)]
+                print(
+                    f"  {fit or 'fitted in this reference'}: both lines hold in "
+                    f"{sum(r['both_lines'] for r in mine)} of {len(mine)} variants"
+                )
             held_lines = sum(r["both_lines"] for r in rows)
-            print(f"  both lines hold in {held_lines} of {len(rows)} variants")
             out[f"{target}/{reference}"] = {
                 "ridge": ridge,
                 "variants": rows,
@@ -678,11 +740,17 @@ def run_dynamic(args):
                 print(f"CAIVIAC data not found at {where_looked(args.data)}; skipping")
                 return None
             rpm = data.frame[DRIVER]
+            recording = None
+            labels = ["ridge-16"]
+            if reference == "cycle":
+                Xr, yr, _ = load(args.data, target, "recording", 1)
+                recording = (Xr, yr)
+                labels.append("ridge-16 rec-fit")
             start = time.perf_counter()
             with threadpool_limits(limits=1):
-                rows = dynamic_loco(X, y, rpm, reference)
+                rows = dynamic_loco(X, y, rpm, reference, recording)
             dyn_s = time.perf_counter() - start
-            labels = ["ridge-16"] + [lab for lab, _, _ in transfer_models(reference)]
+            labels += [lab for lab, _, _ in transfer_models(reference)]
             seed_note = ""
             seed_records = None
             if not args.no_seed_search:
