@@ -27,6 +27,7 @@ _LAZY = {
     "simulate_gmc": "greyml.grey",
     "MLPBaseline": "greyml.neural",
     "UnderdeterminedWarning": "greyml.neural",
+    "RelativeToStart": "greyml.preprocessing",
     "GreyInfluenceSelector": "greyml.selection",
     "TrainOnOneTest": "greyml.selection",
 }
@@ -45,6 +46,7 @@ __all__ = [
     "GreyInfluenceSelector",
     "LagFeatures",
     "MLPBaseline",
+    "RelativeToStart",
     "TEST_LEVEL",
     "TIME_LEVEL",
     "ThermalTransferFunction",

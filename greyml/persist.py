@@ -107,6 +107,7 @@ from greyml.fuzzy import ANFISFCM, ANFISGrid
 from greyml.grey import AGO, GMC, GNNMCI, AccumulatedTargetRegressor
 from greyml.neural import MLPBaseline
 from greyml.optimize import CuckooSearch, ParticleSwarm
+from greyml.preprocessing import RelativeToStart
 from greyml.selection import GreyInfluenceSelector, TrainOnOneTest
 
 __all__ = ["UnsafeModelError", "describe_model", "load_model", "save_model"]
@@ -156,6 +157,7 @@ ALLOWED_CLASSES = MappingProxyType(
         "greyml.MLPBaseline": MLPBaseline,
         "greyml.optimize.CuckooSearch": CuckooSearch,
         "greyml.optimize.ParticleSwarm": ParticleSwarm,
+        "greyml.RelativeToStart": RelativeToStart,
         "greyml.selection.TrainOnOneTest": TrainOnOneTest,
         "greyml.ThermalTransferFunction": ThermalTransferFunction,
         "scipy.optimize.OptimizeResult": OptimizeResult,

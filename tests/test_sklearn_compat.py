@@ -14,6 +14,7 @@ from greyml import (
     GreyInfluenceSelector,
     LagFeatures,
     MLPBaseline,
+    RelativeToStart,
     ThermalTransferFunction,
 )
 
@@ -59,6 +60,10 @@ ESTIMATORS = [
     # fits them
     ThermalTransferFunction(time_constants=[30.0]),
     ThermalTransferFunction(time_constants=[30.0], max_sensors=1, relative_to_start=False),
+    # each row minus its test's first row: a subset that drops the first row changes
+    # every other row (a sequence transformation, though it learns nothing)
+    RelativeToStart(),
+    RelativeToStart(columns=[0]),
 ]
 
 # ANFIS and the MLP map each row to its output on its own (a static model), and
