@@ -11,7 +11,12 @@ import pandas as pd
 
 from greyml._rng import make_generator
 from greyml._sequences import segment_label, test_segments
-from greyml._validation import _upper_first
+from greyml._validation import (
+    _upper_first,
+    check_sampling_interval,
+    first_non_finite,
+    segment_of,
+)
 from greyml.gap._effects import (
     DESCRIPTIONS,
     EFFECTS,
@@ -26,7 +31,7 @@ from greyml.gap._effects import (
 from greyml.gap._events import event_columns, locate_events
 from greyml.gap._fit import evaluate, fit_recalibration, fold_design, placebo_walks
 from greyml.gap._report import GapReport, GapWarning
-from greyml.gap._where import _sampling_interval, gap_breakdown, residual_diagnostics
+from greyml.gap._where import gap_breakdown, residual_diagnostics
 from greyml.io import check_test_frame, read_tests_csv
 
 __all__ = ["diagnose_gap", "GapContext"]
@@ -126,10 +131,9 @@ def _sensitivity_design(sensitivities, real, index, segments):
 
 
 def _finite(values, name, index, segments):
-    bad = ~np.isfinite(values)
-    if bad.any():
-        row = int(np.flatnonzero(bad)[0])
-        seg = next(s for s in segments if s.start <= row < s.stop)
+    row, _ = first_non_finite(values)
+    if row is not None:
+        seg = segment_of(segments, row)
         kind = "NaN" if np.isnan(values[row]) else "infinity"
         raise ValueError(
             f"{name} has {kind} in {segment_label(seg)} at time_s="
@@ -176,7 +180,7 @@ def build_context(real, sim, *, target, ambient, drivers, sensors, fbgs):
     for seg in segments:
         tt = time[seg.slice]
         # lags and frequency bands need even sampling: checked before any search
-        dt.append(_sampling_interval(tt, seg))
+        dt.append(check_sampling_interval(tt, seg))
         t_s[seg.slice] = tt - tt[0]
         durations.append(float(tt[-1] - tt[0]))
     columns = {}
