@@ -14,7 +14,14 @@ import numpy as np
 import pandas as pd
 
 from greyml._rng import make_generator
-from greyml.gap._effects import DESCRIPTIONS, EFFECTS, build_candidates, fmt_tau, tau_grid
+from greyml.gap._effects import (
+    DESCRIPTIONS,
+    EFFECTS,
+    build_candidates,
+    custom_description,
+    fmt_tau,
+    tau_grid,
+)
 from greyml.gap._events import locate_events
 from greyml.gap._prepare import GapContext, check_parameters, prepare
 from greyml.gap._report import GapReport, GapWarning
@@ -213,11 +220,7 @@ def _report(target, ctx, start, found, skipped, custom):
     remainder_white, remainder_xcorr = residual_diagnostics(corrected, signal_frame)
     descriptions = {e: DESCRIPTIONS[e] for e in EFFECTS}
     for name, (kind, columns, _) in custom.items():
-        descriptions[name] = (
-            f"user-defined: {', '.join(columns)} through a thermal lag"
-            if kind == "columns"
-            else "user-defined signature"
-        )
+        descriptions[name] = custom_description(kind, columns)
     named = found.named
     return GapReport(
         target=target,
