@@ -156,40 +156,17 @@ def diagnose_gap(
     ('drift', 0.98)
     """
 
-    effects = check_parameters(
-        effects,
-        custom_effects,
-        max_effects=max_effects,
-        tolerance=tolerance,
-        n_placebo=n_placebo,
-        min_shrinkage=min_shrinkage,
-        tie_tolerance=tie_tolerance,
+    effects, search = check_parameters(
+        effects, custom_effects, max_effects, tolerance, n_placebo, min_shrinkage, tie_tolerance
     )
-    real, ctx, custom = prepare(
-        real,
-        sim,
-        target=target,
-        ambient=ambient,
-        drivers=drivers,
-        sensors=sensors,
-        fbgs=fbgs,
-        custom_effects=custom_effects,
-    )
+    roles = dict(target=target, ambient=ambient, drivers=drivers, sensors=sensors, fbgs=fbgs)
+    real, ctx, custom = prepare(real, sim, custom_effects, **roles)
     rng = make_generator(random_state)
     candidates, skipped = build_candidates(ctx, effects, custom=custom)
     start = starting_point(
         ctx, real, recalibrate=recalibrate, sensitivities=sensitivities, tolerance=tolerance
     )
-    found = search_effects(
-        ctx,
-        candidates,
-        start,
-        rng,
-        n_placebo=n_placebo,
-        min_shrinkage=min_shrinkage,
-        max_effects=max_effects,
-        tie_tolerance=tie_tolerance,
-    )
+    found = search_effects(ctx, candidates, start, rng, **search)
     return _report(target, ctx, start, found, skipped, custom)
 
 

@@ -254,11 +254,11 @@ def _taus(setting):
 
 
 def _two_lag_candidate(effect, variants, x, grid, ctx, describe):
-    """Two lags τ₁ < τ₂ of the columns of ``x`` (one variant per column)."""
+    """Two lags τ₁ < τ₂ of the columns of ``x`` (one variant per column, named in ``variants``)."""
     settings = two_lags(grid)
     values = lag_bank(x, grid, ctx.dt, ctx.bounds)
     return _bank_candidate(
-        effect, variants, settings, values, lag_picks(settings, grid), describe, grid, grid
+        effect, list(variants), settings, values, lag_picks(settings, grid), describe, grid, grid
     )
 
 
@@ -283,27 +283,21 @@ def _ambient(name, ctx, grid, spec):
     if ctx.ambient is None:
         return "needs the ambient column (ambient=)"
     rise = ctx.ambient - _per_test_start(ctx.ambient, ctx.bounds)
-    return _two_lag_candidate(
-        name,
-        [ctx.ambient_name],
-        rise[:, None],
-        grid,
-        ctx,
-        lambda v, s: f"air {v} through two thermal lags ({_taus(s)})",
-    )
+
+    def describe(v, s):
+        return f"air {v} through two thermal lags ({_taus(s)})"
+
+    return _two_lag_candidate(name, [ctx.ambient_name], rise[:, None], grid, ctx, describe)
 
 
 def _heat_source(name, ctx, grid, spec):
     if ctx.drivers.shape[1] == 0:
         return "needs at least one driver column (drivers=)"
-    return _two_lag_candidate(
-        name,
-        list(ctx.driver_names),
-        _scaled(ctx.drivers),
-        grid,
-        ctx,
-        lambda v, s: f"heat driven by {v}, thermal lags {_taus(s)}",
-    )
+
+    def describe(v, s):
+        return f"heat driven by {v}, thermal lags {_taus(s)}"
+
+    return _two_lag_candidate(name, ctx.driver_names, _scaled(ctx.drivers), grid, ctx, describe)
 
 
 def _sensor_lag(name, ctx, grid, spec):
@@ -381,14 +375,11 @@ def _nonlinear_expansion(name, ctx, grid, spec):
 
 def _custom_columns(name, ctx, grid, spec):
     """Measured columns through two thermal lags, as ``heat_source``."""
-    return _two_lag_candidate(
-        name,
-        list(spec["columns"]),
-        _scaled(spec["values"]),
-        grid,
-        ctx,
-        lambda v, s: f"user-defined: {v} through thermal lags {_taus(s)}",
-    )
+
+    def describe(v, s):
+        return f"user-defined: {v} through thermal lags {_taus(s)}"
+
+    return _two_lag_candidate(name, spec["columns"], _scaled(spec["values"]), grid, ctx, describe)
 
 
 def _custom_signatures(name, ctx, grid, spec):

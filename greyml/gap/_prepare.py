@@ -28,10 +28,21 @@ from greyml.io import check_test_frame, read_tests_csv
 __all__ = ["GapContext", "build_context", "check_parameters", "custom_specs", "prepare"]
 
 
+def _is_count(value):
+    """An integer >= 1 (not a bool)."""
+    return isinstance(value, (int, np.integer)) and not isinstance(value, bool) and value >= 1
+
+
 def check_parameters(
-    effects, custom_effects, *, max_effects, tolerance, n_placebo, min_shrinkage, tie_tolerance
+    effects, custom_effects, max_effects, tolerance, n_placebo, min_shrinkage, tie_tolerance
 ):
-    """Check diagnose_gap's parameters; return the effects to try (names, in order, once)."""
+    """Check diagnose_gap's parameters.
+
+    Returns the effects to try (names, in order, once) and the settings of
+    the search (``n_placebo``, ``min_shrinkage``, ``max_effects``,
+    ``tie_tolerance``) as keyword arguments of
+    :func:`~greyml.gap._search.search_effects`.
+    """
     if effects is None:
         effects = EFFECTS
     effects = list(dict.fromkeys(_as_names(effects, "effects")))
@@ -40,27 +51,21 @@ def check_parameters(
     unknown = [e for e in effects if e not in EFFECTS]
     if unknown:
         raise ValueError(f"Unknown effect(s) {unknown}; the effects are {list(EFFECTS)}.")
-    if not (
-        isinstance(max_effects, (int, np.integer))
-        and not isinstance(max_effects, bool)
-        and max_effects >= 1
-    ):
+    if not _is_count(max_effects):
         raise ValueError(f"max_effects must be an integer >= 1; got {max_effects!r}.")
     if not (isinstance(tolerance, (int, float)) and 0 <= tolerance < np.inf):
         raise ValueError(f"tolerance must be a finite number >= 0; got {tolerance!r}.")
-    if not (
-        isinstance(n_placebo, (int, np.integer))
-        and not isinstance(n_placebo, bool)
-        and n_placebo >= 1
-    ):
+    if not _is_count(n_placebo):
         raise ValueError(f"n_placebo must be an integer >= 1; got {n_placebo!r}.")
     for name, value in (("min_shrinkage", min_shrinkage), ("tie_tolerance", tie_tolerance)):
         if not (isinstance(value, (int, float)) and 0 <= value < 1):
             raise ValueError(f"{name} must be a number in [0, 1); got {value!r}.")
-    return effects
+    search = {"n_placebo": n_placebo, "min_shrinkage": min_shrinkage}
+    search.update(max_effects=max_effects, tie_tolerance=tie_tolerance)
+    return effects, search
 
 
-def prepare(real, sim, *, target, ambient, drivers, sensors, fbgs, custom_effects):
+def prepare(real, sim, custom_effects, *, target, ambient, drivers, sensors, fbgs):
     """Read the measured data and check every input.
 
     Returns
