@@ -155,7 +155,6 @@ def diagnose_gap(
     >>> report.cause, round(report.shrinkage, 2)
     ('drift', 0.98)
     """
-
     effects, search = check_parameters(
         effects, custom_effects, max_effects, tolerance, n_placebo, min_shrinkage, tie_tolerance
     )

@@ -66,7 +66,10 @@ def check_parameters(
 
 
 def prepare(real, sim, custom_effects, *, target, ambient, drivers, sensors, fbgs):
-    """Read the measured data and check every input.
+    """Read the measured data and check the roles, the simulation and the custom effects.
+
+    (The sensitivities are read when the recalibration needs them, see
+    :func:`greyml.gap._search.starting_point`.)
 
     Returns
     -------
@@ -189,8 +192,10 @@ def _finite(values, name, index, segments):
 
 
 def build_context(real, sim, *, target, ambient, drivers, sensors, fbgs):
-    """Check the inputs and gather the roles into a :class:`GapContext`."""
-    real = _read(real, "The measured data")
+    """Check the roles and the simulation; gather them into a :class:`GapContext`.
+
+    ``real`` is the measured data as :func:`prepare` has read and checked it.
+    """
     roles = {"target": [target], "ambient": _as_names(ambient, "ambient")}
     roles["drivers"] = _as_names(drivers, "drivers")
     roles["sensors"] = _as_names(sensors, "sensors")
