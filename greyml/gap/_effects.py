@@ -10,8 +10,10 @@ per sensor) among which the calibration data choose.
 All signatures start at 0 at each test's start, as a displacement measured
 from the start of the test does.
 
-Kernels here are pure array functions; :mod:`greyml.gap._diagnose` fits and
-scores them.
+Kernels here are pure array functions; :mod:`greyml.gap._search` fits and
+scores them. Each effect's candidate is made by its builder (:data:`BUILDERS`;
+the user's custom effects by :data:`CUSTOM_BUILDERS`), all with the one
+signature ``builder(name, ctx, grid, spec)``.
 """
 
 from __future__ import annotations

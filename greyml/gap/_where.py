@@ -23,6 +23,10 @@ Both functions need a constant sampling interval within each test (it may
 differ between tests): frequency bins and lags in samples are only converted
 to periods and lags in seconds that way. They check it, to a relative
 tolerance of ``_STEP_RTOL``, and say where it fails.
+
+The input checks are in :mod:`greyml.gap._where_checks` (built on the shared
+ones of :mod:`greyml._validation`), the kernels in
+:mod:`greyml.gap._where_kernels`; the labels and the public functions here.
 """
 
 from __future__ import annotations
