@@ -8,13 +8,14 @@ in, so that every message names both.
 
 from __future__ import annotations
 
+import math
 import numbers
 
 import numpy as np
 import pandas as pd
 from sklearn.utils.validation import validate_data
 
-from greyml._sequences import Segment, has_test_index, segment_label, test_segments
+from greyml._sequences import TIME_LEVEL, Segment, has_test_index, segment_label, test_segments
 
 __all__ = [
     "validate_sequences",
@@ -22,6 +23,11 @@ __all__ = [
     "check_int_param",
     "check_unique_columns",
     "check_real_param",
+    "check_sampling_interval",
+    "first_non_finite",
+    "param_error",
+    "real_values",
+    "segment_of",
     "require_y",
     "standard_scaling",
 ]
@@ -53,6 +59,65 @@ def check_unique_columns(columns, what):
                 "name of its own."
             )
         seen.add(name)
+
+
+def segment_of(segments, row: int) -> Segment:
+    """The test (:class:`Segment`) that row ``row`` belongs to."""
+    return next(s for s in segments if s.start <= row < s.stop)
+
+
+def first_non_finite(values: np.ndarray) -> tuple[int | None, int]:
+    """The row of the first NaN or infinity of the 1-D ``values`` and how many there are.
+
+    ``(None, 0)`` when every value is finite.
+    """
+    bad = np.flatnonzero(~np.isfinite(values))
+    return (int(bad[0]), int(bad.size)) if bad.size else (None, 0)
+
+
+def real_values(series: pd.Series, what: str) -> np.ndarray:
+    """A numeric (or boolean) Series as float64, NA as NaN; raise for text or complex."""
+    dtype = series.dtype
+    numeric = pd.api.types.is_numeric_dtype(dtype) or pd.api.types.is_bool_dtype(dtype)
+    if not numeric or pd.api.types.is_complex_dtype(dtype):
+        raise ValueError(f"{what} must hold real numbers; it has non-numeric dtype {dtype}.")
+    return series.to_numpy(dtype=np.float64, na_value=np.nan)
+
+
+def check_sampling_interval(t: np.ndarray, seg: Segment, rtol: float = 1e-3) -> float:
+    """The constant time step of one test; raise if the steps are not constant.
+
+    A step may deviate from the test's first step by ``rtol`` relative; NaN for
+    a test of one row.
+    """
+    if t.size < 2:
+        return math.nan
+    dt = (t[-1] - t[0]) / (t.size - 1)
+    steps = np.diff(t)
+    back = np.flatnonzero(steps <= 0)
+    if back.size:
+        k = int(back[0])
+        raise ValueError(
+            f"Time does not increase within {segment_label(seg)}: {TIME_LEVEL} goes "
+            f"from {t[k]:g} to {t[k + 1]:g} at row {seg.start + k + 1}."
+        )
+    off = np.flatnonzero(np.abs(steps - steps[0]) > rtol * steps[0])
+    if off.size:
+        k = int(off[0])
+        raise ValueError(
+            f"The sampling interval of {segment_label(seg)} is not constant: "
+            f"{steps[0]:g} s from {TIME_LEVEL}={t[0]:g} to {t[1]:g}, but {steps[k]:g} s "
+            f"from {TIME_LEVEL}={t[k]:g} to {t[k + 1]:g}. Frequency bands and lags need "
+            "evenly spaced samples; resample the test onto a uniform time grid first."
+        )
+    return float(dt)
+
+
+def param_error(function: str, name: str, what: str, value) -> ValueError:
+    """scikit-learn's message for a bad parameter of a public function."""
+    return ValueError(
+        f"The {name!r} parameter of {function} must be {what}. Got {value!r} instead."
+    )
 
 
 def _check_numeric_frame(X, what="X"):

@@ -153,7 +153,7 @@ def test_an_effect_hidden_by_a_parameter_error_of_opposite_sign_is_found():
 
 
 def test_backward_pruning_drops_an_effect_that_two_others_explain():
-    from greyml.gap._diagnose import _prune
+    from greyml.gap._search import _prune
     from greyml.gap._effects import Candidate
     from greyml.gap._fit import evaluate
 

@@ -10,8 +10,10 @@ per sensor) among which the calibration data choose.
 All signatures start at 0 at each test's start, as a displacement measured
 from the start of the test does.
 
-Kernels here are pure array functions; :mod:`greyml.gap._diagnose` fits and
-scores them.
+Kernels here are pure array functions; :mod:`greyml.gap._search` fits and
+scores them. Each effect's candidate is made by its builder (:data:`BUILDERS`;
+the user's custom effects by :data:`CUSTOM_BUILDERS`), all with the one
+signature ``builder(name, ctx, grid, spec)``.
 """
 
 from __future__ import annotations
@@ -30,7 +32,10 @@ __all__ = [
     "first_order_lag",
     "lag_bank",
     "tau_grid",
+    "BUILDERS",
+    "CUSTOM_BUILDERS",
     "build_candidates",
+    "custom_description",
 ]
 
 #: The fixed names of the effects, in the order they are tried.
@@ -251,21 +256,177 @@ def _taus(setting):
 
 
 def _two_lag_candidate(effect, variants, x, grid, ctx, describe):
-    """Two lags τ₁ < τ₂ of the columns of ``x`` (one variant per column)."""
+    """Two lags τ₁ < τ₂ of the columns of ``x`` (one variant per column, named in ``variants``)."""
     settings = two_lags(grid)
     values = lag_bank(x, grid, ctx.dt, ctx.bounds)
     return _bank_candidate(
-        effect, variants, settings, values, lag_picks(settings, grid), describe, grid, grid
+        effect, list(variants), settings, values, lag_picks(settings, grid), describe, grid, grid
     )
+
+
+def _sensor_rise(ctx):
+    """Each sensor's rise from its test's first row, (n, p)."""
+    return ctx.sensors - _per_test_start(ctx.sensors, ctx.bounds)
+
+
+def _fixed_candidate(effect, variants, values, describe):
+    """A candidate without a time constant: the columns of ``values`` (n, V, k) as they are."""
+    k = values.shape[2]
+    return _bank_candidate(effect, variants, [()], values, [list(range(k))], describe)
+
+
+# --------------------------------------------------------------------------
+# builders: one per effect, builder(name, ctx, grid, spec) -> Candidate, or a
+# str saying why the effect cannot be tried on the columns given
+# --------------------------------------------------------------------------
+
+
+def _ambient(name, ctx, grid, spec):
+    if ctx.ambient is None:
+        return "needs the ambient column (ambient=)"
+    rise = ctx.ambient - _per_test_start(ctx.ambient, ctx.bounds)
+
+    def describe(v, s):
+        return f"air {v} through two thermal lags ({_taus(s)})"
+
+    return _two_lag_candidate(name, [ctx.ambient_name], rise[:, None], grid, ctx, describe)
+
+
+def _heat_source(name, ctx, grid, spec):
+    if ctx.drivers.shape[1] == 0:
+        return "needs at least one driver column (drivers=)"
+
+    def describe(v, s):
+        return f"heat driven by {v}, thermal lags {_taus(s)}"
+
+    return _two_lag_candidate(name, ctx.driver_names, _scaled(ctx.drivers), grid, ctx, describe)
+
+
+def _sensor_lag(name, ctx, grid, spec):
+    if ctx.sensors.shape[1] == 0:
+        return "needs temperature sensor columns (sensors=)"
+    longest = spec["max_sensor_lag_s"]
+    rise = _sensor_rise(ctx)
+    taus = grid[grid <= longest]
+    taus = taus if taus.size else grid[:1]
+    settings = one_lag(taus)
+    values = rise[:, :, None] - lag_bank(rise, taus, ctx.dt, ctx.bounds)
+    return _bank_candidate(
+        name,
+        list(ctx.sensor_names),
+        settings,
+        values,
+        lag_picks(settings, taus),
+        lambda v, s: f"structure ahead of {v} by about {_taus(s)}",
+        taus,
+        (grid[0], longest),
+    )
+
+
+def _initial_state(name, ctx, grid, spec):
+    if ctx.ambient is None or ctx.sensors.shape[1] == 0:
+        return "needs sensors and the ambient column"
+    # how far each sensor (and their mean) starts from the air: the state the
+    # test starts in, as far as the sensors see it
+    start = ctx.sensors - ctx.ambient[:, None]
+    start = np.column_stack([start.mean(axis=1), start])
+    offset = _per_test_start(start, ctx.bounds)
+    names = ["mean sensor"] + list(ctx.sensor_names)
+    settings = two_lags(grid)
+    values = offset[:, :, None] * -np.expm1(-ctx.t_s[:, None] / grid[None, :])[:, None, :]
+    return _bank_candidate(
+        name,
+        names,
+        settings,
+        values,
+        lag_picks(settings, grid),
+        lambda v, s: f"start offset of {v} from the air relaxing with {_taus(s)}",
+        grid,
+        grid,
+    )
+
+
+def _drift(name, ctx, grid, spec):
+    hours = (ctx.t_s / 3600.0)[:, None, None]
+    return _fixed_candidate(
+        name, ["time"], hours, lambda v, s: "linear in time since the test start"
+    )
+
+
+def _fbg_temperature(name, ctx, grid, spec):
+    if not ctx.target_is_fbg:
+        return "the target is not an FBG column (fbgs=)"
+    if ctx.sensors.shape[1] == 0:
+        return "needs temperature sensor columns (sensors=)"
+    return _fixed_candidate(
+        name,
+        list(ctx.sensor_names),
+        _sensor_rise(ctx)[:, :, None],
+        lambda v, s: f"proportional to the rise of {v}",
+    )
+
+
+def _nonlinear_expansion(name, ctx, grid, spec):
+    variants, columns = ["the simulated target squared"], [ctx.sim**2]
+    if ctx.sensors.shape[1]:
+        variants.append("the mean sensor rise squared")
+        columns.append(_sensor_rise(ctx).mean(axis=1) ** 2)
+    square = np.column_stack(columns)[:, :, None]
+    return _fixed_candidate(name, variants, square, lambda v, s: f"proportional to {v}")
+
+
+def _custom_columns(name, ctx, grid, spec):
+    """Measured columns through two thermal lags, as ``heat_source``."""
+
+    def describe(v, s):
+        return f"user-defined: {v} through thermal lags {_taus(s)}"
+
+    return _two_lag_candidate(name, spec["columns"], _scaled(spec["values"]), grid, ctx, describe)
+
+
+def _custom_signatures(name, ctx, grid, spec):
+    """The user's signature columns, used as they are (one variant)."""
+    return _fixed_candidate(
+        name,
+        [", ".join(spec["columns"])],
+        spec["values"][:, None, :],
+        lambda v, s: f"user-defined signature ({v})",
+    )
+
+
+#: The builder of each effect, in the order of :data:`EFFECTS`.
+BUILDERS = {
+    "ambient": _ambient,
+    "heat_source": _heat_source,
+    "sensor_lag": _sensor_lag,
+    "initial_state": _initial_state,
+    "drift": _drift,
+    "fbg_temperature": _fbg_temperature,
+    "nonlinear_expansion": _nonlinear_expansion,
+}
+
+#: The builder of a user-defined effect, by the kind of its spec (see build_candidates).
+CUSTOM_BUILDERS = {"columns": _custom_columns, "signatures": _custom_signatures}
+
+
+def custom_description(kind, columns):
+    """What a user-defined effect stands for (printed in reports)."""
+    if kind == "columns":
+        return f"user-defined: {', '.join(columns)} through a thermal lag"
+    return "user-defined signature"
 
 
 def build_candidates(ctx, effects, max_sensor_lag_s=3600.0, custom=None):
     """The candidates of the requested effects that the available columns allow.
 
+    Every effect, built-in or user-defined, is built by its builder
+    (:data:`BUILDERS`, :data:`CUSTOM_BUILDERS`) from the context, the grid of
+    time constants and its spec.
+
     Parameters
     ----------
     ctx : GapContext
-        Arrays of the measured roles (see :mod:`greyml.gap._diagnose`).
+        Arrays of the measured roles (see :mod:`greyml.gap._prepare`).
     effects : sequence of str
     max_sensor_lag_s : float, default=3600
         Longest lag between the structure and a surface sensor tried; a
@@ -282,158 +443,17 @@ def build_candidates(ctx, effects, max_sensor_lag_s=3600.0, custom=None):
     skipped : dict
         Effect name -> why it cannot be tried on these columns.
     """
-    bounds, dt, t = ctx.bounds, ctx.dt, ctx.t_s
-    grid = tau_grid(dt, ctx.durations)
-    out, skipped = [], {}
-    for effect in effects:
-        if effect == "ambient":
-            if ctx.ambient is None:
-                skipped[effect] = "needs the ambient column (ambient=)"
-                continue
-            rise = ctx.ambient - _per_test_start(ctx.ambient, bounds)
-            out.append(
-                _two_lag_candidate(
-                    effect,
-                    [ctx.ambient_name],
-                    rise[:, None],
-                    grid,
-                    ctx,
-                    lambda v, s: f"air {v} through two thermal lags ({_taus(s)})",
-                )
-            )
-        elif effect == "heat_source":
-            if ctx.drivers.shape[1] == 0:
-                skipped[effect] = "needs at least one driver column (drivers=)"
-                continue
-            out.append(
-                _two_lag_candidate(
-                    effect,
-                    list(ctx.driver_names),
-                    _scaled(ctx.drivers),
-                    grid,
-                    ctx,
-                    lambda v, s: f"heat driven by {v}, thermal lags {_taus(s)}",
-                )
-            )
-        elif effect == "sensor_lag":
-            if ctx.sensors.shape[1] == 0:
-                skipped[effect] = "needs temperature sensor columns (sensors=)"
-                continue
-            rise = ctx.sensors - _per_test_start(ctx.sensors, bounds)
-            taus = grid[grid <= max_sensor_lag_s]
-            taus = taus if taus.size else grid[:1]
-            settings = one_lag(taus)
-            values = rise[:, :, None] - lag_bank(rise, taus, dt, bounds)
-            out.append(
-                _bank_candidate(
-                    effect,
-                    list(ctx.sensor_names),
-                    settings,
-                    values,
-                    lag_picks(settings, taus),
-                    lambda v, s: f"structure ahead of {v} by about {_taus(s)}",
-                    taus,
-                    (grid[0], max_sensor_lag_s),
-                )
-            )
-        elif effect == "initial_state":
-            if ctx.ambient is None or ctx.sensors.shape[1] == 0:
-                skipped[effect] = "needs sensors and the ambient column"
-                continue
-            # how far each sensor (and their mean) starts from the air: the
-            # state the test starts in, as far as the sensors see it
-            start = ctx.sensors - ctx.ambient[:, None]
-            start = np.column_stack([start.mean(axis=1), start])
-            offset = _per_test_start(start, bounds)
-            names = ["mean sensor"] + list(ctx.sensor_names)
-            settings = two_lags(grid)
-            values = offset[:, :, None] * -np.expm1(-t[:, None] / grid[None, :])[:, None, :]
-            out.append(
-                _bank_candidate(
-                    effect,
-                    names,
-                    settings,
-                    values,
-                    lag_picks(settings, grid),
-                    lambda v, s: f"start offset of {v} from the air relaxing with {_taus(s)}",
-                    grid,
-                    grid,
-                )
-            )
-        elif effect == "drift":
-            hours = (t / 3600.0)[:, None, None]
-            out.append(
-                _bank_candidate(
-                    effect,
-                    ["time"],
-                    [()],
-                    hours,
-                    [[0]],
-                    lambda v, s: "linear in time since the test start",
-                )
-            )
-        elif effect == "fbg_temperature":
-            if not ctx.target_is_fbg:
-                skipped[effect] = "the target is not an FBG column (fbgs=)"
-                continue
-            if ctx.sensors.shape[1] == 0:
-                skipped[effect] = "needs temperature sensor columns (sensors=)"
-                continue
-            rise = ctx.sensors - _per_test_start(ctx.sensors, bounds)
-            out.append(
-                _bank_candidate(
-                    effect,
-                    list(ctx.sensor_names),
-                    [()],
-                    rise[:, :, None],
-                    [[0]],
-                    lambda v, s: f"proportional to the rise of {v}",
-                )
-            )
-        elif effect == "nonlinear_expansion":
-            variants, columns = ["the simulated target squared"], [ctx.sim**2]
-            if ctx.sensors.shape[1]:
-                rise = ctx.sensors - _per_test_start(ctx.sensors, bounds)
-                variants.append("the mean sensor rise squared")
-                columns.append(rise.mean(axis=1) ** 2)
-            square = np.column_stack(columns)[:, :, None]
-            out.append(
-                _bank_candidate(
-                    effect,
-                    variants,
-                    [()],
-                    square,
-                    [[0]],
-                    lambda v, s: f"proportional to {v}",
-                )
-            )
-        else:  # pragma: no cover - names are checked by the caller
-            raise ValueError(effect)
+    grid = tau_grid(ctx.dt, ctx.durations)
+    registry = {e: (BUILDERS[e], {"max_sensor_lag_s": max_sensor_lag_s}) for e in effects}
     for name, (kind, columns, values) in (custom or {}).items():
-        if kind == "columns":
-            out.append(
-                _two_lag_candidate(
-                    name,
-                    list(columns),
-                    _scaled(values),
-                    grid,
-                    ctx,
-                    lambda v, s: f"user-defined: {v} through thermal lags {_taus(s)}",
-                )
-            )
+        registry[name] = (CUSTOM_BUILDERS[kind], {"columns": columns, "values": values})
+    out, skipped = [], {}
+    for name, (build, spec) in registry.items():
+        made = build(name, ctx, grid, spec)
+        if isinstance(made, str):
+            skipped[name] = made
         else:
-            label = ", ".join(columns)
-            k = values.shape[1]
-            out.append(
-                _bank_candidate(
-                    name,
-                    [label],
-                    [()],
-                    values[:, None, :],
-                    [list(range(k))],
-                    lambda v, s: f"user-defined signature ({v})",
-                )
-            )
+            out.append(made)
     return out, skipped
 
 

@@ -266,11 +266,7 @@ def withheld_case(
         )
     rng = np.random.default_rng(seed)
     tests = random_tests(m, rng, n_tests)
-    quiet = Effects().without("noise")
-    full = make_tests(m, tests, effects=quiet).frame
-    real = make_tests(m, tests, effects=Effects(), random_state=seed).frame
-    noise = (real[target] - full[target]).to_numpy()
-    sigma = float(np.std(noise))
+    quiet, full, real, noise, sigma = _simulated(m, tests, target, seed)
     off = quiet.without(*(WITHHELD[w] for w in withheld))
     effect = np.zeros(len(full))
     for w in withheld:
@@ -286,6 +282,19 @@ def withheld_case(
         m, m, tests, target, off, param_error, seed, n_sensors, real, sim_true, noise,
         withheld=withheld, effect=effect,
     )
+
+
+def _simulated(machine, tests, target, seed):
+    """The tests simulated without noise (``full``) and with every effect (``real``).
+
+    Returns the effects without noise, both frames, the noise of the target
+    and its standard deviation.
+    """
+    quiet = Effects().without("noise")
+    full = make_tests(machine, tests, effects=quiet).frame
+    real = make_tests(machine, tests, effects=Effects(), random_state=seed).frame
+    noise = (real[target] - full[target]).to_numpy()
+    return quiet, full, real, noise, float(np.std(noise))
 
 
 def _case(m, sim_m, tests, target, effects, param_error, seed, n_sensors, real, sim_true, noise,
@@ -351,11 +360,7 @@ def _extra_case(kind_of_case, size, seed, m, target, param_error, kind, n_tests,
     real_m = _with_pump(m) if kind_of_case == "custom" else m
     sim_m = replace(real_m, sources=m.sources)
     tests = random_tests(real_m, rng, n_tests)
-    quiet = Effects().without("noise")
-    full = make_tests(real_m, tests, effects=quiet).frame
-    real = make_tests(real_m, tests, effects=Effects(), random_state=seed).frame
-    noise = (real[target] - full[target]).to_numpy()
-    sigma = float(np.std(noise))
+    quiet, full, real, noise, sigma = _simulated(real_m, tests, target, seed)
     sim_true = make_tests(sim_m, tests, effects=quiet).frame[target].to_numpy()
     effect = np.zeros(len(full))
     custom, event = None, None

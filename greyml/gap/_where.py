@@ -23,23 +23,37 @@ Both functions need a constant sampling interval within each test (it may
 differ between tests): frequency bins and lags in samples are only converted
 to periods and lags in seconds that way. They check it, to a relative
 tolerance of ``_STEP_RTOL``, and say where it fails.
+
+The input checks are in :mod:`greyml.gap._where_checks` (built on the shared
+ones of :mod:`greyml._validation`), the kernels in
+:mod:`greyml.gap._where_kernels`; the labels and the public functions here.
 """
 
 from __future__ import annotations
 
-import math
-import numbers
-from dataclasses import dataclass
-
 import numpy as np
 import pandas as pd
-from scipy import fft as sp_fft
 from scipy.stats import chi2
 
-from greyml._sequences import TEST_LEVEL, TIME_LEVEL, Segment, segment_label
-from greyml._sequences import test_segments as _test_segments  # not collected by pytest
-from greyml._validation import check_unique_columns
-from greyml.io._csv import describe_input
+from greyml._sequences import segment_label
+from greyml.gap._where_checks import (
+    _check_band_edges,
+    _check_diagnostics_params,
+    _check_frame,
+    _check_gap,
+    _check_time_edges,
+)
+from greyml.gap._where_kernels import (
+    _band_components,
+    _band_of_bins,
+    _default_time_edges,
+    _drivers_on,
+    _ljung_box,
+    _pooled_cross_correlation,
+    _sum_sq,
+    _summary,
+    _time_bins,
+)
 
 __all__ = ["gap_breakdown", "residual_diagnostics"]
 
@@ -60,176 +74,7 @@ _HOUR = 3600.0
 _MINUTE = 60.0
 #: Band edges (periods, in seconds) of :func:`gap_breakdown` by default.
 DEFAULT_BAND_EDGES_S = (4 * _HOUR, _HOUR, 15 * _MINUTE)
-#: A driver counts as "on" where ``|value| > _ON_RTOL * max|value|`` of that driver.
-_ON_RTOL = 1e-9
-#: Largest relative deviation of a time step of a test from its first step.
-_STEP_RTOL = 1e-3
-#: Periods within this relative distance of a band edge belong to the shorter band.
-_EDGE_RTOL = 1e-9
-_WHITENESS_MAX_LAGS = 20
 _WHITENESS_ALPHA = 0.05
-
-
-# --------------------------------------------------------------------------
-# input checking
-# --------------------------------------------------------------------------
-
-
-@dataclass(frozen=True)
-class _Layout:
-    """Where the rows of the gap sit: tests, times and sampling intervals."""
-
-    segments: list[Segment]
-    time: np.ndarray  # time_s of every row
-    labels: np.ndarray  # test label of every row (None for a single unlabelled test)
-    dt: np.ndarray  # sampling interval of every segment, NaN for a one-row test
-
-
-def _real_values(series: pd.Series, what: str) -> np.ndarray:
-    dtype = series.dtype
-    numeric = pd.api.types.is_numeric_dtype(dtype) or pd.api.types.is_bool_dtype(dtype)
-    if not numeric or pd.api.types.is_complex_dtype(dtype):
-        raise ValueError(f"{what} must hold real numbers; it has non-numeric dtype {dtype}.")
-    return series.to_numpy(dtype=np.float64, na_value=np.nan)
-
-
-def _check_finite(values: np.ndarray, layout: _Layout, what: str) -> None:
-    bad = np.flatnonzero(~np.isfinite(values))
-    if not bad.size:
-        return
-    row = int(bad[0])
-    seg = next(s for s in layout.segments if s.start <= row < s.stop)
-    kind = "NaN" if np.isnan(values[row]) else "inf"
-    more = "" if bad.size == 1 else f" (and {bad.size - 1} more non-finite values)"
-    raise ValueError(
-        f"{what} has {kind} in {segment_label(seg)} at {TIME_LEVEL}={layout.time[row]:g} "
-        f"(row {row}){more}; the gap can only be analysed where it is finite. Drop "
-        "those rows or fill them first."
-    )
-
-
-def _sampling_interval(t: np.ndarray, seg: Segment) -> float:
-    """The constant time step of one test; raise if the steps are not constant."""
-    if t.size < 2:
-        return math.nan
-    dt = (t[-1] - t[0]) / (t.size - 1)
-    steps = np.diff(t)
-    back = np.flatnonzero(steps <= 0)
-    if back.size:
-        k = int(back[0])
-        raise ValueError(
-            f"Time does not increase within {segment_label(seg)}: {TIME_LEVEL} goes "
-            f"from {t[k]:g} to {t[k + 1]:g} at row {seg.start + k + 1}."
-        )
-    off = np.flatnonzero(np.abs(steps - steps[0]) > _STEP_RTOL * steps[0])
-    if off.size:
-        k = int(off[0])
-        raise ValueError(
-            f"The sampling interval of {segment_label(seg)} is not constant: "
-            f"{steps[0]:g} s from {TIME_LEVEL}={t[0]:g} to {t[1]:g}, but {steps[k]:g} s "
-            f"from {TIME_LEVEL}={t[k]:g} to {t[k + 1]:g}. Frequency bands and lags need "
-            "evenly spaced samples; resample the test onto a uniform time grid first."
-        )
-    return float(dt)
-
-
-def _check_gap(r) -> tuple[np.ndarray, _Layout]:
-    """Validate the gap; return its values and its layout."""
-    if not isinstance(r, pd.Series):
-        raise ValueError(
-            f"The gap r must be a pandas Series indexed by (test, time_s); got {type(r).__name__}."
-        )
-    if len(r) == 0:
-        raise ValueError("The gap r is empty (0 samples): at least one row is needed.")
-    names = list(r.index.names or [])
-    if TIME_LEVEL not in names:
-        raise ValueError(
-            f"The index of the gap r needs a {TIME_LEVEL!r} level (seconds from the "
-            f"start of each test) and, for several tests, a {TEST_LEVEL!r} level; its "
-            f"levels are {names}."
-        )
-    segments = _test_segments(r)  # also checks that time increases within each test
-    time = np.asarray(r.index.get_level_values(TIME_LEVEL), dtype=np.float64)
-    labels = np.empty(len(r), dtype=object)
-    dt = np.empty(len(segments))
-    for i, seg in enumerate(segments):
-        labels[seg.slice] = seg.label
-        dt[i] = _sampling_interval(time[seg.slice], seg)
-    layout = _Layout(segments, time, labels, dt)
-    values = _real_values(r, "The gap r")
-    _check_finite(values, layout, "The gap")
-    return values, layout
-
-
-def _check_aligned(index: pd.Index, other: pd.Index, what: str) -> None:
-    if index.equals(other):
-        return
-    hint = f"Give {what} the same (test, time_s) index as r, e.g. {what}.loc[r.index]."
-    if len(other) != len(index):
-        raise ValueError(
-            f"The index of {what} does not match the index of the gap r: r has "
-            f"{len(index)} rows, {what} has {len(other)}. {hint}"
-        )
-    for row, (a, b) in enumerate(zip(index, other)):
-        if a != b:
-            raise ValueError(
-                f"The index of {what} does not match the index of the gap r: row "
-                f"{row} is {a!r} in r but {b!r} in {what}. {hint}"
-            )
-
-
-def _check_frame(frame, what: str, r: pd.Series, layout: _Layout):
-    """Validate drivers or signals; return a float array and the column names."""
-    if isinstance(frame, pd.Series):
-        frame = frame.to_frame()
-    if not isinstance(frame, pd.DataFrame):
-        raise ValueError(
-            f"{what} must be a 2-D pandas DataFrame with the index of the gap r; got "
-            f"{describe_input(frame)}."
-        )
-    _check_aligned(r.index, frame.index, what)
-    check_unique_columns(frame.columns, what)
-    names = [str(c) for c in frame.columns]
-    values = np.empty((len(frame), len(names)))
-    for j, name in enumerate(names):
-        column = frame.iloc[:, j]
-        values[:, j] = _real_values(column, f"Column {name!r} of {what}")
-        _check_finite(values[:, j], layout, f"{what} column {name!r}")
-    return values, names
-
-
-def _param_error(function: str, name: str, what: str, value) -> ValueError:
-    return ValueError(
-        f"The {name!r} parameter of {function} must be {what}. Got {value!r} instead."
-    )
-
-
-def _check_time_edges(time_edges_s) -> np.ndarray:
-    what = (
-        "a strictly increasing sequence of at least 2 times in seconds (-inf and inf "
-        "are allowed at the ends)"
-    )
-    try:
-        edges = np.asarray(time_edges_s, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise _param_error("gap_breakdown", "time_edges_s", what, time_edges_s) from None
-    if edges.ndim != 1 or edges.size < 2 or np.isnan(edges).any() or np.any(np.diff(edges) <= 0):
-        raise _param_error("gap_breakdown", "time_edges_s", what, time_edges_s)
-    return edges
-
-
-def _check_band_edges(bands_s) -> np.ndarray:
-    what = "a sequence of distinct positive finite periods in seconds"
-    try:
-        edges = np.asarray(bands_s, dtype=np.float64)
-    except (TypeError, ValueError):
-        raise _param_error("gap_breakdown", "bands_s", what, bands_s) from None
-    if edges.ndim != 1 or not np.all(np.isfinite(edges)) or np.any(edges <= 0):
-        raise _param_error("gap_breakdown", "bands_s", what, bands_s)
-    edges = np.sort(edges)[::-1]
-    if np.any(np.diff(edges) == 0):
-        raise _param_error("gap_breakdown", "bands_s", what, bands_s)
-    return edges
 
 
 # --------------------------------------------------------------------------
@@ -279,167 +124,6 @@ def _band_labels(edges: np.ndarray) -> list[str]:
             labels.append(f"{_duration(short)}-{_duration(long)}")
     labels.append(f"< {_duration(edges[-1])}")
     return labels
-
-
-# --------------------------------------------------------------------------
-# kernels: arrays in, arrays out
-# --------------------------------------------------------------------------
-
-
-def _sum_sq(x: np.ndarray) -> float:
-    # not ``x @ x``: a BLAS dot product may start threads that spin on a busy
-    # machine (see greyml._threads); numpy's pairwise sum is also more accurate
-    return float(np.sum(np.square(x)))
-
-
-def _summary(x: np.ndarray, rows: np.ndarray, layout: _Layout, total: float) -> dict:
-    """RMS, peak (and where), bias and share of the gap values ``x`` at ``rows``."""
-    energy = _sum_sq(x)
-    i = int(np.argmax(np.abs(x)))
-    return {
-        "n": int(x.size),
-        "rms": math.sqrt(energy / x.size),
-        "peak": float(abs(x[i])),
-        "peak_test": layout.labels[rows[i]],
-        "peak_time_s": float(layout.time[rows[i]]),
-        "bias": float(np.mean(x)),
-        "share": energy / total if total > 0 else math.nan,
-    }
-
-
-def _drivers_on(D: np.ndarray) -> np.ndarray:
-    """Rows where at least one driver is non-zero, relative to its own range."""
-    size = np.abs(D)
-    return np.any(size > _ON_RTOL * size.max(axis=0), axis=1)
-
-
-def _default_time_edges(time: np.ndarray) -> np.ndarray:
-    t_max = float(time.max())
-    step = _HOUR if t_max >= 2 * _HOUR else 15 * _MINUTE
-    first = min(0.0, math.floor(float(time.min()) / step))
-    last = max(math.ceil(t_max / step), first + 1)
-    return step * np.arange(first, last + 1)
-
-
-def _time_bins(time: np.ndarray, edges: np.ndarray) -> np.ndarray:
-    """Bin of every time: ``[a, b)``, the last bin closed ``[a, b]``."""
-    outside = (time < edges[0]) | (time > edges[-1])
-    if outside.any():
-        row = int(np.flatnonzero(outside)[0])
-        raise ValueError(
-            f"The time bins of gap_breakdown span {TIME_LEVEL} {edges[0]:g} to "
-            f"{edges[-1]:g} s but the gap has rows from {time.min():g} to "
-            f"{time.max():g} s (first outside: row {row}). Widen 'time_edges_s'; "
-            "-inf and inf are allowed as its first and last edges."
-        )
-    bins = np.searchsorted(edges, time, side="right") - 1
-    return np.minimum(bins, edges.size - 2)
-
-
-def _band_of_bins(n: int, dt: float, edges: np.ndarray) -> np.ndarray:
-    """Band of every rFFT bin of an ``n``-sample test (0 = longest periods, with DC).
-
-    Bin ``k`` has the period ``n * dt / k``; a period at an edge (to
-    ``_EDGE_RTOL``) belongs to the shorter band.
-    """
-    k = np.arange(n // 2 + 1, dtype=np.float64)
-    band = np.zeros(k.size, dtype=np.intp)
-    if n < 2:
-        return band
-    span = n * dt
-    for j, edge in enumerate(edges):  # decreasing periods: shorter bands override
-        band[k * edge * (1 + _EDGE_RTOL) >= span] = j + 1
-    return band
-
-
-def _band_components(x: np.ndarray, dt: float, edges: np.ndarray) -> np.ndarray:
-    """The gap of one test split by frequency band, shape ``(n_bands, n)``.
-
-    The rows add up to ``x`` and are orthogonal to each other (their spectra
-    do not overlap), so their energies add up to that of ``x``.
-    """
-    n = x.size
-    spectrum = sp_fft.rfft(x)
-    band = _band_of_bins(n, dt, edges)
-    out = np.zeros((edges.size + 1, n))
-    for j in np.unique(band):
-        out[j] = sp_fft.irfft(np.where(band == j, spectrum, 0), n)
-    return out
-
-
-def _lagged_sums(a: np.ndarray, B: np.ndarray, max_lag: int) -> np.ndarray:
-    """``S[m + max_lag, j] = sum_t a[t] * B[t - m, j]`` for ``m = -max_lag..max_lag``.
-
-    Zero padding to at least ``n + max_lag`` keeps the circular correlation of
-    the FFT from wrapping round within the lags returned.
-    """
-    n = a.size
-    size = sp_fft.next_fast_len(n + max_lag, real=True)
-    fa = sp_fft.rfft(a, size)
-    fb = sp_fft.rfft(B, size, axis=0)
-    circular = sp_fft.irfft(fa[:, None] * np.conj(fb), size, axis=0)
-    return np.concatenate([circular[size - max_lag :], circular[: max_lag + 1]])
-
-
-def _ljung_box(values: np.ndarray, segments: list[Segment], n_lags: int | None):
-    """Per-test Ljung-Box statistics summed; pooled lag-1 autocorrelation."""
-    q, dof, lag1_num, lag1_den = 0.0, 0, 0.0, 0.0
-    for seg in segments:
-        c = values[seg.slice] - np.mean(values[seg.slice])
-        n = c.size
-        energy = _sum_sq(c)
-        if n >= 2:
-            lag1_num += float(np.sum(c[1:] * c[:-1]))
-            lag1_den += energy
-        h = min(_WHITENESS_MAX_LAGS, n // 5) if n_lags is None else min(n_lags, n - 1)
-        if h < 1:
-            continue
-        if energy > 0:
-            rho = _lagged_sums(c, c[:, None], h)[h + 1 :, 0] / energy
-            q += n * (n + 2) * float(np.sum(rho**2 / (n - np.arange(1, h + 1))))
-        dof += h
-    lag1 = lag1_num / lag1_den if lag1_den > 0 else 0.0
-    return q, dof, lag1
-
-
-def _pooled_cross_correlation(values, S, layout: _Layout, max_lag_s: float):
-    """Cross-correlation of the gap with every column of ``S``, pooled over tests.
-
-    Returns the lags in seconds, shape ``(n_lags,)``, the correlations, shape
-    ``(n_lags, n_signals)``, the pooled energy of the centred gap and that of
-    every centred signal. Each test gives the sums of products at its own lags
-    ``m * dt``; they are added up on a common grid with the finest sampling
-    interval of all tests, by linear interpolation in the lag where a test is
-    sampled more coarsely (exact when all tests share one interval).
-    """
-    usable = [(seg, dt) for seg, dt in zip(layout.segments, layout.dt) if seg.n >= 2]
-    if not usable:
-        zeros = np.zeros((1, S.shape[1]))
-        return np.zeros(1), zeros, 0.0, np.zeros(S.shape[1])
-    step = min(dt for _, dt in usable)
-    reach = max((seg.n - 1) * dt for seg, dt in usable)
-    n_grid = int(math.floor(min(max_lag_s, reach) / step * (1 + 1e-12)))
-    grid = step * np.arange(-n_grid, n_grid + 1)
-
-    sums = np.zeros((grid.size, S.shape[1]))
-    energy_r, energy_s = 0.0, np.zeros(S.shape[1])
-    for seg, dt in usable:
-        c = values[seg.slice] - np.mean(values[seg.slice])
-        C = S[seg.slice] - np.mean(S[seg.slice], axis=0)
-        energy_r += _sum_sq(c)
-        energy_s += np.sum(np.square(C), axis=0)
-        max_lag = min(int(math.ceil(max_lag_s / dt * (1 - 1e-12))), seg.n - 1)
-        local = _lagged_sums(c, C, max_lag)
-        if dt == step and max_lag >= n_grid:
-            sums += local[max_lag - n_grid : max_lag + n_grid + 1]
-        else:
-            lags = dt * np.arange(-max_lag, max_lag + 1)
-            for j in range(S.shape[1]):
-                sums[:, j] += np.interp(grid, lags, local[:, j], left=0.0, right=0.0)
-
-    scale = np.sqrt(energy_r * energy_s)
-    corr = np.divide(sums, scale, out=np.zeros_like(sums), where=scale > 0)
-    return grid, np.clip(corr, -1.0, 1.0), energy_r, energy_s
 
 
 # --------------------------------------------------------------------------
@@ -739,28 +423,7 @@ def residual_diagnostics(
     """
     values, layout = _check_gap(r)
     S, names = _check_frame(signals, "signals", r, layout)
-    if max_lag_s is None:
-        max_lag_s = _HOUR
-    if (
-        not isinstance(max_lag_s, numbers.Real)
-        or isinstance(max_lag_s, bool)
-        or not np.isfinite(max_lag_s)
-        or max_lag_s < 0
-    ):
-        raise _param_error(
-            "residual_diagnostics", "max_lag_s", "a real number in the range [0, inf)", max_lag_s
-        )
-    if n_lags_whiteness is not None and (
-        not isinstance(n_lags_whiteness, numbers.Integral)
-        or isinstance(n_lags_whiteness, bool)
-        or n_lags_whiteness < 1
-    ):
-        raise _param_error(
-            "residual_diagnostics",
-            "n_lags_whiteness",
-            "an int in the range [1, inf)",
-            n_lags_whiteness,
-        )
+    max_lag_s = _check_diagnostics_params(max_lag_s, n_lags_whiteness)
 
     q, dof, lag1 = _ljung_box(values, layout.segments, n_lags_whiteness)
     if dof == 0:
