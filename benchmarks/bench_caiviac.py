@@ -103,6 +103,7 @@ PACKAGES = ("greyml", "numpy", "scipy", "scikit-learn", "pandas", "scikit-fuzzy"
 
 def load(path=None, target=TARGET, reference=REFERENCE, step=STEP):
     """(X, y, data): sixteen temperature rises and one probe, every ``step``-th row."""
+    from greyml import RelativeToStart
     from greyml.datasets import load_caiviac
 
     data = load_caiviac(path, reference=reference, target=target)
@@ -111,7 +112,7 @@ def load(path=None, target=TARGET, reference=REFERENCE, step=STEP):
         frame = frame[frame.groupby(level="test", sort=False).cumcount().to_numpy() % step == 0]
     X = frame[data.sensors]
     if reference == "cycle":
-        X = X - X.groupby(level="test", sort=False).transform("first")
+        X = RelativeToStart().fit_transform(X)
     else:  # rises from the first reading of the recording (its displacement datum)
         X = X - X.iloc[0]
     return X, frame[target], data

@@ -43,6 +43,7 @@ from greyml import (
     ANFISGrid,
     GreyInfluenceSelector,
     MLPBaseline,
+    RelativeToStart,
     test_ids,
 )
 from greyml.datasets import load_vmc_tests
@@ -84,7 +85,7 @@ def search(models, selector_grid=SELECTOR_GRID, n_jobs=2, random_state=0):
 def vmc_rises():
     vmc = load_vmc_tests()
     X = vmc.frame[vmc.sensors]
-    X = X - X.groupby(level="test").transform("first")
+    X = RelativeToStart().fit_transform(X)
     return X, vmc.frame["dy_um"], vmc
 
 

@@ -7,14 +7,14 @@ matplotlib's plot directive when the documentation is built (about 2 s).
 
 import matplotlib.pyplot as plt
 
-from greyml import GMC
+from greyml import GMC, RelativeToStart
 from greyml.datasets import load_vmc_tests
 from greyml.metrics import rmse
 
 vmc = load_vmc_tests()
 sensors = ["T18_C", "T55_C", "T63_C", "T68_C", "T71_C"]
 X = vmc.frame[sensors]
-X = X - X.groupby(level="test").transform("first")  # rises from each test's start
+X = RelativeToStart().fit_transform(X)  # rises from each test's start
 y = vmc.frame["dy_um"]
 tests = X.index.get_level_values("test")
 model = GMC(solver="ls").fit(X[tests == "IV"], y[tests == "IV"])

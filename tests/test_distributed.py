@@ -22,7 +22,7 @@ from sklearn.model_selection import GridSearchCV, LeaveOneGroupOut
 from sklearn.pipeline import Pipeline
 from threadpoolctl import threadpool_info
 
-from greyml import ANFISFCM, ANFISGrid, GreyInfluenceSelector, MLPBaseline
+from greyml import ANFISFCM, ANFISGrid, GreyInfluenceSelector, MLPBaseline, RelativeToStart
 from greyml import test_ids as groups_of
 from greyml.datasets import load_vmc_tests
 from greyml.metrics import get_scorer
@@ -76,7 +76,7 @@ def vmc_rises():
     """Six VMC tests, every 4th sensor, as rises from each test's first reading."""
     data = load_vmc_tests()
     X = data.frame[data.sensors].iloc[:, ::4]
-    X = X - X.groupby(level="test").transform("first")
+    X = RelativeToStart().fit_transform(X)
     return X, data.frame["dy_um"]
 
 

@@ -17,6 +17,7 @@ from greyml import (
     ANFISGrid,
     GreyInfluenceSelector,
     MLPBaseline,
+    RelativeToStart,
     TrainOnOneTest,
 )
 from greyml import test_ids as groups_of
@@ -31,7 +32,7 @@ def vmc():
     """The simulated VMC tests: 76 sensors as rises from each test's start, dy_um."""
     data = load_vmc_tests()
     X = data.frame[data.sensors]
-    X = X - X.groupby(level="test").transform("first")
+    X = RelativeToStart().fit_transform(X)
     return X, data.frame["dy_um"], data.sensor_groups
 
 

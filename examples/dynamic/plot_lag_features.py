@@ -23,14 +23,14 @@ from sklearn.linear_model import RidgeCV
 from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import StandardScaler
 
-from greyml import Compensator, LagFeatures
+from greyml import Compensator, LagFeatures, RelativeToStart
 from greyml.datasets import load_vmc_tests
 from greyml.metrics import rmse
 
 vmc = load_vmc_tests()
 sensors = ["T8_C", "T25_C", "T53_C", "T65_C", "T71_C"]
 X = vmc.frame[sensors]
-X = X - X.groupby(level="test").transform("first")  # rises from each test's start
+X = RelativeToStart().fit_transform(X)  # rises from each test's start
 y = vmc.frame["dy_um"]
 tests = X.index.get_level_values("test")
 train = np.isin(tests, ["I", "IV", "V"])

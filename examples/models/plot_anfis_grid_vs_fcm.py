@@ -57,7 +57,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
-from greyml import ANFISFCM, ANFISGrid, test_ids
+from greyml import ANFISFCM, ANFISGrid, RelativeToStart, test_ids
 from greyml.datasets import load_vmc_tests
 from greyml.fuzzy import log_firing, normalised_firing
 from greyml.metrics import rmse
@@ -67,7 +67,7 @@ TRAIN = "IV"
 
 vmc = load_vmc_tests()
 X = vmc.frame[SENSORS]
-X = X - X.groupby(level="test", sort=False).transform("first")  # rises, °C
+X = RelativeToStart().fit_transform(X)  # rises, °C
 y = vmc.frame["dy_um"]
 tests = np.asarray(test_ids(X))
 train = tests == TRAIN

@@ -37,7 +37,7 @@ from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import StandardScaler
 from threadpoolctl import threadpool_limits
 
-from greyml import ThermalTransferFunction, test_ids
+from greyml import RelativeToStart, ThermalTransferFunction, test_ids
 from greyml.datasets import load_caiviac
 from greyml.metrics import rmse
 
@@ -53,7 +53,7 @@ def load():
     except FileNotFoundError:
         return None
     X = data.frame[data.sensors]
-    X = X - X.groupby(level="test", sort=False).transform("first")
+    X = RelativeToStart().fit_transform(X)
     X.insert(0, DRIVER, data.frame[DRIVER].to_numpy())
     return X, data.frame[TARGET]
 

@@ -48,7 +48,13 @@ from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import StandardScaler
 from threadpoolctl import threadpool_limits
 
-from greyml import GMC, GreyConditioningWarning, GreyInfluenceSelector, test_ids
+from greyml import (
+    GMC,
+    GreyConditioningWarning,
+    GreyInfluenceSelector,
+    RelativeToStart,
+    test_ids,
+)
 from greyml.datasets import load_caiviac
 from greyml.metrics import rmse
 
@@ -65,7 +71,7 @@ def load():
     except FileNotFoundError:
         return None
     X = data.frame[data.sensors]
-    X = X - X.groupby(level="test", sort=False).transform("first")
+    X = RelativeToStart().fit_transform(X)
     return X, data.frame[TARGET]
 
 

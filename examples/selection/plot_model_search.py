@@ -77,6 +77,7 @@ from greyml import (
     GreyInfluenceSelector,
     GreyStabilityWarning,
     MLPBaseline,
+    RelativeToStart,
     TrainOnOneTest,
     test_ids,
 )
@@ -85,7 +86,7 @@ from greyml.metrics import get_scorer, rmse
 
 vmc = load_vmc_tests()
 X = vmc.frame[vmc.sensors]
-X = X - X.groupby(level="test", sort=False).transform("first")  # rises, °C
+X = RelativeToStart().fit_transform(X)  # rises, °C
 y = vmc.frame["dy_um"]
 groups = np.asarray(test_ids(X))
 tests = list(dict.fromkeys(groups))

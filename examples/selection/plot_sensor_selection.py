@@ -52,7 +52,7 @@ from collections import Counter
 import matplotlib.pyplot as plt
 import numpy as np
 
-from greyml import ANFISFCM, GreyInfluenceSelector, test_ids
+from greyml import ANFISFCM, GreyInfluenceSelector, RelativeToStart, test_ids
 from greyml.datasets import load_vmc_tests
 from greyml.metrics import rmse
 
@@ -61,7 +61,7 @@ N_GROUPS = 5
 
 vmc = load_vmc_tests()
 X = vmc.frame[vmc.sensors]
-X = X - X.groupby(level="test", sort=False).transform("first")  # rises, °C
+X = RelativeToStart().fit_transform(X)  # rises, °C
 y = vmc.frame["dy_um"]
 tests = np.asarray(test_ids(X))
 train = tests == TRAIN
