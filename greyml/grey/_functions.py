@@ -76,13 +76,13 @@ def fit_gm1n(X, y):
         inputs, X, y, reset=True, min_samples_per_test=2, min_rows=lambda p: p + 1
     )
     n_features = Xa.shape[1]
-    bounds = [(s.start, s.stop) for s in segments]
-    a, b, rank, sv = gm1n_lstsq(ya, Xa, bounds)
+    test_bounds = [(s.start, s.stop) for s in segments]
+    a, b, rank, sv = gm1n_lstsq(ya, Xa, test_bounds)
     with np.errstate(divide="ignore"):
         cond = float(sv[0] / sv[-1]) if sv.size else float("inf")
     if rank < n_features + 1 or cond > CONDITION_LIMIT:
         names = column_names(inputs, n_features)
-        _, groups = gm1n_conditioning(ya, Xa, bounds)
+        _, groups = gm1n_conditioning(ya, Xa, test_bounds)
         cols = ", ".join(names[j] if j >= 0 else "the target" for j in (groups or [[]])[0])
         what = (
             f"rank deficient (rank {rank} < {n_features + 1})"

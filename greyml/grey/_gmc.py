@@ -138,7 +138,7 @@ PAPERS_BOUNDS = (-100.0, 100.0)
 BOUNDS_NAMES = ("stable", "papers")
 
 
-def _bounds_list(segments):
+def _test_bounds_of(segments):
     return [(s.start, s.stop) for s in segments]
 
 
@@ -175,7 +175,7 @@ class _GreyConvolutionModel(RegressorMixin, BaseEstimator):
             n_params_msg=lambda p: f"{p + 2} coefficients (b1, one b per column, u)",
             reject_constant=True,
         )
-        bounds = _bounds_list(segments)
+        test_bounds = _test_bounds_of(segments)
         self.n_tests_ = len(segments)
         firsts = Xa[[seg.start for seg in segments]]
         self.start_range_ = np.vstack([firsts.min(axis=0), firsts.max(axis=0)])
@@ -183,11 +183,11 @@ class _GreyConvolutionModel(RegressorMixin, BaseEstimator):
             np.ptp(firsts, axis=0), START_TOLERANCE * np.ptp(Xa, axis=0)
         )
         with blas_threads_for(Xa.size * (Xa.shape[1] + 2)):
-            return self._calibrate(Xa, ya, bounds, optimizer)
+            return self._calibrate(Xa, ya, test_bounds, optimizer)
 
-    def _calibrate(self, Xa, ya, bounds, optimizer):
+    def _calibrate(self, Xa, ya, test_bounds, optimizer):
 
-        b1, b, u, rank, sv = gmc_lstsq(ya, Xa, bounds)
+        b1, b, u, rank, sv = gmc_lstsq(ya, Xa, test_bounds)
         n_theta = Xa.shape[1] + 2
         if rank < n_theta:
             warnings.warn(
@@ -198,7 +198,7 @@ class _GreyConvolutionModel(RegressorMixin, BaseEstimator):
                 stacklevel=2,
             )
         theta_ls = np.concatenate([[b1], b, [u]])
-        X1 = ago(Xa, bounds)
+        X1 = ago(Xa, test_bounds)
 
         if optimizer is None:
             # b1 kept in its range (bounds' first entry): outside it, the least
@@ -208,7 +208,7 @@ class _GreyConvolutionModel(RegressorMixin, BaseEstimator):
             ls_b1 = float(b1)
             if not lower[0] <= b1 <= upper[0]:
                 edge = float(np.clip(b1, lower[0], upper[0]))
-                b, u = gmc_lstsq_fixed_b1(ya, Xa, edge, bounds)
+                b, u = gmc_lstsq_fixed_b1(ya, Xa, edge, test_bounds)
                 theta = np.concatenate([[edge], b, [u]])
             self.optimizer_result_ = None
             self.n_iter_ = 1
@@ -217,7 +217,7 @@ class _GreyConvolutionModel(RegressorMixin, BaseEstimator):
             rng = make_generator(self.random_state)
             x0 = theta_ls[None, :] if self.warm_start_ls and np.isfinite(theta_ls).all() else None
             result = optimizer.minimize(
-                _GMCObjective(X1, ya, bounds, self.response, self.initial),
+                _GMCObjective(X1, ya, test_bounds, self.response, self.initial),
                 (lower, upper),
                 rng,
                 x0=x0,
@@ -237,12 +237,12 @@ class _GreyConvolutionModel(RegressorMixin, BaseEstimator):
                 if self.warm_start_ls and np.isfinite(b1)
                 else None
             )
-            objective = _GMCSeparableObjective(X1, ya, bounds, self.response, self.initial)
+            objective = _GMCSeparableObjective(X1, ya, test_bounds, self.response, self.initial)
             result = optimizer.minimize(objective, (lower, upper), rng, x0=x0)
             if self.polish:
                 _polish(objective, result, lower[0], upper[0])
             result.x = np.sinh(result.x)
-            _, lin = gmc_separable(X1, ya, result.x, bounds, self.response, self.initial)
+            _, lin = gmc_separable(X1, ya, result.x, test_bounds, self.response, self.initial)
             theta = np.concatenate([result.x, lin[0]])
             self.optimizer_result_ = result
             self.n_iter_ = result.nit
@@ -251,7 +251,7 @@ class _GreyConvolutionModel(RegressorMixin, BaseEstimator):
         self.driving_coef_ = np.asarray(theta[1:-1], dtype=float)
         self.control_ = float(theta[-1])
         if self.development_coef_ < 0:
-            n_max = max(stop - start for start, stop in bounds)
+            n_max = max(stop - start for start, stop in test_bounds)
             growth = -self.development_coef_ * n_max
             factor = f"{np.exp(growth):,.3g}" if growth < 700 else f"e^{growth:,.0f}"
             warnings.warn(
@@ -264,7 +264,7 @@ class _GreyConvolutionModel(RegressorMixin, BaseEstimator):
                 stacklevel=3,
             )
         self.loss_ = float(
-            gmc_sse_population(X1, ya, theta[None, :], bounds, self.response, self.initial)[0]
+            gmc_sse_population(X1, ya, theta[None, :], test_bounds, self.response, self.initial)[0]
         )
         if self.loss_ >= LARGE_LOSS and optimizer is None:
             where = (
@@ -314,15 +314,15 @@ class _GreyConvolutionModel(RegressorMixin, BaseEstimator):
         """
         check_is_fitted(self)
         Xa, _, segments = validate_sequences(self, X, reset=False, min_samples_per_test=1)
-        bounds = _bounds_list(segments)
+        test_bounds = _test_bounds_of(segments)
         start = _initial_values(self, initial_displacement, segments)
         self._check_cold_starts(Xa, segments, start)
         pred = gmc_predict(
-            ago(Xa, bounds),
+            ago(Xa, test_bounds),
             self.development_coef_,
             self.driving_coef_,
             self.control_,
-            bounds,
+            test_bounds,
             self.response,
             self.initial,
             start=start,
@@ -659,15 +659,17 @@ def _polish(objective, result, lower, upper):
 class _GMCObjective:
     """Picklable population objective: Σ(x̂₁⁽⁰⁾ − x₁⁽⁰⁾)² per candidate."""
 
-    def __init__(self, X1, y, bounds, form, initial):
+    def __init__(self, X1, y, test_bounds, form, initial):
         self.X1 = X1
         self.y = y
-        self.bounds = bounds
+        self.test_bounds = test_bounds
         self.form = form
         self.initial = initial
 
     def __call__(self, params):
-        return gmc_sse_population(self.X1, self.y, params, self.bounds, self.form, self.initial)
+        return gmc_sse_population(
+            self.X1, self.y, params, self.test_bounds, self.form, self.initial
+        )
 
 
 class _GMCSeparableObjective(_GMCObjective):
@@ -678,6 +680,6 @@ class _GMCSeparableObjective(_GMCObjective):
 
     def __call__(self, params):
         sse, _ = gmc_separable(
-            self.X1, self.y, np.sinh(params[:, 0]), self.bounds, self.form, self.initial
+            self.X1, self.y, np.sinh(params[:, 0]), self.test_bounds, self.form, self.initial
         )
         return sse

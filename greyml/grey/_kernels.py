@@ -1,7 +1,7 @@
 """Numerical kernels of the grey models: pure functions, arrays in, arrays out.
 
 No validation and no estimator state here; the estimators validate and then call
-these. Every function that walks along time takes ``bounds``, a sequence of
+these. Every function that walks along time takes ``test_bounds``, a sequence of
 ``(start, stop)`` row ranges, one per test, and never lets a sum, a difference or
 a recursion cross from one range to the next.
 
@@ -52,13 +52,13 @@ CONDITION_LIMIT = 1.0 / np.sqrt(np.finfo(float).eps)
 _MAX_EXPONENT = 600.0
 
 
-def _as_bounds(bounds, n):
-    if bounds is None:
+def _as_test_bounds(test_bounds, n):
+    if test_bounds is None:
         return [(0, n)]
-    return [(int(a), int(b)) for a, b in bounds]
+    return [(int(a), int(b)) for a, b in test_bounds]
 
 
-def ago(x, bounds=None):
+def ago(x, test_bounds=None):
     """1-AGO: cumulative sum along axis 0, restarted at every test start.
 
     Examples
@@ -69,17 +69,17 @@ def ago(x, bounds=None):
 
     Two tests of two rows each: the sum starts again at row 2.
 
-    >>> ago([1, 2, 3, 4], bounds=[(0, 2), (2, 4)]).tolist()
+    >>> ago([1, 2, 3, 4], test_bounds=[(0, 2), (2, 4)]).tolist()
     [1.0, 3.0, 3.0, 7.0]
     """
     x = np.asarray(x, dtype=float)
     out = np.empty_like(x)
-    for a, b in _as_bounds(bounds, x.shape[0]):
+    for a, b in _as_test_bounds(test_bounds, x.shape[0]):
         np.cumsum(x[a:b], axis=0, out=out[a:b])
     return out
 
 
-def iago(x1, bounds=None):
+def iago(x1, test_bounds=None):
     """Inverse AGO: first difference within each test, x⁽⁰⁾(1) = x⁽¹⁾(1).
 
     Examples
@@ -90,20 +90,20 @@ def iago(x1, bounds=None):
 
     It undoes :func:`ago` test by test:
 
-    >>> bounds = [(0, 2), (2, 4)]
-    >>> iago(ago([1, 2, 3, 4], bounds), bounds).tolist()
+    >>> test_bounds = [(0, 2), (2, 4)]
+    >>> iago(ago([1, 2, 3, 4], test_bounds), test_bounds).tolist()
     [1.0, 2.0, 3.0, 4.0]
     """
     x1 = np.asarray(x1, dtype=float)
     out = np.empty_like(x1)
-    for a, b in _as_bounds(bounds, x1.shape[0]):
+    for a, b in _as_test_bounds(test_bounds, x1.shape[0]):
         if b > a:
             out[a] = x1[a]
             np.subtract(x1[a + 1 : b], x1[a : b - 1], out=out[a + 1 : b])
     return out
 
 
-def background(x1, bounds=None):
+def background(x1, test_bounds=None):
     """Background values z⁽¹⁾(k) = ½(x⁽¹⁾(k) + x⁽¹⁾(k−1)) for k = 2..n of each test.
 
     Returns the rows k = 2..n of every test stacked (``n − n_tests`` rows).
@@ -116,20 +116,22 @@ def background(x1, bounds=None):
 
     A test of n rows gives n − 1 values:
 
-    >>> background([1, 3, 6, 10], bounds=[(0, 2), (2, 4)]).tolist()
+    >>> background([1, 3, 6, 10], test_bounds=[(0, 2), (2, 4)]).tolist()
     [2.0, 8.0]
     """
     x1 = np.asarray(x1, dtype=float)
-    parts = [0.5 * (x1[a + 1 : b] + x1[a : b - 1]) for a, b in _as_bounds(bounds, len(x1))]
+    parts = [
+        0.5 * (x1[a + 1 : b] + x1[a : b - 1]) for a, b in _as_test_bounds(test_bounds, len(x1))
+    ]
     return np.concatenate(parts, axis=0)
 
 
-def _later_rows(x, bounds):
+def _later_rows(x, test_bounds):
     """Rows k = 2..n of every test stacked."""
-    return np.concatenate([x[a + 1 : b] for a, b in _as_bounds(bounds, len(x))], axis=0)
+    return np.concatenate([x[a + 1 : b] for a, b in _as_test_bounds(test_bounds, len(x))], axis=0)
 
 
-def gm1n_design(y, X, bounds=None):
+def gm1n_design(y, X, test_bounds=None):
     """GM(1,N) least-squares system ``B θ ≈ Y`` for θ = (a, b₂…b_N).
 
     B = [−z₁⁽¹⁾(k), x₂⁽¹⁾(k), …, x_N⁽¹⁾(k)], Y = x₁⁽⁰⁾(k), k = 2..n per test.
@@ -146,10 +148,10 @@ def gm1n_design(y, X, bounds=None):
     """
     y = np.asarray(y, dtype=float)
     X = np.asarray(X, dtype=float)
-    y1 = ago(y, bounds)
-    X1 = ago(X, bounds)
-    B = np.column_stack([-background(y1, bounds), _later_rows(X1, bounds)])
-    return B, _later_rows(y, bounds)
+    y1 = ago(y, test_bounds)
+    X1 = ago(X, test_bounds)
+    B = np.column_stack([-background(y1, test_bounds), _later_rows(X1, test_bounds)])
+    return B, _later_rows(y, test_bounds)
 
 
 def _scaled_lstsq(B, Y):
@@ -166,7 +168,7 @@ def _scaled_lstsq(B, Y):
     return theta / norms, rank, sv
 
 
-def gm1n_lstsq(y, X, bounds=None):
+def gm1n_lstsq(y, X, test_bounds=None):
     """Least-squares GM(1,N) coefficients.
 
     Returns ``(a, b, rank, singular_values)`` with ``a`` the development
@@ -183,12 +185,12 @@ def gm1n_lstsq(y, X, bounds=None):
     >>> round(float(a), 6), np.round(b, 6).tolist(), int(rank)
     (-0.5, [0.5], 2)
     """
-    B, Y = gm1n_design(y, X, bounds)
+    B, Y = gm1n_design(y, X, test_bounds)
     theta, rank, sv = _scaled_lstsq(B, Y)
     return theta[0], theta[1:], rank, sv
 
 
-def gm1n_conditioning(y, X, bounds=None, limit=CONDITION_LIMIT):
+def gm1n_conditioning(y, X, test_bounds=None, limit=CONDITION_LIMIT):
     """Condition number of the GM(1,N) system and the columns of ``X`` that are
     near-collinear after accumulation.
 
@@ -219,7 +221,7 @@ def gm1n_conditioning(y, X, bounds=None, limit=CONDITION_LIMIT):
     >>> bool(cond > 1e12), groups
     (True, [[0, 2]])
     """
-    B, _ = gm1n_design(y, X, bounds)
+    B, _ = gm1n_design(y, X, test_bounds)
     norms = np.sqrt(np.einsum("ij,ij->j", B, B))
     if not np.all(norms > 0):
         dead = [int(j) - 1 for j in np.flatnonzero(~(norms > 0))]
@@ -234,7 +236,7 @@ def gm1n_conditioning(y, X, bounds=None, limit=CONDITION_LIMIT):
     return cond, groups
 
 
-def gmc_design(y, X, bounds=None):
+def gmc_design(y, X, test_bounds=None):
     """GMC(1,N) least-squares system for θ = (b₁, b₂…b_N, u).
 
     x₁⁽⁰⁾(k) + b₁z₁⁽¹⁾(k) = Σⱼ bⱼ zⱼ⁽¹⁾(k) + u, k = 2..n per test, so
@@ -252,13 +254,13 @@ def gmc_design(y, X, bounds=None):
     """
     y = np.asarray(y, dtype=float)
     X = np.asarray(X, dtype=float)
-    z1 = background(ago(y, bounds), bounds)
-    zX = background(ago(X, bounds), bounds)
+    z1 = background(ago(y, test_bounds), test_bounds)
+    zX = background(ago(X, test_bounds), test_bounds)
     B = np.column_stack([-z1, zX, np.ones(len(z1))])
-    return B, _later_rows(y, bounds)
+    return B, _later_rows(y, test_bounds)
 
 
-def gmc_lstsq(y, X, bounds=None):
+def gmc_lstsq(y, X, test_bounds=None):
     """GMC(1,N) by least squares. Returns ``(b1, b, u, rank, singular_values)``.
 
     Examples
@@ -278,12 +280,12 @@ def gmc_lstsq(y, X, bounds=None):
     >>> np.round([b1, *b, u], 6).tolist(), int(rank)
     ([0.4, 0.5, 0.1], 3)
     """
-    B, Y = gmc_design(y, X, bounds)
+    B, Y = gmc_design(y, X, test_bounds)
     theta, rank, sv = _scaled_lstsq(B, Y)
     return theta[0], theta[1:-1], theta[-1], rank, sv
 
 
-def gmc_lstsq_fixed_b1(y, X, b1, bounds=None):
+def gmc_lstsq_fixed_b1(y, X, b1, test_bounds=None):
     """GMC(1,N) least squares with b₁ held at ``b1``: returns ``(b, u)``.
 
     The sum of squares is a convex quadratic, so when the free optimum's b₁
@@ -306,7 +308,7 @@ def gmc_lstsq_fixed_b1(y, X, b1, bounds=None):
     >>> np.round([*b, u], 6).tolist()
     [0.5, 0.1]
     """
-    B, Y = gmc_design(y, X, bounds)
+    B, Y = gmc_design(y, X, test_bounds)
     theta, _, _ = _scaled_lstsq(B[:, 1:], Y - b1 * B[:, 0])
     return theta[:-1], theta[-1]
 
@@ -406,7 +408,7 @@ def _explodes(b1, n):
 
 
 def gmc_predict(
-    X1, b1, coef, control, bounds=None, form="trapezoid", initial="model", start=None
+    X1, b1, coef, control, test_bounds=None, form="trapezoid", initial="model", start=None
 ):
     """Predicted x̂₁⁽⁰⁾ of every test (IAGO of the time response), shape ``(n,)``.
 
@@ -438,25 +440,25 @@ def gmc_predict(
 
     Split into two tests, each starts afresh from its own first value:
 
-    >>> bounds = [(0, 2), (2, 4)]
-    >>> X1 = ago(np.array([[1.0], [2.0], [1.0], [3.0]]), bounds)
-    >>> np.round(gmc_predict(X1, 0.4, [0.5], 0.1, bounds), 6).tolist()
+    >>> test_bounds = [(0, 2), (2, 4)]
+    >>> X1 = ago(np.array([[1.0], [2.0], [1.0], [3.0]]), test_bounds)
+    >>> np.round(gmc_predict(X1, 0.4, [0.5], 0.1, test_bounds), 6).tolist()
     [0.428571, 0.859805, 0.428571, 1.109805]
 
     The second test starting mid-run, from a measured 5.0; it relaxes at the
     rate b₁ = 0.4. With b₁ = 0 it keeps 5.0 plus the change the model
     predicts from its first row (1.35 − 0.6):
 
-    >>> np.round(gmc_predict(X1, 0.4, [0.5], 0.1, bounds, start=[np.nan, 5.0]), 6).tolist()
+    >>> np.round(gmc_predict(X1, 0.4, [0.5], 0.1, test_bounds, start=[np.nan, 5.0]), 6).tolist()
     [0.428571, 0.859805, 5.0, 4.94772]
-    >>> np.round(gmc_predict(X1, 0.0, [0.5], 0.1, bounds), 6).tolist()
+    >>> np.round(gmc_predict(X1, 0.0, [0.5], 0.1, test_bounds), 6).tolist()
     [0.6, 1.1, 0.6, 1.35]
-    >>> np.round(gmc_predict(X1, 0.0, [0.5], 0.1, bounds, start=[np.nan, 5.0]), 6).tolist()
+    >>> np.round(gmc_predict(X1, 0.0, [0.5], 0.1, test_bounds, start=[np.nan, 5.0]), 6).tolist()
     [0.6, 1.1, 5.0, 5.75]
     """
     X1 = np.asarray(X1, dtype=float)
     out = np.empty(X1.shape[0])
-    for i, (a, b) in enumerate(_as_bounds(bounds, X1.shape[0])):
+    for i, (a, b) in enumerate(_as_test_bounds(test_bounds, X1.shape[0])):
         if b == a:
             continue
         if _explodes(b1, b - a):
@@ -480,7 +482,7 @@ def gmc_predict(
     return out
 
 
-def gmc_predict_population(X1, params, bounds=None, form="trapezoid", initial="model"):
+def gmc_predict_population(X1, params, test_bounds=None, form="trapezoid", initial="model"):
     """Predictions for a population of parameter vectors ``(b₁, b₂…b_N, u)``.
 
     ``params`` has shape ``(P, N+1)``; returns ``(n, P)``. The forcing of all
@@ -508,7 +510,7 @@ def gmc_predict_population(X1, params, bounds=None, form="trapezoid", initial="m
     params = np.atleast_2d(np.asarray(params, dtype=float))
     b1 = params[:, 0]
     out = np.empty((X1.shape[0], params.shape[0]))
-    for a, b in _as_bounds(bounds, X1.shape[0]):
+    for a, b in _as_test_bounds(test_bounds, X1.shape[0]):
         if b == a:
             continue
         with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
@@ -527,7 +529,7 @@ def gmc_predict_population(X1, params, bounds=None, form="trapezoid", initial="m
     return out
 
 
-def gmc_sse_population(X1, y, params, bounds=None, form="trapezoid", initial="model"):
+def gmc_sse_population(X1, y, params, test_bounds=None, form="trapezoid", initial="model"):
     """Σ(x̂₁⁽⁰⁾ − x₁⁽⁰⁾)² for each candidate, shape ``(P,)``, always finite.
 
     A candidate whose trajectory explodes or overflows gets :data:`LARGE_LOSS`.
@@ -545,7 +547,7 @@ def gmc_sse_population(X1, y, params, bounds=None, form="trapezoid", initial="mo
     >>> np.round(gmc_sse_population(X1, y, params), 6).tolist()
     [0.0, 4.810897, 1e+200]
     """
-    pred = gmc_predict_population(X1, params, bounds, form, initial)
+    pred = gmc_predict_population(X1, params, test_bounds, form, initial)
     with np.errstate(over="ignore", invalid="ignore"):
         resid = pred - np.asarray(y, dtype=float)[:, None]
         sse = np.einsum("ij,ij->j", resid, resid)
@@ -553,7 +555,7 @@ def gmc_sse_population(X1, y, params, bounds=None, form="trapezoid", initial="mo
     return np.minimum(sse, LARGE_LOSS)
 
 
-def gmc_basis(X1, b1, bounds=None, form="trapezoid", initial="model"):
+def gmc_basis(X1, b1, test_bounds=None, form="trapezoid", initial="model"):
     """Prediction x̂₁⁽⁰⁾ as a linear map of θ = (b₂…b_N, u) for a fixed b₁.
 
     For a fixed development coefficient the time response is linear in the
@@ -578,7 +580,7 @@ def gmc_basis(X1, b1, bounds=None, form="trapezoid", initial="model"):
     n = X1.shape[0]
     U = np.column_stack([X1, np.ones(n)])
     phi = np.empty_like(U)
-    for a, b in _as_bounds(bounds, n):
+    for a, b in _as_test_bounds(test_bounds, n):
         if b == a:
             continue
         if _explodes(b1, b - a):
@@ -601,7 +603,7 @@ def gmc_basis(X1, b1, bounds=None, form="trapezoid", initial="model"):
     return phi
 
 
-def gmc_separable(X1, y, b1, bounds=None, form="trapezoid", initial="model"):
+def gmc_separable(X1, y, b1, test_bounds=None, form="trapezoid", initial="model"):
     """Best (b₂…b_N, u) for each candidate b₁, and the resulting loss.
 
     Variable projection (Golub & Pereyra 1973): for every b₁ in ``b1`` (shape
@@ -636,7 +638,7 @@ def gmc_separable(X1, y, b1, bounds=None, form="trapezoid", initial="model"):
     theta = np.zeros((b1.shape[0], q))
     scale = max(float(np.abs(y).max(initial=0.0)), 1.0)
     for i, b in enumerate(b1):
-        phi = gmc_basis(X1, b, bounds, form, initial)
+        phi = gmc_basis(X1, b, test_bounds, form, initial)
         if not np.isfinite(phi).all() or np.abs(phi).max(initial=0.0) > 1e150:
             continue
         # column scaling keeps lstsq well conditioned whatever the drivers' units

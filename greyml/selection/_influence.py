@@ -219,10 +219,10 @@ class GreyInfluenceSelector(SelectorMixin, BaseEstimator):
         Xn = self._normalise(Xa, names)
         scale = np.mean(np.abs(ya))
         yn = ya / scale if scale > 0 else ya
-        bounds = [(s.start, s.stop) for s in segments]
+        test_bounds = [(s.start, s.stop) for s in segments]
         # an SVD of (n × p): small, so one BLAS thread (see greyml._threads)
         with blas_threads_for(Xn.size * n_features):
-            a, b, rank, _ = gm1n_lstsq(yn, Xn, bounds)
+            a, b, rank, _ = gm1n_lstsq(yn, Xn, test_bounds)
         if rank < n_features + 1:
             warnings.warn(
                 f"GM(1,N) system of GreyInfluenceSelector is rank deficient (rank {rank} "
