@@ -17,7 +17,6 @@ from greyml._sequences import segment_label
 from greyml._threads import blas_threads_for
 from greyml._validation import check_int_param, require_y, validate_sequences
 from greyml.grey._kernels import (
-    LARGE_LOSS,
     ago,
     gmc_lstsq,
     gmc_lstsq_fixed_b1,
@@ -26,7 +25,7 @@ from greyml.grey._kernels import (
     gmc_sse_population,
 )
 from greyml.optimize import CuckooSearch, ParticleSwarm, PopulationOptimizer
-from greyml.optimize._base import check_bounds
+from greyml.optimize._base import PENALTY, check_bounds
 
 __all__ = ["GMC", "GreyConditioningWarning", "GreyStabilityWarning", "GreyWarmStartWarning"]
 
@@ -266,7 +265,7 @@ class _GreyConvolutionModel(RegressorMixin, BaseEstimator):
         self.loss_ = float(
             gmc_sse_population(X1, ya, theta[None, :], test_bounds, self.response, self.initial)[0]
         )
-        if self.loss_ >= LARGE_LOSS and optimizer is None:
+        if self.loss_ >= PENALTY and optimizer is None:
             where = (
                 "inside bounds"
                 if theta[0] == ls_b1
@@ -278,7 +277,7 @@ class _GreyConvolutionModel(RegressorMixin, BaseEstimator):
                 f"grows like exp({-theta[0]:g}·k) and overflows on the training tests. Use "
                 "bounds='stable' (b1 >= 0) or solver='pso'."
             )
-        if self.loss_ >= LARGE_LOSS:
+        if self.loss_ >= PENALTY:
             raise ValueError(
                 f"{type(self).__name__} calibration failed: every candidate trajectory diverged on "
                 "the training tests. Check the drivers' scale or narrow `bounds`."

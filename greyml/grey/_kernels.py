@@ -14,6 +14,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.signal import lfilter
 
+from greyml.optimize._base import PENALTY
+
 __all__ = [
     "ago",
     "iago",
@@ -34,13 +36,7 @@ __all__ = [
     "gmc_basis",
     "gmc_separable",
     "gnnmci_layers",
-    "LARGE_LOSS",
 ]
-
-#: Loss given to a parameter set whose trajectory overflows or is not finite.
-#: Large enough to lose against any usable candidate, small enough that sums of a
-#: few of them stay finite.
-LARGE_LOSS = 1e200
 
 #: Condition number (of the column-scaled design) above which a least-squares
 #: system is called ill-conditioned: 1/√eps ≈ 6.7e7, where the solution has
@@ -532,7 +528,7 @@ def gmc_predict_population(X1, params, test_bounds=None, form="trapezoid", initi
 def gmc_sse_population(X1, y, params, test_bounds=None, form="trapezoid", initial="model"):
     """Σ(x̂₁⁽⁰⁾ − x₁⁽⁰⁾)² for each candidate, shape ``(P,)``, always finite.
 
-    A candidate whose trajectory explodes or overflows gets :data:`LARGE_LOSS`.
+    A candidate whose trajectory explodes or overflows gets :data:`~greyml.optimize.PENALTY`.
 
     Examples
     --------
@@ -551,8 +547,8 @@ def gmc_sse_population(X1, y, params, test_bounds=None, form="trapezoid", initia
     with np.errstate(over="ignore", invalid="ignore"):
         resid = pred - np.asarray(y, dtype=float)[:, None]
         sse = np.einsum("ij,ij->j", resid, resid)
-    sse[~np.isfinite(sse)] = LARGE_LOSS
-    return np.minimum(sse, LARGE_LOSS)
+    sse[~np.isfinite(sse)] = PENALTY
+    return np.minimum(sse, PENALTY)
 
 
 def gmc_basis(X1, b1, test_bounds=None, form="trapezoid", initial="model"):
@@ -612,7 +608,7 @@ def gmc_separable(X1, y, b1, test_bounds=None, form="trapezoid", initial="model"
     Returns
     -------
     sse : ndarray of shape (P,)
-        Finite; :data:`LARGE_LOSS` for a candidate whose response explodes.
+        Finite; :data:`~greyml.optimize.PENALTY` for a candidate whose response explodes.
     theta : ndarray of shape (P, N)
         (b₂…b_N, u) per candidate (zeros where the response explodes).
 
@@ -634,7 +630,7 @@ def gmc_separable(X1, y, b1, test_bounds=None, form="trapezoid", initial="model"
     b1 = np.atleast_1d(np.asarray(b1, dtype=float))
     y = np.asarray(y, dtype=float)
     q = np.asarray(X1).shape[1] + 1
-    sse = np.full(b1.shape[0], LARGE_LOSS)
+    sse = np.full(b1.shape[0], PENALTY)
     theta = np.zeros((b1.shape[0], q))
     scale = max(float(np.abs(y).max(initial=0.0)), 1.0)
     for i, b in enumerate(b1):
@@ -649,7 +645,7 @@ def gmc_separable(X1, y, b1, test_bounds=None, form="trapezoid", initial="model"
         resid = phi @ coef - y
         value = float(resid @ resid)
         if np.isfinite(value) and np.abs(coef).max(initial=0.0) < 1e100 * scale:
-            sse[i] = min(value, LARGE_LOSS)
+            sse[i] = min(value, PENALTY)
             theta[i] = coef
     return sse, theta
 
