@@ -150,13 +150,12 @@ def simulate_gmc(X, development, driving, control=0.0, *, form="trapezoid", init
             raise ValueError(f"simulate_gmc: {what} must be a finite number; got {value!r}.")
     if not np.isfinite(driving).all():
         raise ValueError(f"simulate_gmc: driving must be finite; got {driving.tolist()}.")
-    out = np.empty(Xa.shape[0])
-    X1 = ago(Xa, [(s.start, s.stop) for s in segments])
+    test_bounds = [(s.start, s.stop) for s in segments]
+    f = gmc_forcing(ago(Xa, test_bounds), driving, control)
+    x0 = gmc_initial(f[[s.start for s in segments]], development, initial)
+    with np.errstate(over="ignore", invalid="ignore"):
+        out = iago(gmc_response(f, float(development), x0, form, test_bounds), test_bounds)
     for seg in segments:
-        f = gmc_forcing(X1[seg.slice], driving, control)
-        x0 = float(gmc_initial(f[0], development, initial))
-        with np.errstate(over="ignore", invalid="ignore"):
-            out[seg.slice] = iago(gmc_response(f, float(development), x0, form))
         if not np.isfinite(out[seg.slice]).all():
             raise ValueError(
                 f"simulate_gmc: the response of {segment_label(seg)} overflows: with "

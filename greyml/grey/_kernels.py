@@ -333,17 +333,24 @@ def gmc_initial(f1, b1, initial):
         return np.where(np.abs(denom) > 1e-12, f1 / np.where(denom == 0, 1.0, denom), np.inf)
 
 
-def gmc_response(f, b1, x0, form="trapezoid"):
-    """GMC(1,N) time response x̂₁⁽¹⁾(k) of one test, in O(n).
+def gmc_response(f, b1, x0, form="trapezoid", test_bounds=None):
+    """GMC(1,N) time response x̂₁⁽¹⁾(k) of every test, in O(n).
+
+    The one implementation of the response: :func:`gmc_predict`,
+    :func:`gmc_predict_population`, :func:`gmc_basis`, :func:`gnnmci_layers`
+    and :func:`~greyml.grey.simulate_gmc` all run it. The recursion restarts at
+    every test's first row.
 
     Parameters
     ----------
-    f : ndarray of shape (n,)
-        Forcing f(k) = Σⱼ bⱼ xⱼ⁽¹⁾(k) + u.
-    b1 : float
-        Development coefficient.
-    x0 : float
-        Starting value x̂₁⁽¹⁾(1).
+    f : ndarray of shape (n,) or (n, P)
+        Forcing f(k) = Σⱼ bⱼ xⱼ⁽¹⁾(k) + u; 2-D: one column per series (a
+        candidate of a population, or a column of a basis).
+    b1 : float or ndarray of shape (P,)
+        Development coefficient, shared by the columns or one per column.
+    x0 : float or array-like
+        Starting value x̂₁⁽¹⁾(1) of each test: a scalar, one per test (shape
+        ``(n_tests,)`` for 1-D ``f``), or broadcast to ``(n_tests, P)``.
     form : {"trapezoid", "midpoint"}
         ``"trapezoid"`` (Tien 2012, Abdulshahed et al. (2017))::
 
@@ -352,10 +359,12 @@ def gmc_response(f, b1, x0, form="trapezoid"):
         ``"midpoint"`` (Abdulshahed et al. (2016))::
 
             x̂(k) = x0·e^{−b₁(k−1)} + Σ_{τ=2}^{k} ½e^{−b₁(k−τ+½)}[f(τ) + f(τ−1)]
+    test_bounds : sequence of (start, stop) or None, default=None
+        Row ranges of the tests; ``None``: one test.
 
     Returns
     -------
-    x1_hat : ndarray of shape (n,)
+    x1_hat : ndarray of the shape of ``f``
         May contain ``inf`` if the response explodes (b₁ ≪ 0); callers decide.
 
     Notes
@@ -380,27 +389,67 @@ def gmc_response(f, b1, x0, form="trapezoid"):
     >>> np.round(gmc_response([1.0, 1.0, 1.0], 0.0, 1.0), 6).tolist()
     [1.0, 2.0, 3.0]
     """
+    if form not in ("trapezoid", "midpoint"):
+        raise ValueError(f"Unknown response form {form!r}; use 'trapezoid' or 'midpoint'.")
     f = np.asarray(f, dtype=float)
-    n = f.shape[0]
-    if n == 0:
-        return f.copy()
+    F = f.reshape(f.shape[0], -1)
+    ranges = _as_test_bounds(test_bounds, F.shape[0])
+    x0 = np.asarray(x0, dtype=float)
+    X0 = np.broadcast_to(
+        x0[:, None] if f.ndim == 1 and x0.ndim == 1 else x0, (len(ranges), F.shape[1])
+    )
+    out = np.empty_like(F)
     with np.errstate(over="ignore", invalid="ignore"):
-        a = np.exp(-b1)
-        if form == "trapezoid":
-            p, _ = lfilter([1.0], [1.0, -a], f, zi=[x0 - 0.5 * f[0]])
-            return p - 0.5 * f
-        if form == "midpoint":
-            g = np.empty(n)
-            g[0] = 0.0
-            g[1:] = (0.5 * np.sqrt(a)) * (f[1:] + f[:-1])
-            m, _ = lfilter([1.0], [1.0, -a], g, zi=[x0])
-            return m
-    raise ValueError(f"Unknown response form {form!r}; use 'trapezoid' or 'midpoint'.")
+        decay = np.exp(-np.asarray(b1, dtype=float))
+        for i, (a, b) in enumerate(ranges):
+            if b == a:
+                continue
+            if decay.ndim == 0:
+                out[a:b] = _recursion(F[a:b], decay, X0[i], form)
+                continue
+            for j in range(F.shape[1]):
+                out[a:b, j : j + 1] = _recursion(
+                    F[a:b, j : j + 1], decay[j], X0[i, j : j + 1], form
+                )
+    return out.reshape(f.shape)
+
+
+def _recursion(F, decay, x0, form):
+    """One test's response for the columns of ``F`` (m, P) sharing ``decay`` = e^{−b₁}."""
+    if form == "trapezoid":
+        p, _ = lfilter([1.0], [1.0, -decay], F, axis=0, zi=(x0 - 0.5 * F[0])[None, :])
+        return p - 0.5 * F
+    G = np.zeros_like(F)
+    G[1:] = (0.5 * np.sqrt(decay)) * (F[1:] + F[:-1])
+    m, _ = lfilter([1.0], [1.0, -decay], G, axis=0, zi=np.array(x0)[None, :])
+    return m
 
 
 def _explodes(b1, n):
     """True where e^{−b₁(n−1)} would overflow: the trajectory is unusable."""
     return (-np.asarray(b1, dtype=float)) * max(n - 1, 0) > _MAX_EXPONENT
+
+
+def _first_rows(F, ranges):
+    """Each test's first row of ``F`` (zeros for an empty test)."""
+    rows = [F[a] if b > a else np.zeros(F.shape[1:]) for a, b in ranges]
+    return np.array(rows, dtype=float).reshape((len(ranges),) + F.shape[1:])
+
+
+def _gmc_tests(F, b1, x0, ranges, form):
+    """x̂₁⁽⁰⁾, the IAGO of :func:`gmc_response`, for every test and column of ``F``.
+
+    ``inf`` for a whole test and column whose response explodes
+    (:func:`_explodes`) or whose start is not finite, and wherever a value is
+    not finite.
+    """
+    with np.errstate(over="ignore", invalid="ignore"):
+        out = iago(gmc_response(F, b1, x0, form, ranges), ranges)
+    skip = ~np.isfinite(np.broadcast_to(x0, (len(ranges), F.shape[1])))
+    for i, (a, b) in enumerate(ranges):
+        out[a:b, skip[i] | _explodes(b1, b - a)] = np.inf
+    out[~np.isfinite(out)] = np.inf
+    return out
 
 
 def gmc_predict(
@@ -453,29 +502,19 @@ def gmc_predict(
     [0.6, 1.1, 5.0, 5.75]
     """
     X1 = np.asarray(X1, dtype=float)
-    out = np.empty(X1.shape[0])
-    for i, (a, b) in enumerate(_as_test_bounds(test_bounds, X1.shape[0])):
-        if b == a:
-            continue
-        if _explodes(b1, b - a):
-            out[a:b] = np.inf
-            continue
-        with np.errstate(over="ignore", invalid="ignore"):
-            f = gmc_forcing(X1[a:b], coef, control)
+    ranges = _as_test_bounds(test_bounds, X1.shape[0])
+    with np.errstate(over="ignore", invalid="ignore"):
+        f = gmc_forcing(X1, coef, control)
+        x0 = gmc_initial(_first_rows(f, ranges), b1, initial)
+        for i, (a, b) in enumerate(ranges):
             given = np.nan if start is None else float(start[i])
-            if np.isfinite(given):
+            if b > a and np.isfinite(given):
                 # started mid-run: the inputs accumulated before the test add a
                 # constant to its forcing, the one that makes the grey equation
                 # hold at k = 1 with the measured value, x(1)(1 + b1) = f(1) + c
-                f = f + (given * (1.0 + b1) - f[0])
-                x0 = given
-            else:
-                x0 = gmc_initial(f[0], b1, initial)
-            x1_hat = gmc_response(f, b1, float(x0), form)
-            seg = iago(x1_hat)
-        seg[~np.isfinite(seg)] = np.inf
-        out[a:b] = seg
-    return out
+                f[a:b] += given * (1.0 + b1) - f[a]
+                x0[i] = given
+    return _gmc_tests(f[:, None], b1, x0[:, None], ranges, form)[:, 0]
 
 
 def gmc_predict_population(X1, params, test_bounds=None, form="trapezoid", initial="model"):
@@ -504,25 +543,11 @@ def gmc_predict_population(X1, params, test_bounds=None, form="trapezoid", initi
     """
     X1 = np.asarray(X1, dtype=float)
     params = np.atleast_2d(np.asarray(params, dtype=float))
-    b1 = params[:, 0]
-    out = np.empty((X1.shape[0], params.shape[0]))
-    for a, b in _as_test_bounds(test_bounds, X1.shape[0]):
-        if b == a:
-            continue
-        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-            F = gmc_forcing(X1[a:b], params[:, 1:-1], params[:, -1])
-            x0 = gmc_initial(F[0], b1, initial)
-            for i in range(params.shape[0]):
-                if _explodes(b1[i], b - a) or not np.isfinite(x0[i]):
-                    out[a:b, i] = np.inf
-                    continue
-                x1_hat = gmc_response(F[:, i], b1[i], x0[i], form)
-                out[a, i] = x1_hat[0]
-                np.subtract(x1_hat[1:], x1_hat[:-1], out=out[a + 1 : b, i])
-    bad = ~np.isfinite(out)
-    if bad.any():
-        out[bad] = np.inf
-    return out
+    ranges = _as_test_bounds(test_bounds, X1.shape[0])
+    with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+        F = gmc_forcing(X1, params[:, 1:-1], params[:, -1])
+        x0 = gmc_initial(_first_rows(F, ranges), params[:, 0], initial)
+    return _gmc_tests(F, params[:, 0], x0, ranges, form)
 
 
 def gmc_sse_population(X1, y, params, test_bounds=None, form="trapezoid", initial="model"):
@@ -573,30 +598,10 @@ def gmc_basis(X1, b1, test_bounds=None, form="trapezoid", initial="model"):
     True
     """
     X1 = np.asarray(X1, dtype=float)
-    n = X1.shape[0]
-    U = np.column_stack([X1, np.ones(n)])
-    phi = np.empty_like(U)
-    for a, b in _as_test_bounds(test_bounds, n):
-        if b == a:
-            continue
-        if _explodes(b1, b - a):
-            phi[a:b] = np.inf
-            continue
-        F = U[a:b]
-        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-            x0 = gmc_initial(F[0], b1, initial)
-            decay = np.exp(-b1)
-            if form == "trapezoid":
-                p, _ = lfilter([1.0], [1.0, -decay], F, axis=0, zi=(x0 - 0.5 * F[0])[None, :])
-                x1_hat = p - 0.5 * F
-            else:
-                G = np.zeros_like(F)
-                G[1:] = (0.5 * np.sqrt(decay)) * (F[1:] + F[:-1])
-                x1_hat, _ = lfilter([1.0], [1.0, -decay], G, axis=0, zi=x0[None, :])
-            phi[a] = x1_hat[0]
-            np.subtract(x1_hat[1:], x1_hat[:-1], out=phi[a + 1 : b])
-    phi[~np.isfinite(phi)] = np.inf
-    return phi
+    U = np.column_stack([X1, np.ones(X1.shape[0])])
+    ranges = _as_test_bounds(test_bounds, U.shape[0])
+    x0 = gmc_initial(_first_rows(U, ranges), b1, initial)
+    return _gmc_tests(U, b1, x0, ranges, form)
 
 
 def gmc_separable(X1, y, b1, test_bounds=None, form="trapezoid", initial="model"):
@@ -702,10 +707,7 @@ def gnnmci_layers(X1, b1, coef, control, x0):
     X1 = np.asarray(X1, dtype=float)
     n = X1.shape[0]
     k = np.arange(1, n, dtype=float)
-    series = np.column_stack([X1, np.ones(n)])
-    G = np.column_stack(
-        [gmc_response(series[:, j], b1, 0.0, "midpoint")[1:] for j in range(series.shape[1])]
-    )
+    G = gmc_response(np.column_stack([X1, np.ones(n)]), b1, 0.0, "midpoint")[1:]
     w2 = np.concatenate([[-x0], np.asarray(coef, dtype=float), [control]])
     with np.errstate(over="ignore", invalid="ignore"):
         A = b1 * k
