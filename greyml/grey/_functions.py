@@ -16,11 +16,9 @@ from greyml.grey._kernels import (
     ago,
     gm1n_conditioning,
     gm1n_lstsq,
-    gmc_forcing,
-    gmc_initial,
-    gmc_response,
     iago,
 )
+from greyml.grey._response import gmc_forcing, gmc_initial, gmc_response
 
 __all__ = ["fit_gm1n", "simulate_gmc"]
 

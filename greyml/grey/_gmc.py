@@ -16,14 +16,8 @@ from greyml._rng import make_generator
 from greyml._sequences import segment_label
 from greyml._threads import blas_threads_for
 from greyml._validation import check_int_param, require_y, validate_sequences
-from greyml.grey._kernels import (
-    ago,
-    gmc_lstsq,
-    gmc_lstsq_fixed_b1,
-    gmc_predict,
-    gmc_separable,
-    gmc_sse_population,
-)
+from greyml.grey._kernels import ago, gmc_lstsq, gmc_lstsq_fixed_b1
+from greyml.grey._response import gmc_predict, gmc_separable, gmc_sse_population
 from greyml.optimize import CuckooSearch, ParticleSwarm, PopulationOptimizer
 from greyml.optimize._base import PENALTY, check_bounds
 
@@ -143,7 +137,7 @@ def _test_bounds_of(segments):
 
 class _GreyConvolutionModel(RegressorMixin, BaseEstimator):
     """fit/predict shared by GMC and GNNMCI: both calibrate the GMC(1,N) time
-    response (one implementation, :mod:`greyml.grey._kernels`); they differ in
+    response (one implementation, :mod:`greyml.grey._response`); they differ in
     their defaults and optimiser. Subclasses define ``_check_params``, which
     returns the population optimiser (or ``None`` for least squares)."""
 

@@ -7,7 +7,8 @@ from sklearn.utils.validation import check_is_fitted
 from greyml._sequences import segment_label
 from greyml._validation import check_int_param, check_real_param, validate_sequences
 from greyml.grey._gmc import _GreyConvolutionModel
-from greyml.grey._kernels import ago, gmc_forcing, gmc_initial, gnnmci_layers
+from greyml.grey._kernels import ago
+from greyml.grey._response import gmc_forcing, gmc_initial, gnnmci_layers
 from greyml.optimize import ParticleSwarm
 
 __all__ = ["GNNMCI"]
