@@ -15,7 +15,11 @@ x⁽¹⁾(k−1)) the background value, k = 2..n within each test.
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
+
+from greyml.grey._warnings import GreyConditioningWarning
 
 __all__ = [
     "ago",
@@ -206,18 +210,60 @@ def gm1n_conditioning(y, X, test_bounds=None, limit=CONDITION_LIMIT):
     (True, [[0, 2]])
     """
     B, _ = gm1n_design(y, X, test_bounds)
+    cond, groups = _conditioning(B, limit)
+    return cond, [[j - 1 for j in group] for group in groups]
+
+
+def _conditioning(B, limit):
+    """κ of ``B`` scaled to unit column norms, and the columns of ``B`` carrying
+    each near-null direction (all the zero columns if there are any)."""
     norms = np.sqrt(np.einsum("ij,ij->j", B, B))
     if not np.all(norms > 0):
-        dead = [int(j) - 1 for j in np.flatnonzero(~(norms > 0))]
-        return float("inf"), [dead]
+        return float("inf"), [[int(j) for j in np.flatnonzero(~(norms > 0))]]
     _, sv, vt = np.linalg.svd(B / norms, full_matrices=False)
     with np.errstate(divide="ignore"):
         cond = float(sv[0] / sv[-1])
     groups = []
     for k in np.flatnonzero(sv * limit < sv[0]):
         v = np.abs(vt[k])
-        groups.append([int(j) - 1 for j in np.flatnonzero(v >= 0.1 * v.max())])
+        groups.append([int(j) for j in np.flatnonzero(v >= 0.1 * v.max())])
     return cond, groups
+
+
+def _grey_lstsq(design, y, X, test_bounds, who, names, limit=np.inf, stacklevel=3):
+    """The checked least-squares fit of a grey equation, behind :func:`fit_gm1n`,
+    :class:`GMC`/:class:`GNNMCI` and :class:`GreyInfluenceSelector`.
+
+    ``design`` is :func:`gm1n_design` or :func:`gmc_design`. Returns θ (in the
+    design's column order) and the rank. If the system is rank deficient, or
+    its condition number after column scaling exceeds ``limit``, warns
+    :class:`GreyConditioningWarning` (starting with ``who``, naming from
+    ``names``, the columns of ``X``, those near-collinear); the minimum-norm
+    solution is returned.
+    """
+    B, Y = design(y, X, test_bounds)
+    theta, rank, sv = _scaled_lstsq(B, Y)
+    with np.errstate(divide="ignore"):
+        cond = float(sv[0] / sv[-1]) if sv.size else float("inf")
+    n_theta = B.shape[1]
+    if rank < n_theta or cond > limit:
+        _, groups = _conditioning(B, CONDITION_LIMIT)
+        labels = ["the target", *names, "the control u"]
+        cols = ", ".join(labels[j] for j in (groups or [[]])[0])
+        what = (
+            f"rank deficient (rank {rank} < {n_theta})"
+            if rank < n_theta
+            else f"ill-conditioned (condition number {cond:.1e} after column scaling)"
+        )
+        warnings.warn(
+            f"{who} least-squares system is {what}: "
+            f"{cols or 'some columns'} are (nearly) linear combinations of each other "
+            "after accumulation, so their coefficients are unreliable; the minimum-norm "
+            "solution is used. Drop or merge one of them.",
+            GreyConditioningWarning,
+            stacklevel=stacklevel,
+        )
+    return theta, rank
 
 
 def gmc_design(y, X, test_bounds=None):
