@@ -13,7 +13,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.signal import lfilter
 
-from greyml.grey._kernels import _as_test_bounds, iago
+from greyml.grey._kernels import _as_test_bounds, _scaled_lstsq, iago
 from greyml.optimize._base import PENALTY
 
 __all__ = [
@@ -367,10 +367,7 @@ def gmc_separable(X1, y, b1, test_bounds=None, form="trapezoid", initial="model"
         if not np.isfinite(phi).all() or np.abs(phi).max(initial=0.0) > 1e150:
             continue
         # column scaling keeps lstsq well conditioned whatever the drivers' units
-        norms = np.sqrt(np.einsum("ij,ij->j", phi, phi))
-        norms[norms == 0] = 1.0
-        coef, *_ = np.linalg.lstsq(phi / norms, y, rcond=None)
-        coef /= norms
+        coef, _, _ = _scaled_lstsq(phi, y)
         resid = phi @ coef - y
         value = float(resid @ resid)
         if np.isfinite(value) and np.abs(coef).max(initial=0.0) < 1e100 * scale:
