@@ -165,13 +165,23 @@ def _gmc_tests(F, b1, x0, ranges, form):
 
     ``inf`` for a whole test and column whose response explodes
     (:func:`_explodes`) or whose start is not finite, and wherever a value is
-    not finite.
+    not finite. A column skipped in every test is not run at all.
     """
+    x0 = np.broadcast_to(x0, (len(ranges), F.shape[1]))
+    skip = np.array(
+        [~np.isfinite(x0[i]) | _explodes(b1, b - a) for i, (a, b) in enumerate(ranges)]
+    ).reshape(x0.shape)
+    run = ~skip.all(axis=0)
+    if not run.all():  # only the columns that run in some test
+        out = np.full(F.shape, np.inf)
+        if run.any():
+            b1 = np.asarray(b1)[run] if np.ndim(b1) == 1 else b1
+            out[:, run] = _gmc_tests(F[:, run], b1, x0[:, run], ranges, form)
+        return out
     with np.errstate(over="ignore", invalid="ignore"):
         out = iago(gmc_response(F, b1, x0, form, ranges), ranges)
-    skip = ~np.isfinite(np.broadcast_to(x0, (len(ranges), F.shape[1])))
     for i, (a, b) in enumerate(ranges):
-        out[a:b, skip[i] | _explodes(b1, b - a)] = np.inf
+        out[a:b, skip[i]] = np.inf
     out[~np.isfinite(out)] = np.inf
     return out
 
