@@ -18,7 +18,7 @@ from greyml.grey import (
     gmc_sse_population,
     iago,
 )
-from greyml.grey._kernels import LARGE_LOSS
+from greyml.optimize import PENALTY
 
 
 def literal_trapezoid(f, b1, x0):
@@ -171,8 +171,8 @@ def test_exploding_trajectories_are_large_finite_losses():
         sse = gmc_sse_population(X1, y, params)
         sep, _ = gmc_separable(X1, y, params[:, 0])
     assert np.isfinite(sse).all() and np.isfinite(sep).all()
-    assert sse[0] == LARGE_LOSS and sse[1] == LARGE_LOSS
-    assert sse[3] < LARGE_LOSS
+    assert sse[0] == PENALTY and sse[1] == PENALTY
+    assert sse[3] < PENALTY
 
 
 def test_iago_first_value():

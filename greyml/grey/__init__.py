@@ -14,17 +14,19 @@ from greyml.grey._kernels import (
     background,
     gm1n_design,
     gm1n_lstsq,
-    gmc_basis,
     gmc_design,
     gmc_lstsq,
     gmc_lstsq_fixed_b1,
+    iago,
+)
+from greyml.grey._response import (
+    gmc_basis,
     gmc_predict,
     gmc_predict_population,
     gmc_response,
     gmc_separable,
     gmc_sse_population,
     gnnmci_layers,
-    iago,
 )
 
 __all__ = [

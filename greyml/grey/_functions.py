@@ -3,24 +3,14 @@
 from __future__ import annotations
 
 import numbers
-import warnings
 
 import numpy as np
 from sklearn.base import BaseEstimator
 
 from greyml._sequences import segment_label
 from greyml._validation import column_names, validate_sequences
-from greyml.grey._gmc import GreyConditioningWarning
-from greyml.grey._kernels import (
-    CONDITION_LIMIT,
-    ago,
-    gm1n_conditioning,
-    gm1n_lstsq,
-    gmc_forcing,
-    gmc_initial,
-    gmc_response,
-    iago,
-)
+from greyml.grey._kernels import CONDITION_LIMIT, _grey_lstsq, ago, gm1n_design, iago
+from greyml.grey._response import gmc_forcing, gmc_initial, gmc_response
 
 __all__ = ["fit_gm1n", "simulate_gmc"]
 
@@ -75,28 +65,12 @@ def fit_gm1n(X, y):
     Xa, ya, segments = validate_sequences(
         inputs, X, y, reset=True, min_samples_per_test=2, min_rows=lambda p: p + 1
     )
-    n_features = Xa.shape[1]
-    bounds = [(s.start, s.stop) for s in segments]
-    a, b, rank, sv = gm1n_lstsq(ya, Xa, bounds)
-    with np.errstate(divide="ignore"):
-        cond = float(sv[0] / sv[-1]) if sv.size else float("inf")
-    if rank < n_features + 1 or cond > CONDITION_LIMIT:
-        names = column_names(inputs, n_features)
-        _, groups = gm1n_conditioning(ya, Xa, bounds)
-        cols = ", ".join(names[j] if j >= 0 else "the target" for j in (groups or [[]])[0])
-        what = (
-            f"rank deficient (rank {rank} < {n_features + 1})"
-            if rank < n_features + 1
-            else f"ill-conditioned (condition number {cond:.1e} after column scaling)"
-        )
-        warnings.warn(
-            f"GM(1,N) least-squares system is {what}: "
-            f"{cols or 'some columns'} are (nearly) linear combinations of each other "
-            "after accumulation, so their coefficients are unreliable; the minimum-norm "
-            "solution is returned. Drop or merge one of them.",
-            GreyConditioningWarning,
-            stacklevel=2,
-        )
+    names = column_names(inputs, Xa.shape[1])
+    test_bounds = [(s.start, s.stop) for s in segments]
+    theta, _ = _grey_lstsq(
+        gm1n_design, ya, Xa, test_bounds, "GM(1,N)", names, limit=CONDITION_LIMIT
+    )
+    a, b = theta[0], theta[1:]
     return float(a), np.asarray(b, dtype=float)
 
 
@@ -150,13 +124,12 @@ def simulate_gmc(X, development, driving, control=0.0, *, form="trapezoid", init
             raise ValueError(f"simulate_gmc: {what} must be a finite number; got {value!r}.")
     if not np.isfinite(driving).all():
         raise ValueError(f"simulate_gmc: driving must be finite; got {driving.tolist()}.")
-    out = np.empty(Xa.shape[0])
-    X1 = ago(Xa, [(s.start, s.stop) for s in segments])
+    test_bounds = [(s.start, s.stop) for s in segments]
+    f = gmc_forcing(ago(Xa, test_bounds), driving, control)
+    x0 = gmc_initial(f[[s.start for s in segments]], development, initial)
+    with np.errstate(over="ignore", invalid="ignore"):
+        out = iago(gmc_response(f, float(development), x0, form, test_bounds), test_bounds)
     for seg in segments:
-        f = gmc_forcing(X1[seg.slice], driving, control)
-        x0 = float(gmc_initial(f[0], development, initial))
-        with np.errstate(over="ignore", invalid="ignore"):
-            out[seg.slice] = iago(gmc_response(f, float(development), x0, form))
         if not np.isfinite(out[seg.slice]).all():
             raise ValueError(
                 f"simulate_gmc: the response of {segment_label(seg)} overflows: with "

@@ -15,112 +15,18 @@ from sklearn.utils.validation import check_is_fitted
 from greyml._rng import make_generator
 from greyml._sequences import segment_label
 from greyml._threads import blas_threads_for
-from greyml._validation import check_int_param, require_y, validate_sequences
-from greyml.grey._kernels import (
-    LARGE_LOSS,
-    ago,
-    gmc_lstsq,
-    gmc_lstsq_fixed_b1,
-    gmc_predict,
-    gmc_separable,
-    gmc_sse_population,
+from greyml._validation import check_int_param, column_names, require_y, validate_sequences
+from greyml.grey._kernels import _grey_lstsq, ago, gmc_design, gmc_lstsq_fixed_b1
+from greyml.grey._response import gmc_predict, gmc_separable, gmc_sse_population
+from greyml.grey._warnings import (
+    GreyConditioningWarning,
+    GreyStabilityWarning,
+    GreyWarmStartWarning,
 )
 from greyml.optimize import CuckooSearch, ParticleSwarm, PopulationOptimizer
-from greyml.optimize._base import check_bounds
+from greyml.optimize._base import PENALTY, check_bounds
 
 __all__ = ["GMC", "GreyConditioningWarning", "GreyStabilityWarning", "GreyWarmStartWarning"]
-
-
-class GreyConditioningWarning(UserWarning):
-    """A grey model's least-squares system is rank deficient or ill-conditioned.
-
-    Examples
-    --------
-    Two identical sensors make the GM(1,N) system rank deficient; the fit
-    warns and returns the minimum-norm solution, which splits the influence
-    equally:
-
-    >>> import warnings
-    >>> import numpy as np
-    >>> from greyml.grey import GreyConditioningWarning, fit_gm1n
-    >>> x = np.array([1.0, 1.2, 1.5, 1.9, 2.2])
-    >>> y = np.array([0.5, 0.9, 1.4, 1.6, 2.1])
-    >>> with warnings.catch_warnings(record=True) as caught:
-    ...     warnings.simplefilter("always")
-    ...     a, b = fit_gm1n(np.column_stack([x, x]), y)
-    >>> [w.category.__name__ for w in caught]
-    ['GreyConditioningWarning']
-    >>> bool(np.isclose(b[0], b[1]))
-    True
-    """
-
-
-class GreyStabilityWarning(UserWarning):
-    """A calibrated grey model is unstable: its development coefficient b₁ < 0.
-
-    Its response grows like e^{−b₁k} instead of settling, so it can fit the
-    training tests and still predict absurd values on a longer test. The
-    warning says by how much the response grows over the longest training
-    test. The default ``bounds="stable"`` (any solver, least squares too)
-    keeps b₁ ≥ 0; it happens with ``bounds="papers"`` or a box of your own.
-
-    Examples
-    --------
-    A displacement that grows faster and faster with a steady driver can only
-    be fitted with b₁ < 0:
-
-    >>> import warnings
-    >>> import numpy as np
-    >>> from greyml.grey import GMC, GreyStabilityWarning
-    >>> X = np.linspace(1.0, 2.0, 40)[:, None]
-    >>> y = np.exp(0.05 * np.arange(40))
-    >>> with warnings.catch_warnings(record=True) as caught:
-    ...     warnings.simplefilter("always")
-    ...     model = GMC(bounds="papers").fit(X, y)
-    >>> [w.category.__name__ for w in caught]
-    ['GreyStabilityWarning']
-    >>> bool(model.development_coef_ < 0)
-    True
-    """
-
-
-class GreyWarmStartWarning(UserWarning):
-    """A grey model predicts a test that does not start where the training tests did.
-
-    A grey model predicts the change since each test's first row, where its
-    inputs start accumulating. Without the measured displacement there
-    (``predict(X, initial_displacement=...)``) it starts from its own value
-    for a machine as the training tests started, which is wrong for a test
-    that starts mid-run; such a test's inputs often start away from the
-    training tests' first values, and then this warning names the test and
-    the column.
-
-    Examples
-    --------
-    Trained on tests that start at 20 °C, applied to one that starts at 30 °C:
-
-    >>> import warnings
-    >>> import numpy as np
-    >>> import pandas as pd
-    >>> from greyml import GMC, make_test_index
-    >>> from greyml.grey import GreyWarmStartWarning
-    >>> t = np.arange(40.0)
-    >>> rise = 5 * (1 - np.exp(-t / 10))
-    >>> index = make_test_index(["I"] * 40 + ["II"] * 40, np.r_[t, t])
-    >>> X = pd.DataFrame({"T1_C": np.r_[20 + rise, 20.5 + rise]}, index=index)
-    >>> y = 2 * (X["T1_C"] - 20)
-    >>> model = GMC().fit(X, y)
-    >>> hot = pd.DataFrame({"T1_C": 30 + rise}, index=make_test_index(["III"] * 40, t))
-    >>> with warnings.catch_warnings(record=True) as caught:
-    ...     warnings.simplefilter("always")
-    ...     _ = model.predict(hot)
-    >>> [w.category.__name__ for w in caught]
-    ['GreyWarmStartWarning']
-    >>> "test 'III'" in str(caught[0].message)
-    True
-    >>> model.predict(hot, initial_displacement={"III": 20.0})[0]
-    np.float64(20.0)
-    """
 
 
 _SOLVERS = ("ls", "pso", "cs")
@@ -138,13 +44,13 @@ PAPERS_BOUNDS = (-100.0, 100.0)
 BOUNDS_NAMES = ("stable", "papers")
 
 
-def _bounds_list(segments):
+def _test_bounds_of(segments):
     return [(s.start, s.stop) for s in segments]
 
 
 class _GreyConvolutionModel(RegressorMixin, BaseEstimator):
     """fit/predict shared by GMC and GNNMCI: both calibrate the GMC(1,N) time
-    response (one implementation, :mod:`greyml.grey._kernels`); they differ in
+    response (one implementation, :mod:`greyml.grey._response`); they differ in
     their defaults and optimiser. Subclasses define ``_check_params``, which
     returns the population optimiser (or ``None`` for least squares)."""
 
@@ -175,7 +81,7 @@ class _GreyConvolutionModel(RegressorMixin, BaseEstimator):
             n_params_msg=lambda p: f"{p + 2} coefficients (b1, one b per column, u)",
             reject_constant=True,
         )
-        bounds = _bounds_list(segments)
+        test_bounds = _test_bounds_of(segments)
         self.n_tests_ = len(segments)
         firsts = Xa[[seg.start for seg in segments]]
         self.start_range_ = np.vstack([firsts.min(axis=0), firsts.max(axis=0)])
@@ -183,22 +89,16 @@ class _GreyConvolutionModel(RegressorMixin, BaseEstimator):
             np.ptp(firsts, axis=0), START_TOLERANCE * np.ptp(Xa, axis=0)
         )
         with blas_threads_for(Xa.size * (Xa.shape[1] + 2)):
-            return self._calibrate(Xa, ya, bounds, optimizer)
+            return self._calibrate(Xa, ya, test_bounds, optimizer)
 
-    def _calibrate(self, Xa, ya, bounds, optimizer):
+    def _calibrate(self, Xa, ya, test_bounds, optimizer):
 
-        b1, b, u, rank, sv = gmc_lstsq(ya, Xa, bounds)
         n_theta = Xa.shape[1] + 2
-        if rank < n_theta:
-            warnings.warn(
-                f"{type(self).__name__} least-squares system is rank deficient (rank {rank} < "
-                f"{n_theta} coefficients): some drivers are linear combinations of "
-                "others; the minimum-norm solution is used.",
-                GreyConditioningWarning,
-                stacklevel=2,
-            )
-        theta_ls = np.concatenate([[b1], b, [u]])
-        X1 = ago(Xa, bounds)
+        theta_ls, _ = _grey_lstsq(
+            gmc_design, ya, Xa, test_bounds, type(self).__name__, column_names(self, n_theta - 2)
+        )
+        b1 = theta_ls[0]
+        X1 = ago(Xa, test_bounds)
 
         if optimizer is None:
             # b1 kept in its range (bounds' first entry): outside it, the least
@@ -208,7 +108,7 @@ class _GreyConvolutionModel(RegressorMixin, BaseEstimator):
             ls_b1 = float(b1)
             if not lower[0] <= b1 <= upper[0]:
                 edge = float(np.clip(b1, lower[0], upper[0]))
-                b, u = gmc_lstsq_fixed_b1(ya, Xa, edge, bounds)
+                b, u = gmc_lstsq_fixed_b1(ya, Xa, edge, test_bounds)
                 theta = np.concatenate([[edge], b, [u]])
             self.optimizer_result_ = None
             self.n_iter_ = 1
@@ -217,7 +117,7 @@ class _GreyConvolutionModel(RegressorMixin, BaseEstimator):
             rng = make_generator(self.random_state)
             x0 = theta_ls[None, :] if self.warm_start_ls and np.isfinite(theta_ls).all() else None
             result = optimizer.minimize(
-                _GMCObjective(X1, ya, bounds, self.response, self.initial),
+                _GMCObjective(X1, ya, test_bounds, self.response, self.initial),
                 (lower, upper),
                 rng,
                 x0=x0,
@@ -237,12 +137,12 @@ class _GreyConvolutionModel(RegressorMixin, BaseEstimator):
                 if self.warm_start_ls and np.isfinite(b1)
                 else None
             )
-            objective = _GMCSeparableObjective(X1, ya, bounds, self.response, self.initial)
+            objective = _GMCSeparableObjective(X1, ya, test_bounds, self.response, self.initial)
             result = optimizer.minimize(objective, (lower, upper), rng, x0=x0)
             if self.polish:
                 _polish(objective, result, lower[0], upper[0])
             result.x = np.sinh(result.x)
-            _, lin = gmc_separable(X1, ya, result.x, bounds, self.response, self.initial)
+            _, lin = gmc_separable(X1, ya, result.x, test_bounds, self.response, self.initial)
             theta = np.concatenate([result.x, lin[0]])
             self.optimizer_result_ = result
             self.n_iter_ = result.nit
@@ -251,7 +151,7 @@ class _GreyConvolutionModel(RegressorMixin, BaseEstimator):
         self.driving_coef_ = np.asarray(theta[1:-1], dtype=float)
         self.control_ = float(theta[-1])
         if self.development_coef_ < 0:
-            n_max = max(stop - start for start, stop in bounds)
+            n_max = max(stop - start for start, stop in test_bounds)
             growth = -self.development_coef_ * n_max
             factor = f"{np.exp(growth):,.3g}" if growth < 700 else f"e^{growth:,.0f}"
             warnings.warn(
@@ -264,9 +164,9 @@ class _GreyConvolutionModel(RegressorMixin, BaseEstimator):
                 stacklevel=3,
             )
         self.loss_ = float(
-            gmc_sse_population(X1, ya, theta[None, :], bounds, self.response, self.initial)[0]
+            gmc_sse_population(X1, ya, theta[None, :], test_bounds, self.response, self.initial)[0]
         )
-        if self.loss_ >= LARGE_LOSS and optimizer is None:
+        if self.loss_ >= PENALTY and optimizer is None:
             where = (
                 "inside bounds"
                 if theta[0] == ls_b1
@@ -278,7 +178,7 @@ class _GreyConvolutionModel(RegressorMixin, BaseEstimator):
                 f"grows like exp({-theta[0]:g}·k) and overflows on the training tests. Use "
                 "bounds='stable' (b1 >= 0) or solver='pso'."
             )
-        if self.loss_ >= LARGE_LOSS:
+        if self.loss_ >= PENALTY:
             raise ValueError(
                 f"{type(self).__name__} calibration failed: every candidate trajectory diverged on "
                 "the training tests. Check the drivers' scale or narrow `bounds`."
@@ -314,15 +214,15 @@ class _GreyConvolutionModel(RegressorMixin, BaseEstimator):
         """
         check_is_fitted(self)
         Xa, _, segments = validate_sequences(self, X, reset=False, min_samples_per_test=1)
-        bounds = _bounds_list(segments)
+        test_bounds = _test_bounds_of(segments)
         start = _initial_values(self, initial_displacement, segments)
         self._check_cold_starts(Xa, segments, start)
         pred = gmc_predict(
-            ago(Xa, bounds),
+            ago(Xa, test_bounds),
             self.development_coef_,
             self.driving_coef_,
             self.control_,
-            bounds,
+            test_bounds,
             self.response,
             self.initial,
             start=start,
@@ -659,15 +559,17 @@ def _polish(objective, result, lower, upper):
 class _GMCObjective:
     """Picklable population objective: Σ(x̂₁⁽⁰⁾ − x₁⁽⁰⁾)² per candidate."""
 
-    def __init__(self, X1, y, bounds, form, initial):
+    def __init__(self, X1, y, test_bounds, form, initial):
         self.X1 = X1
         self.y = y
-        self.bounds = bounds
+        self.test_bounds = test_bounds
         self.form = form
         self.initial = initial
 
     def __call__(self, params):
-        return gmc_sse_population(self.X1, self.y, params, self.bounds, self.form, self.initial)
+        return gmc_sse_population(
+            self.X1, self.y, params, self.test_bounds, self.form, self.initial
+        )
 
 
 class _GMCSeparableObjective(_GMCObjective):
@@ -678,6 +580,6 @@ class _GMCSeparableObjective(_GMCObjective):
 
     def __call__(self, params):
         sse, _ = gmc_separable(
-            self.X1, self.y, np.sinh(params[:, 0]), self.bounds, self.form, self.initial
+            self.X1, self.y, np.sinh(params[:, 0]), self.test_bounds, self.form, self.initial
         )
         return sse

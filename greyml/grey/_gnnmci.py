@@ -2,13 +2,13 @@
 
 from __future__ import annotations
 
-import numpy as np
 from sklearn.utils.validation import check_is_fitted
 
 from greyml._sequences import segment_label
 from greyml._validation import check_int_param, check_real_param, validate_sequences
 from greyml.grey._gmc import _GreyConvolutionModel
-from greyml.grey._kernels import ago, gmc_forcing, gmc_initial, gnnmci_layers
+from greyml.grey._kernels import ago
+from greyml.grey._response import gmc_forcing, gmc_initial, gnnmci_layers
 from greyml.optimize import ParticleSwarm
 
 __all__ = ["GNNMCI"]
@@ -175,13 +175,17 @@ class GNNMCI(_GreyConvolutionModel):
         """
         check_is_fitted(self)
         Xa, _, segments = validate_sequences(self, X, reset=False, min_samples_per_test=1)
+        X1 = ago(Xa, [(seg.start, seg.stop) for seg in segments])
+        f = gmc_forcing(X1, self.driving_coef_, self.control_)
+        x0 = gmc_initial(f[[seg.start for seg in segments]], self.development_coef_, self.initial)
         out = []
-        for seg in segments:
-            X1 = ago(Xa[seg.slice])
-            f = gmc_forcing(X1, self.driving_coef_, self.control_)
-            x0 = float(gmc_initial(f[0], self.development_coef_, self.initial))
+        for seg, start in zip(segments, x0):
             layers = gnnmci_layers(
-                X1, self.development_coef_, self.driving_coef_, self.control_, x0
+                X1[seg.slice],
+                self.development_coef_,
+                self.driving_coef_,
+                self.control_,
+                float(start),
             )
             layers["test"] = seg.label if seg.label is not None else segment_label(seg)
             out.append(layers)

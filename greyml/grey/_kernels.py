@@ -1,7 +1,11 @@
 """Numerical kernels of the grey models: pure functions, arrays in, arrays out.
 
+This module holds the grey equation (1-AGO, IAGO, background values and the
+GM(1,N) and GMC(1,N) least-squares systems); :mod:`greyml.grey._response`
+holds the GMC(1,N) time response built on it.
+
 No validation and no estimator state here; the estimators validate and then call
-these. Every function that walks along time takes ``bounds``, a sequence of
+these. Every function that walks along time takes ``test_bounds``, a sequence of
 ``(start, stop)`` row ranges, one per test, and never lets a sum, a difference or
 a recursion cross from one range to the next.
 
@@ -11,8 +15,11 @@ x⁽¹⁾(k−1)) the background value, k = 2..n within each test.
 
 from __future__ import annotations
 
+import warnings
+
 import numpy as np
-from scipy.signal import lfilter
+
+from greyml.grey._warnings import GreyConditioningWarning
 
 __all__ = [
     "ago",
@@ -25,40 +32,21 @@ __all__ = [
     "gmc_design",
     "gmc_lstsq",
     "gmc_lstsq_fixed_b1",
-    "gmc_forcing",
-    "gmc_initial",
-    "gmc_response",
-    "gmc_predict",
-    "gmc_predict_population",
-    "gmc_sse_population",
-    "gmc_basis",
-    "gmc_separable",
-    "gnnmci_layers",
-    "LARGE_LOSS",
 ]
-
-#: Loss given to a parameter set whose trajectory overflows or is not finite.
-#: Large enough to lose against any usable candidate, small enough that sums of a
-#: few of them stay finite.
-LARGE_LOSS = 1e200
 
 #: Condition number (of the column-scaled design) above which a least-squares
 #: system is called ill-conditioned: 1/√eps ≈ 6.7e7, where the solution has
 #: lost half of its significant digits to rounding.
 CONDITION_LIMIT = 1.0 / np.sqrt(np.finfo(float).eps)
 
-# Largest exponent we let a growing response reach before calling it exploded
-# (e^600 ~ 1e260 leaves room for the data's own magnitude below float max).
-_MAX_EXPONENT = 600.0
 
-
-def _as_bounds(bounds, n):
-    if bounds is None:
+def _as_test_bounds(test_bounds, n):
+    if test_bounds is None:
         return [(0, n)]
-    return [(int(a), int(b)) for a, b in bounds]
+    return [(int(a), int(b)) for a, b in test_bounds]
 
 
-def ago(x, bounds=None):
+def ago(x, test_bounds=None):
     """1-AGO: cumulative sum along axis 0, restarted at every test start.
 
     Examples
@@ -69,17 +57,17 @@ def ago(x, bounds=None):
 
     Two tests of two rows each: the sum starts again at row 2.
 
-    >>> ago([1, 2, 3, 4], bounds=[(0, 2), (2, 4)]).tolist()
+    >>> ago([1, 2, 3, 4], test_bounds=[(0, 2), (2, 4)]).tolist()
     [1.0, 3.0, 3.0, 7.0]
     """
     x = np.asarray(x, dtype=float)
     out = np.empty_like(x)
-    for a, b in _as_bounds(bounds, x.shape[0]):
+    for a, b in _as_test_bounds(test_bounds, x.shape[0]):
         np.cumsum(x[a:b], axis=0, out=out[a:b])
     return out
 
 
-def iago(x1, bounds=None):
+def iago(x1, test_bounds=None):
     """Inverse AGO: first difference within each test, x⁽⁰⁾(1) = x⁽¹⁾(1).
 
     Examples
@@ -90,20 +78,20 @@ def iago(x1, bounds=None):
 
     It undoes :func:`ago` test by test:
 
-    >>> bounds = [(0, 2), (2, 4)]
-    >>> iago(ago([1, 2, 3, 4], bounds), bounds).tolist()
+    >>> test_bounds = [(0, 2), (2, 4)]
+    >>> iago(ago([1, 2, 3, 4], test_bounds), test_bounds).tolist()
     [1.0, 2.0, 3.0, 4.0]
     """
     x1 = np.asarray(x1, dtype=float)
     out = np.empty_like(x1)
-    for a, b in _as_bounds(bounds, x1.shape[0]):
+    for a, b in _as_test_bounds(test_bounds, x1.shape[0]):
         if b > a:
             out[a] = x1[a]
             np.subtract(x1[a + 1 : b], x1[a : b - 1], out=out[a + 1 : b])
     return out
 
 
-def background(x1, bounds=None):
+def background(x1, test_bounds=None):
     """Background values z⁽¹⁾(k) = ½(x⁽¹⁾(k) + x⁽¹⁾(k−1)) for k = 2..n of each test.
 
     Returns the rows k = 2..n of every test stacked (``n − n_tests`` rows).
@@ -116,20 +104,22 @@ def background(x1, bounds=None):
 
     A test of n rows gives n − 1 values:
 
-    >>> background([1, 3, 6, 10], bounds=[(0, 2), (2, 4)]).tolist()
+    >>> background([1, 3, 6, 10], test_bounds=[(0, 2), (2, 4)]).tolist()
     [2.0, 8.0]
     """
     x1 = np.asarray(x1, dtype=float)
-    parts = [0.5 * (x1[a + 1 : b] + x1[a : b - 1]) for a, b in _as_bounds(bounds, len(x1))]
+    parts = [
+        0.5 * (x1[a + 1 : b] + x1[a : b - 1]) for a, b in _as_test_bounds(test_bounds, len(x1))
+    ]
     return np.concatenate(parts, axis=0)
 
 
-def _later_rows(x, bounds):
+def _later_rows(x, test_bounds):
     """Rows k = 2..n of every test stacked."""
-    return np.concatenate([x[a + 1 : b] for a, b in _as_bounds(bounds, len(x))], axis=0)
+    return np.concatenate([x[a + 1 : b] for a, b in _as_test_bounds(test_bounds, len(x))], axis=0)
 
 
-def gm1n_design(y, X, bounds=None):
+def gm1n_design(y, X, test_bounds=None):
     """GM(1,N) least-squares system ``B θ ≈ Y`` for θ = (a, b₂…b_N).
 
     B = [−z₁⁽¹⁾(k), x₂⁽¹⁾(k), …, x_N⁽¹⁾(k)], Y = x₁⁽⁰⁾(k), k = 2..n per test.
@@ -146,10 +136,10 @@ def gm1n_design(y, X, bounds=None):
     """
     y = np.asarray(y, dtype=float)
     X = np.asarray(X, dtype=float)
-    y1 = ago(y, bounds)
-    X1 = ago(X, bounds)
-    B = np.column_stack([-background(y1, bounds), _later_rows(X1, bounds)])
-    return B, _later_rows(y, bounds)
+    y1 = ago(y, test_bounds)
+    X1 = ago(X, test_bounds)
+    B = np.column_stack([-background(y1, test_bounds), _later_rows(X1, test_bounds)])
+    return B, _later_rows(y, test_bounds)
 
 
 def _scaled_lstsq(B, Y):
@@ -166,7 +156,7 @@ def _scaled_lstsq(B, Y):
     return theta / norms, rank, sv
 
 
-def gm1n_lstsq(y, X, bounds=None):
+def gm1n_lstsq(y, X, test_bounds=None):
     """Least-squares GM(1,N) coefficients.
 
     Returns ``(a, b, rank, singular_values)`` with ``a`` the development
@@ -183,12 +173,12 @@ def gm1n_lstsq(y, X, bounds=None):
     >>> round(float(a), 6), np.round(b, 6).tolist(), int(rank)
     (-0.5, [0.5], 2)
     """
-    B, Y = gm1n_design(y, X, bounds)
+    B, Y = gm1n_design(y, X, test_bounds)
     theta, rank, sv = _scaled_lstsq(B, Y)
     return theta[0], theta[1:], rank, sv
 
 
-def gm1n_conditioning(y, X, bounds=None, limit=CONDITION_LIMIT):
+def gm1n_conditioning(y, X, test_bounds=None, limit=CONDITION_LIMIT):
     """Condition number of the GM(1,N) system and the columns of ``X`` that are
     near-collinear after accumulation.
 
@@ -219,22 +209,64 @@ def gm1n_conditioning(y, X, bounds=None, limit=CONDITION_LIMIT):
     >>> bool(cond > 1e12), groups
     (True, [[0, 2]])
     """
-    B, _ = gm1n_design(y, X, bounds)
+    B, _ = gm1n_design(y, X, test_bounds)
+    cond, groups = _conditioning(B, limit)
+    return cond, [[j - 1 for j in group] for group in groups]
+
+
+def _conditioning(B, limit):
+    """κ of ``B`` scaled to unit column norms, and the columns of ``B`` carrying
+    each near-null direction (all the zero columns if there are any)."""
     norms = np.sqrt(np.einsum("ij,ij->j", B, B))
     if not np.all(norms > 0):
-        dead = [int(j) - 1 for j in np.flatnonzero(~(norms > 0))]
-        return float("inf"), [dead]
+        return float("inf"), [[int(j) for j in np.flatnonzero(~(norms > 0))]]
     _, sv, vt = np.linalg.svd(B / norms, full_matrices=False)
     with np.errstate(divide="ignore"):
         cond = float(sv[0] / sv[-1])
     groups = []
     for k in np.flatnonzero(sv * limit < sv[0]):
         v = np.abs(vt[k])
-        groups.append([int(j) - 1 for j in np.flatnonzero(v >= 0.1 * v.max())])
+        groups.append([int(j) for j in np.flatnonzero(v >= 0.1 * v.max())])
     return cond, groups
 
 
-def gmc_design(y, X, bounds=None):
+def _grey_lstsq(design, y, X, test_bounds, who, names, limit=np.inf, stacklevel=3):
+    """The checked least-squares fit of a grey equation, behind :func:`fit_gm1n`,
+    :class:`GMC`/:class:`GNNMCI` and :class:`GreyInfluenceSelector`.
+
+    ``design`` is :func:`gm1n_design` or :func:`gmc_design`. Returns θ (in the
+    design's column order) and the rank. If the system is rank deficient, or
+    its condition number after column scaling exceeds ``limit``, warns
+    :class:`GreyConditioningWarning` (starting with ``who``, naming from
+    ``names``, the columns of ``X``, those near-collinear); the minimum-norm
+    solution is returned.
+    """
+    B, Y = design(y, X, test_bounds)
+    theta, rank, sv = _scaled_lstsq(B, Y)
+    with np.errstate(divide="ignore"):
+        cond = float(sv[0] / sv[-1]) if sv.size else float("inf")
+    n_theta = B.shape[1]
+    if rank < n_theta or cond > limit:
+        _, groups = _conditioning(B, CONDITION_LIMIT)
+        labels = ["the target", *names, "the control u"]
+        cols = ", ".join(labels[j] for j in (groups or [[]])[0])
+        what = (
+            f"rank deficient (rank {rank} < {n_theta})"
+            if rank < n_theta
+            else f"ill-conditioned (condition number {cond:.1e} after column scaling)"
+        )
+        warnings.warn(
+            f"{who} least-squares system is {what}: "
+            f"{cols or 'some columns'} are (nearly) linear combinations of each other "
+            "after accumulation, so their coefficients are unreliable; the minimum-norm "
+            "solution is used. Drop or merge one of them.",
+            GreyConditioningWarning,
+            stacklevel=stacklevel,
+        )
+    return theta, rank
+
+
+def gmc_design(y, X, test_bounds=None):
     """GMC(1,N) least-squares system for θ = (b₁, b₂…b_N, u).
 
     x₁⁽⁰⁾(k) + b₁z₁⁽¹⁾(k) = Σⱼ bⱼ zⱼ⁽¹⁾(k) + u, k = 2..n per test, so
@@ -252,13 +284,13 @@ def gmc_design(y, X, bounds=None):
     """
     y = np.asarray(y, dtype=float)
     X = np.asarray(X, dtype=float)
-    z1 = background(ago(y, bounds), bounds)
-    zX = background(ago(X, bounds), bounds)
+    z1 = background(ago(y, test_bounds), test_bounds)
+    zX = background(ago(X, test_bounds), test_bounds)
     B = np.column_stack([-z1, zX, np.ones(len(z1))])
-    return B, _later_rows(y, bounds)
+    return B, _later_rows(y, test_bounds)
 
 
-def gmc_lstsq(y, X, bounds=None):
+def gmc_lstsq(y, X, test_bounds=None):
     """GMC(1,N) by least squares. Returns ``(b1, b, u, rank, singular_values)``.
 
     Examples
@@ -278,12 +310,12 @@ def gmc_lstsq(y, X, bounds=None):
     >>> np.round([b1, *b, u], 6).tolist(), int(rank)
     ([0.4, 0.5, 0.1], 3)
     """
-    B, Y = gmc_design(y, X, bounds)
+    B, Y = gmc_design(y, X, test_bounds)
     theta, rank, sv = _scaled_lstsq(B, Y)
     return theta[0], theta[1:-1], theta[-1], rank, sv
 
 
-def gmc_lstsq_fixed_b1(y, X, b1, bounds=None):
+def gmc_lstsq_fixed_b1(y, X, b1, test_bounds=None):
     """GMC(1,N) least squares with b₁ held at ``b1``: returns ``(b, u)``.
 
     The sum of squares is a convex quadratic, so when the free optimum's b₁
@@ -306,414 +338,6 @@ def gmc_lstsq_fixed_b1(y, X, b1, bounds=None):
     >>> np.round([*b, u], 6).tolist()
     [0.5, 0.1]
     """
-    B, Y = gmc_design(y, X, bounds)
+    B, Y = gmc_design(y, X, test_bounds)
     theta, _, _ = _scaled_lstsq(B[:, 1:], Y - b1 * B[:, 0])
     return theta[:-1], theta[-1]
-
-
-def gmc_forcing(X1, coef, control):
-    """f(k) = Σⱼ bⱼ xⱼ⁽¹⁾(k) + u.
-
-    ``coef`` of shape ``(N-1,)`` gives ``(n,)``; of shape ``(P, N-1)`` with
-    ``control`` of shape ``(P,)`` gives ``(n, P)``, one column per candidate.
-    """
-    return X1 @ np.asarray(coef, dtype=float).T + control
-
-
-def gmc_initial(f1, b1, initial):
-    """The response's starting value x̂₁⁽¹⁾(1) = x̂₁⁽⁰⁾(1).
-
-    ``"model"``: the grey equation at k = 1, where z₁⁽¹⁾(1) = x₁⁽¹⁾(1), gives
-    x₁⁽⁰⁾(1)(1 + b₁) = f(1); ``"zero"``: the displacement is referenced to the
-    start of the test (a probe datum), so x₁⁽⁰⁾(1) = 0.
-    """
-    f1 = np.asarray(f1, dtype=float)
-    if initial == "zero":
-        return np.zeros_like(f1)
-    denom = 1.0 + np.asarray(b1, dtype=float)
-    with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-        return np.where(np.abs(denom) > 1e-12, f1 / np.where(denom == 0, 1.0, denom), np.inf)
-
-
-def gmc_response(f, b1, x0, form="trapezoid"):
-    """GMC(1,N) time response x̂₁⁽¹⁾(k) of one test, in O(n).
-
-    Parameters
-    ----------
-    f : ndarray of shape (n,)
-        Forcing f(k) = Σⱼ bⱼ xⱼ⁽¹⁾(k) + u.
-    b1 : float
-        Development coefficient.
-    x0 : float
-        Starting value x̂₁⁽¹⁾(1).
-    form : {"trapezoid", "midpoint"}
-        ``"trapezoid"`` (Tien 2012, Abdulshahed et al. (2017))::
-
-            x̂(k) = x0·e^{−b₁(k−1)} + ½e^{−b₁(k−1)}f(1) + Σ_{τ=2}^{k−1} e^{−b₁(k−τ)}f(τ) + ½f(k)
-
-        ``"midpoint"`` (Abdulshahed et al. (2016))::
-
-            x̂(k) = x0·e^{−b₁(k−1)} + Σ_{τ=2}^{k} ½e^{−b₁(k−τ+½)}[f(τ) + f(τ−1)]
-
-    Returns
-    -------
-    x1_hat : ndarray of shape (n,)
-        May contain ``inf`` if the response explodes (b₁ ≪ 0); callers decide.
-
-    Notes
-    -----
-    With a = e^{−b₁}, the trapezoid sum obeys P(k) = a·P(k−1) + f(k),
-    P(1) = x0 + ½f(1), and x̂(k) = P(k) − ½f(k); the midpoint sum obeys
-    M(k) = a·M(k−1) + ½√a·(f(k) + f(k−1)), M(1) = x0. Both are first-order linear
-    filters, run by :func:`scipy.signal.lfilter` in compiled code.
-
-    Examples
-    --------
-    With b₁ = ln 2 (a = ½), a constant forcing f = 1 and x0 = 1, the
-    trapezoid form gives x̂(2) = ½·1 + ½·½·1 + ½·1 = 1.25, and so on:
-
-    >>> import numpy as np
-    >>> from greyml.grey import gmc_response
-    >>> np.round(gmc_response([1.0, 1.0, 1.0], np.log(2), 1.0), 6).tolist()
-    [1.0, 1.25, 1.375]
-
-    Without development (b₁ = 0) the forcing simply accumulates:
-
-    >>> np.round(gmc_response([1.0, 1.0, 1.0], 0.0, 1.0), 6).tolist()
-    [1.0, 2.0, 3.0]
-    """
-    f = np.asarray(f, dtype=float)
-    n = f.shape[0]
-    if n == 0:
-        return f.copy()
-    with np.errstate(over="ignore", invalid="ignore"):
-        a = np.exp(-b1)
-        if form == "trapezoid":
-            p, _ = lfilter([1.0], [1.0, -a], f, zi=[x0 - 0.5 * f[0]])
-            return p - 0.5 * f
-        if form == "midpoint":
-            g = np.empty(n)
-            g[0] = 0.0
-            g[1:] = (0.5 * np.sqrt(a)) * (f[1:] + f[:-1])
-            m, _ = lfilter([1.0], [1.0, -a], g, zi=[x0])
-            return m
-    raise ValueError(f"Unknown response form {form!r}; use 'trapezoid' or 'midpoint'.")
-
-
-def _explodes(b1, n):
-    """True where e^{−b₁(n−1)} would overflow: the trajectory is unusable."""
-    return (-np.asarray(b1, dtype=float)) * max(n - 1, 0) > _MAX_EXPONENT
-
-
-def gmc_predict(
-    X1, b1, coef, control, bounds=None, form="trapezoid", initial="model", start=None
-):
-    """Predicted x̂₁⁽⁰⁾ of every test (IAGO of the time response), shape ``(n,)``.
-
-    ``X1`` holds the 1-AGO of the drivers (per test). Values of an exploding
-    trajectory come back as ``inf`` (never NaN); callers decide what to do.
-    ``start`` (one value per test, or ``None``) gives a test's measured value
-    at its first row, x₁⁽⁰⁾(1), for a test that starts mid-run. It is the
-    response's starting value x̂₁⁽¹⁾(1), and the inputs accumulated before
-    the test, which its own 1-AGO does not see, add a constant c to its
-    forcing: the one for which the grey equation holds at k = 1,
-    x₁⁽⁰⁾(1)(1 + b₁) = f(1) + c. The prediction then relaxes from the
-    measured value at the model's own rate b₁; with b₁ = 0 it is the measured
-    value plus the change the model predicts since the first row. (The
-    starting value alone would only add a transient that decays like
-    e^{−b₁k}: with a small b₁ the prediction would fall back to the cold
-    start's level from the second row on.) Where ``start`` is ``None`` or
-    NaN, the response starts as ``initial`` says (:func:`gmc_initial`).
-
-    Examples
-    --------
-    One driver, b₁ = 0.4, b₂ = 0.5, u = 0.1. The first value is the grey
-    equation at k = 1: f(1)/(1 + b₁) = (0.5·1 + 0.1)/1.4 = 0.428571.
-
-    >>> import numpy as np
-    >>> from greyml.grey import ago, gmc_predict
-    >>> X1 = ago(np.array([[1.0], [2.0], [1.0], [3.0]]))
-    >>> np.round(gmc_predict(X1, 0.4, [0.5], 0.1), 6).tolist()
-    [0.428571, 0.859805, 1.161504, 1.69616]
-
-    Split into two tests, each starts afresh from its own first value:
-
-    >>> bounds = [(0, 2), (2, 4)]
-    >>> X1 = ago(np.array([[1.0], [2.0], [1.0], [3.0]]), bounds)
-    >>> np.round(gmc_predict(X1, 0.4, [0.5], 0.1, bounds), 6).tolist()
-    [0.428571, 0.859805, 0.428571, 1.109805]
-
-    The second test starting mid-run, from a measured 5.0; it relaxes at the
-    rate b₁ = 0.4. With b₁ = 0 it keeps 5.0 plus the change the model
-    predicts from its first row (1.35 − 0.6):
-
-    >>> np.round(gmc_predict(X1, 0.4, [0.5], 0.1, bounds, start=[np.nan, 5.0]), 6).tolist()
-    [0.428571, 0.859805, 5.0, 4.94772]
-    >>> np.round(gmc_predict(X1, 0.0, [0.5], 0.1, bounds), 6).tolist()
-    [0.6, 1.1, 0.6, 1.35]
-    >>> np.round(gmc_predict(X1, 0.0, [0.5], 0.1, bounds, start=[np.nan, 5.0]), 6).tolist()
-    [0.6, 1.1, 5.0, 5.75]
-    """
-    X1 = np.asarray(X1, dtype=float)
-    out = np.empty(X1.shape[0])
-    for i, (a, b) in enumerate(_as_bounds(bounds, X1.shape[0])):
-        if b == a:
-            continue
-        if _explodes(b1, b - a):
-            out[a:b] = np.inf
-            continue
-        with np.errstate(over="ignore", invalid="ignore"):
-            f = gmc_forcing(X1[a:b], coef, control)
-            given = np.nan if start is None else float(start[i])
-            if np.isfinite(given):
-                # started mid-run: the inputs accumulated before the test add a
-                # constant to its forcing, the one that makes the grey equation
-                # hold at k = 1 with the measured value, x(1)(1 + b1) = f(1) + c
-                f = f + (given * (1.0 + b1) - f[0])
-                x0 = given
-            else:
-                x0 = gmc_initial(f[0], b1, initial)
-            x1_hat = gmc_response(f, b1, float(x0), form)
-            seg = iago(x1_hat)
-        seg[~np.isfinite(seg)] = np.inf
-        out[a:b] = seg
-    return out
-
-
-def gmc_predict_population(X1, params, bounds=None, form="trapezoid", initial="model"):
-    """Predictions for a population of parameter vectors ``(b₁, b₂…b_N, u)``.
-
-    ``params`` has shape ``(P, N+1)``; returns ``(n, P)``. The forcing of all
-    candidates is one matrix product; each candidate's recursion is one compiled
-    :func:`~scipy.signal.lfilter` call per test.
-
-    Examples
-    --------
-    Three candidates: the coefficients of :func:`gmc_predict`'s example, the
-    same without the driver, and one whose response explodes (b₁ ≪ 0):
-
-    >>> import numpy as np
-    >>> from greyml.grey import ago, gmc_predict, gmc_predict_population
-    >>> X1 = ago(np.array([[1.0], [2.0], [1.0], [3.0]]))
-    >>> params = [[0.4, 0.5, 0.1], [0.4, 0.0, 0.1], [-400.0, 0.5, 0.1]]
-    >>> P = gmc_predict_population(X1, params)
-    >>> P.shape
-    (4, 3)
-    >>> bool(np.allclose(P[:, 0], gmc_predict(X1, 0.4, [0.5], 0.1)))
-    True
-    >>> np.isinf(P[:, 2]).tolist()
-    [True, True, True, True]
-    """
-    X1 = np.asarray(X1, dtype=float)
-    params = np.atleast_2d(np.asarray(params, dtype=float))
-    b1 = params[:, 0]
-    out = np.empty((X1.shape[0], params.shape[0]))
-    for a, b in _as_bounds(bounds, X1.shape[0]):
-        if b == a:
-            continue
-        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-            F = gmc_forcing(X1[a:b], params[:, 1:-1], params[:, -1])
-            x0 = gmc_initial(F[0], b1, initial)
-            for i in range(params.shape[0]):
-                if _explodes(b1[i], b - a) or not np.isfinite(x0[i]):
-                    out[a:b, i] = np.inf
-                    continue
-                x1_hat = gmc_response(F[:, i], b1[i], x0[i], form)
-                out[a, i] = x1_hat[0]
-                np.subtract(x1_hat[1:], x1_hat[:-1], out=out[a + 1 : b, i])
-    bad = ~np.isfinite(out)
-    if bad.any():
-        out[bad] = np.inf
-    return out
-
-
-def gmc_sse_population(X1, y, params, bounds=None, form="trapezoid", initial="model"):
-    """Σ(x̂₁⁽⁰⁾ − x₁⁽⁰⁾)² for each candidate, shape ``(P,)``, always finite.
-
-    A candidate whose trajectory explodes or overflows gets :data:`LARGE_LOSS`.
-
-    Examples
-    --------
-    Data from the first candidate: its loss is 0, the exploding third one
-    gets 1e200.
-
-    >>> import numpy as np
-    >>> from greyml.grey import ago, gmc_predict, gmc_sse_population
-    >>> X1 = ago(np.array([[1.0], [2.0], [1.0], [3.0]]))
-    >>> y = gmc_predict(X1, 0.4, [0.5], 0.1)
-    >>> params = [[0.4, 0.5, 0.1], [0.4, 0.0, 0.1], [-400.0, 0.5, 0.1]]
-    >>> np.round(gmc_sse_population(X1, y, params), 6).tolist()
-    [0.0, 4.810897, 1e+200]
-    """
-    pred = gmc_predict_population(X1, params, bounds, form, initial)
-    with np.errstate(over="ignore", invalid="ignore"):
-        resid = pred - np.asarray(y, dtype=float)[:, None]
-        sse = np.einsum("ij,ij->j", resid, resid)
-    sse[~np.isfinite(sse)] = LARGE_LOSS
-    return np.minimum(sse, LARGE_LOSS)
-
-
-def gmc_basis(X1, b1, bounds=None, form="trapezoid", initial="model"):
-    """Prediction x̂₁⁽⁰⁾ as a linear map of θ = (b₂…b_N, u) for a fixed b₁.
-
-    For a fixed development coefficient the time response is linear in the
-    forcing and in its starting value, and both are linear in θ, so
-    x̂₁⁽⁰⁾ = Φ(b₁)·θ. Returns Φ of shape ``(n, N)``: column j is the prediction
-    with bⱼ = 1 and every other coefficient 0; the last column is u's. All
-    columns run through one :func:`~scipy.signal.lfilter` call per test.
-    Non-finite entries (an exploding response) come back as ``inf``.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from greyml.grey import ago, gmc_basis, gmc_predict
-    >>> X1 = ago(np.array([[1.0], [2.0], [1.0], [3.0]]))
-    >>> phi = gmc_basis(X1, 0.4)
-    >>> phi.shape
-    (4, 2)
-    >>> bool(np.allclose(phi @ [0.5, 0.1], gmc_predict(X1, 0.4, [0.5], 0.1)))
-    True
-    """
-    X1 = np.asarray(X1, dtype=float)
-    n = X1.shape[0]
-    U = np.column_stack([X1, np.ones(n)])
-    phi = np.empty_like(U)
-    for a, b in _as_bounds(bounds, n):
-        if b == a:
-            continue
-        if _explodes(b1, b - a):
-            phi[a:b] = np.inf
-            continue
-        F = U[a:b]
-        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
-            x0 = gmc_initial(F[0], b1, initial)
-            decay = np.exp(-b1)
-            if form == "trapezoid":
-                p, _ = lfilter([1.0], [1.0, -decay], F, axis=0, zi=(x0 - 0.5 * F[0])[None, :])
-                x1_hat = p - 0.5 * F
-            else:
-                G = np.zeros_like(F)
-                G[1:] = (0.5 * np.sqrt(decay)) * (F[1:] + F[:-1])
-                x1_hat, _ = lfilter([1.0], [1.0, -decay], G, axis=0, zi=x0[None, :])
-            phi[a] = x1_hat[0]
-            np.subtract(x1_hat[1:], x1_hat[:-1], out=phi[a + 1 : b])
-    phi[~np.isfinite(phi)] = np.inf
-    return phi
-
-
-def gmc_separable(X1, y, b1, bounds=None, form="trapezoid", initial="model"):
-    """Best (b₂…b_N, u) for each candidate b₁, and the resulting loss.
-
-    Variable projection (Golub & Pereyra 1973): for every b₁ in ``b1`` (shape
-    ``(P,)``) the linear coefficients solve min ‖Φ(b₁)θ − y‖² exactly.
-
-    Returns
-    -------
-    sse : ndarray of shape (P,)
-        Finite; :data:`LARGE_LOSS` for a candidate whose response explodes.
-    theta : ndarray of shape (P, N)
-        (b₂…b_N, u) per candidate (zeros where the response explodes).
-
-    Examples
-    --------
-    Data made with b₁ = 0.4, b₂ = 0.5 and u = 0.1: of three candidate b₁,
-    the true one fits exactly, with the true linear coefficients.
-
-    >>> import numpy as np
-    >>> from greyml.grey import ago, gmc_predict, gmc_separable
-    >>> X1 = ago(np.array([[1.0], [2.0], [1.0], [3.0]]))
-    >>> y = gmc_predict(X1, 0.4, [0.5], 0.1)
-    >>> sse, theta = gmc_separable(X1, y, [0.2, 0.4, 0.6])
-    >>> np.round(sse, 6).tolist()
-    [0.003932, 0.0, 0.004839]
-    >>> np.round(theta[1], 6).tolist()
-    [0.5, 0.1]
-    """
-    b1 = np.atleast_1d(np.asarray(b1, dtype=float))
-    y = np.asarray(y, dtype=float)
-    q = np.asarray(X1).shape[1] + 1
-    sse = np.full(b1.shape[0], LARGE_LOSS)
-    theta = np.zeros((b1.shape[0], q))
-    scale = max(float(np.abs(y).max(initial=0.0)), 1.0)
-    for i, b in enumerate(b1):
-        phi = gmc_basis(X1, b, bounds, form, initial)
-        if not np.isfinite(phi).all() or np.abs(phi).max(initial=0.0) > 1e150:
-            continue
-        # column scaling keeps lstsq well conditioned whatever the drivers' units
-        norms = np.sqrt(np.einsum("ij,ij->j", phi, phi))
-        norms[norms == 0] = 1.0
-        coef, *_ = np.linalg.lstsq(phi / norms, y, rcond=None)
-        coef /= norms
-        resid = phi @ coef - y
-        value = float(resid @ resid)
-        if np.isfinite(value) and np.abs(coef).max(initial=0.0) < 1e100 * scale:
-            sse[i] = min(value, LARGE_LOSS)
-            theta[i] = coef
-    return sse, theta
-
-
-def gnnmci_layers(X1, b1, coef, control, x0):
-    """Layer outputs of Abdulshahed et al.'s (2016) grey neural network GNNMCI(1,N) for one test.
-
-    The network maps the midpoint time response of GMC(1,N) onto four layers,
-    evaluated for k = 1..n−1 (the output is x̂₁⁽¹⁾(k+1)):
-
-    - A: a = w₁₁k with w₁₁ = b₁;
-    - B: b = 1 / (1 + e^{−a}), the sigmoid;
-    - C: c₁ = b·w₂₁ with w₂₁ = −x̂₁⁽¹⁾(1); cⱼ = Gⱼ(k)·b·w₂ⱼ with w₂ⱼ = bⱼ and
-      Gⱼ the convolution of the accumulated input j (midpoint form); the last
-      unit carries u with G_u the convolution of a constant 1;
-    - D: d = Σ w₃ⱼcⱼ − θ with every w₃ⱼ = 1 + e^{−b₁k} and the bias
-      θ = −x̂₁⁽¹⁾(1)(1 + e^{−b₁k}).
-
-    Since w₃·b = 1, d = x̂₁⁽¹⁾(1)e^{−b₁k} + Σⱼ bⱼGⱼ(k) + uG_u(k): the GMC
-    midpoint response (:func:`gmc_response`), which is how the network is
-    evaluated in training and prediction. This function exists to show and
-    test that mapping; for large ``|b₁k|`` its products overflow where the
-    response does not.
-
-    Parameters
-    ----------
-    X1 : ndarray of shape (n, N-1)
-        Accumulated inputs of one test.
-    b1, coef, control, x0 : float, ndarray, float, float
-        w₁₁, the driving weights, u and the starting value x̂₁⁽¹⁾(1).
-
-    Returns
-    -------
-    dict of ndarray
-        ``"A"``, ``"B"`` (shape (n−1,)), ``"C"`` (shape (n−1, N+1): c₁, the
-        inputs' units, u's unit) and ``"D"`` (shape (n−1,)).
-
-    Examples
-    --------
-    The output layer reproduces the midpoint time response from k = 2 on:
-
-    >>> import numpy as np
-    >>> from greyml.grey import ago, gmc_response, gnnmci_layers
-    >>> X1 = ago(np.array([[1.0], [2.0], [1.0], [3.0]]))
-    >>> layers = gnnmci_layers(X1, 0.4, [0.5], 0.1, x0=1.0)
-    >>> [layers[name].shape for name in "ABCD"]
-    [(3,), (3,), (3, 3), (3,)]
-    >>> np.round(layers["B"], 6).tolist()  # the sigmoid of 0.4k, k = 1, 2, 3
-    [0.598688, 0.689974, 0.768525]
-    >>> f = 0.5 * X1[:, 0] + 0.1
-    >>> bool(np.allclose(layers["D"], gmc_response(f, 0.4, 1.0, "midpoint")[1:]))
-    True
-    """
-    X1 = np.asarray(X1, dtype=float)
-    n = X1.shape[0]
-    k = np.arange(1, n, dtype=float)
-    series = np.column_stack([X1, np.ones(n)])
-    G = np.column_stack(
-        [gmc_response(series[:, j], b1, 0.0, "midpoint")[1:] for j in range(series.shape[1])]
-    )
-    w2 = np.concatenate([[-x0], np.asarray(coef, dtype=float), [control]])
-    with np.errstate(over="ignore", invalid="ignore"):
-        A = b1 * k
-        B = 1.0 / (1.0 + np.exp(-A))
-        C = np.column_stack([B, G * B[:, None]]) * w2
-        w3 = 1.0 + np.exp(-b1 * k)
-        theta = -x0 * w3
-        D = w3 * C.sum(axis=1) - theta
-    return {"A": A, "B": B, "C": C, "D": D}

@@ -30,7 +30,10 @@ from greyml._validation import check_int_param
 
 __all__ = ["PopulationOptimizer", "PENALTY", "check_bounds"]
 
-#: Loss that replaces NaN or infinite objective values.
+#: The one loss sentinel of greyml: replaces NaN or infinite objective values
+#: here, and is the loss the grey kernels give a candidate whose trajectory
+#: overflows. Large enough to lose against any usable candidate, small enough
+#: that sums of a few of them stay finite.
 PENALTY = 1e200
 
 

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-import warnings
-
 import numpy as np
 from sklearn.base import BaseEstimator
 from sklearn.feature_selection import SelectorMixin
@@ -20,8 +18,7 @@ from greyml._validation import (
     validate_sequences,
 )
 from greyml.fuzzy._kernels import fuzzy_cmeans
-from greyml.grey._gmc import GreyConditioningWarning
-from greyml.grey._kernels import gm1n_lstsq
+from greyml.grey._kernels import _grey_lstsq, gm1n_design
 
 __all__ = ["GreyInfluenceSelector"]
 
@@ -219,18 +216,13 @@ class GreyInfluenceSelector(SelectorMixin, BaseEstimator):
         Xn = self._normalise(Xa, names)
         scale = np.mean(np.abs(ya))
         yn = ya / scale if scale > 0 else ya
-        bounds = [(s.start, s.stop) for s in segments]
+        test_bounds = [(s.start, s.stop) for s in segments]
         # an SVD of (n × p): small, so one BLAS thread (see greyml._threads)
         with blas_threads_for(Xn.size * n_features):
-            a, b, rank, _ = gm1n_lstsq(yn, Xn, bounds)
-        if rank < n_features + 1:
-            warnings.warn(
-                f"GM(1,N) system of GreyInfluenceSelector is rank deficient (rank {rank} "
-                f"< {n_features + 1}): some sensors are linear combinations of others "
-                "after accumulation; the minimum-norm influence weights are used.",
-                GreyConditioningWarning,
-                stacklevel=2,
+            theta, _ = _grey_lstsq(
+                gm1n_design, yn, Xn, test_bounds, "GreyInfluenceSelector's GM(1,N)", names
             )
+        a, b = theta[0], theta[1:]
         self.development_coef_ = float(a)
         self.influence_ = np.asarray(b, dtype=float)
 
