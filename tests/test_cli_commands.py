@@ -324,7 +324,16 @@ def test_simulate_select_fit_predict_round_trip(capsys, tmp_path):
     data = read_tests_csv(train_csv)
     assert list(dict.fromkeys(data.index.get_level_values("test"))) == ["I", "IV"]
 
-    argv = ["select", str(train_csv), "--target", "dy_um", "--n-sensors", "3", "--train-tests", "IV"]
+    argv = [
+        "select",
+        str(train_csv),
+        "--target",
+        "dy_um",
+        "--n-sensors",
+        "3",
+        "--train-tests",
+        "IV",
+    ]
     assert main(argv) == 0
     out = capsys.readouterr().out
     assert "kept 3 of 76 candidate sensors" in out
@@ -524,7 +533,9 @@ def _driven_frame():
     rng = np.random.default_rng(7)
     n, tests = 300, ["a", "b", "c"]
     k = np.arange(n)
-    rpm = np.concatenate([np.where((k >= 20) & (k < 150 + 30 * i), 2000.0 * (i + 1), 0.0) for i in range(3)])
+    rpm = np.concatenate(
+        [np.where((k >= 20) & (k < 150 + 30 * i), 2000.0 * (i + 1), 0.0) for i in range(3)]
+    )
     bounds = [(i * n, (i + 1) * n) for i in range(3)]
     dt = np.full(3 * n, 30.0)
     lags, _ = lag_filter(rpm[:, None], dt, np.array([1200.0, 2700.0]), bounds)
@@ -561,10 +572,64 @@ def test_fit_transfer_function_with_drivers_and_a_sensor_budget(capsys, tmp_path
         (["--model", "gmc", "--drivers", "spindle_rpm"], "are for --model transfer-function"),
         (["--model", "transfer-function", "--drivers", "rpm"], "--drivers names 'rpm'"),
         (["--model", "transfer-function", "--n-sensors", "1"], "--max-sensors instead"),
-        (["--model", "transfer-function", "--drivers", "spindle_rpm", "--max-sensors", "3"], "more than the 2 sensor"),
+        (
+            ["--model", "transfer-function", "--drivers", "spindle_rpm", "--max-sensors", "3"],
+            "more than the 2 sensor",
+        ),
     ],
 )
 def test_transfer_function_flags_are_checked(capsys, tmp_path, extra, match):
     data = write_tests_csv(_driven_frame(), tmp_path / "driven.csv")
     argv = ["fit", str(data), "--target", "dz_um", *extra, "--out", str(tmp_path / "m.greyml")]
     assert match in _error(capsys, argv)
+
+
+def test_fit_with_rises_equals_a_csv_of_rises_and_predict_applies_them(capsys, tmp_path):
+    frame = _tiny_frame()
+    rises = frame.copy()
+    sensors = ["T1_C", "T2_C", "T3_C"]
+    for label in ("A", "B"):
+        rows = rises.index.get_level_values("test") == label
+        rises.loc[rows, sensors] -= frame.loc[rows, sensors].iloc[0].to_numpy()
+    raw_csv = write_tests_csv(frame, tmp_path / "raw.csv")
+    rise_csv = write_tests_csv(rises, tmp_path / "rises.csv")
+    common = ["--target", "dz_um", "--model", "mlp", "--sensors", "T1_C,T2_C,T3_C"]
+    assert (
+        main([str(a) for a in ["fit", raw_csv, *common, "--rises", "--out", tmp_path / "r.greyml"]])
+        == 0
+    )
+    out = capsys.readouterr().out
+    assert "inputs enter as rises from each test's first row (RelativeToStart)" in out
+    assert main([str(a) for a in ["fit", rise_csv, *common, "--out", tmp_path / "h.greyml"]]) == 0
+    capsys.readouterr()
+    with_rises, by_hand = load_model(tmp_path / "r.greyml"), load_model(tmp_path / "h.greyml")
+    assert [name for name, _ in with_rises.steps] == ["rises", "model"]
+    assert with_rises["rises"].columns_ == sensors
+    np.testing.assert_allclose(
+        with_rises.predict(frame[sensors]), by_hand.predict(rises[sensors]), rtol=0, atol=1e-9
+    )
+    # greyml predict reads absolute temperatures and applies the saved rises
+    assert (
+        main(
+            [
+                str(a)
+                for a in ["predict", tmp_path / "r.greyml", raw_csv, "--out", tmp_path / "p.csv"]
+            ]
+        )
+        == 0
+    )
+    capsys.readouterr()
+    written = read_tests_csv(tmp_path / "p.csv")
+    np.testing.assert_allclose(
+        written["predicted_dz_um"].to_numpy(), by_hand.predict(rises[sensors]), rtol=0, atol=1e-6
+    )
+
+
+def test_fit_with_rises_keeps_the_drivers_as_levels(capsys, tmp_path):
+    data = write_tests_csv(_tiny_frame(), tmp_path / "tiny.csv")
+    argv = ["fit", data, "--target", "dz_um", "--model", "transfer-function"]
+    argv += ["--drivers", "spindle_rpm", "--max-sensors", "1", "--rises"]
+    assert main([str(a) for a in [*argv, "--out", tmp_path / "t.greyml"]]) == 0
+    capsys.readouterr()
+    saved = load_model(tmp_path / "t.greyml")
+    assert saved["rises"].columns_ == ["T1_C", "T2_C", "T3_C"]

@@ -47,7 +47,9 @@ predict.
 Inputs are used as they are in the file. When tests start at different
 temperatures, the static models (anfis-grid, anfis-fcm, mlp) carry over to new
 tests far better on temperature rises from each test's start than on absolute
-temperatures (greyml demo uses rises): write rises into the CSV if so.
+temperatures (greyml demo uses rises): --rises puts greyml.RelativeToStart
+first in the saved Pipeline, so every input but the --drivers becomes its
+rise from each test's first row, in fit and in greyml predict alike.
 
 Examples:
   greyml simulate --machine vmc --out vmc.csv
@@ -55,6 +57,8 @@ Examples:
       --train-tests IV --out vmc-anfis.greyml
   greyml fit vmc.csv --target dy_um --model gmc --sensors T18_C,T55_C,T63_C \\
       --out vmc-gmc.greyml
+  greyml fit vmc.csv --target dy_um --model mlp --n-sensors 5 --rises \\
+      --out vmc-mlp.greyml
   greyml fit vmc.csv --target dy_um --model transfer-function \\
       --drivers spindle_rpm --max-sensors 5 --out vmc-ttf.greyml
 """
@@ -124,6 +128,12 @@ def _add_fit_parser(subparsers):
         + _SENSORS_HELP.split("candidate sensor columns, ", 1)[1],
     )
     parser.add_argument(
+        "--rises",
+        action="store_true",
+        help="inputs as rises from each test's first row (RelativeToStart, saved with the "
+        "model); --drivers stay as they are",
+    )
+    parser.add_argument(
         "--train-tests",
         type=_names,
         action="extend",
@@ -159,6 +169,7 @@ def _run_fit(args):
         quiet=args.quiet,
         drivers=_unique(args.drivers),
         max_sensors=args.max_sensors,
+        rises=args.rises,
     )
 
 
@@ -178,6 +189,7 @@ def run_fit(
     quiet=False,
     drivers=None,
     max_sensors=None,
+    rises=False,
 ):
     """``greyml fit``: train a named model and save it with :func:`greyml.persist.save_model`.
 
@@ -212,6 +224,9 @@ def run_fit(
     max_sensors : int, optional
         ``"transfer-function"`` only: the budget of temperature sensors, chosen
         inside the fit on held-out whole tests.
+    rises : bool, default=False
+        Put :class:`greyml.RelativeToStart` first in the saved Pipeline: every
+        input but the drivers as its rise from each test's first row.
 
     Returns
     -------
@@ -222,6 +237,7 @@ def run_fit(
 
     from greyml._seeds import make_model, scores
     from greyml.persist import save_model
+    from greyml.preprocessing import RelativeToStart
 
     if model not in MODEL_NAMES:
         raise ValueError(f"unknown model {model!r}; choose one of {', '.join(MODEL_NAMES)}.")
@@ -258,18 +274,21 @@ def run_fit(
         n_inputs = select if select is not None else len(columns)
         if select is not None and select > len(columns):
             raise ValueError(
-                f"--n-sensors {select} asks for more sensors than the {len(columns)} "
-                "candidate(s)."
+                f"--n-sensors {select} asks for more sensors than the {len(columns)} candidate(s)."
             )
         if model == "anfis-grid" and n_inputs > 6:
             raise ValueError(
                 f"anfis-grid on {n_inputs} inputs would need {estimator.n_mfs}^{n_inputs} "
                 "rules; keep a few sensors with --n-sensors 5 or --sensors, or use anfis-fcm."
             )
+        steps = []
+        if rises:
+            rising = [c for c in columns if c not in drivers]
+            steps.append(("rises", RelativeToStart(columns=rising)))
         if select is not None:
-            estimator = Pipeline(
-                [("select", _selector(select, cluster_on, random_state)), ("model", estimator)]
-            )
+            steps.append(("select", _selector(select, cluster_on, random_state)))
+        if steps:
+            estimator = Pipeline([*steps, ("model", estimator)])
         X, y = frame[columns], frame[target]
         progress.step(f"fitting {MODEL_NAMES[model]} on {len(frame)} rows")
         seconds, fit_messages = _fit_quietly(estimator, X, y)
@@ -283,7 +302,8 @@ def run_fit(
         saved = save_model(estimator, path, overwrite=force)
     _warn("fit", fit_messages)
     _warn("fit", messages)
-    inputs = list(estimator[0].selected_) if select is not None else columns
+    model_step = estimator[-1] if steps else estimator
+    inputs = list(estimator["select"].selected_) if select is not None else columns
     tests = list(dict.fromkeys(frame.index.get_level_values("test")))
     print(f"trained {MODEL_NAMES[model]} ({settings}) in {seconds:.1f} s")
     print(
@@ -296,18 +316,20 @@ def run_fit(
             f"{len(columns)} candidates)"
         )
     elif dynamic:
-        kept = ", ".join(map(printable, estimator.selected_sensors_)) or "none"
+        kept = ", ".join(map(printable, model_step.selected_sensors_)) or "none"
         print(
             f"  inputs: drivers {', '.join(map(printable, drivers)) or 'none'}; sensors {kept} "
             f"(chosen inside the fit from {len(columns) - len(drivers)})"
         )
         buffer = io.StringIO()
-        estimator.describe(file=buffer)
+        model_step.describe(file=buffer)
         for line in buffer.getvalue().splitlines():
             print(f"  {line}")
     else:
         shown = ", ".join(inputs[:10]) + (", ..." if len(inputs) > 10 else "")
         print(f"  inputs ({len(inputs)}): {shown}")
+    if rises:
+        print("  inputs enter as rises from each test's first row (RelativeToStart)")
     print(
         f"  on the training rows: RMSE {fit_scores['RMSE']:.3g}, ±res {fit_scores['band']:.3g}, "
         f"R {fit_scores['R']:.3f} (validate on other tests with greyml predict)"
