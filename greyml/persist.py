@@ -102,6 +102,7 @@ from sklearn.preprocessing import (
 )
 from sklearn.utils.validation import check_is_fitted
 
+from greyml.exceptions import UnsafeModelError
 from greyml.dynamic import Compensator, LagFeatures, ThermalTransferFunction
 from greyml.fuzzy import ANFISFCM, ANFISGrid
 from greyml.grey import AGO, GMC, GNNMCI, AccumulatedTargetRegressor
@@ -205,39 +206,6 @@ _BIT_GENERATORS = {
         np.random.SFC64,
     )
 }
-
-
-class UnsafeModelError(ValueError):
-    """A model file names a class, type or function that may not be created.
-
-    Raised by :func:`load_model` before anything from the file is built. The
-    message lists the names; pass those you trust as ``trusted=``.
-
-    Examples
-    --------
-    scikit-learn's ``DummyRegressor`` is not on greyml's allowlist: its file
-    is refused until the class is trusted.
-
-    >>> import tempfile
-    >>> from pathlib import Path
-    >>> from sklearn.dummy import DummyRegressor
-    >>> from greyml.persist import UnsafeModelError, load_model, save_model
-    >>> model = DummyRegressor().fit([[0.0], [0.0], [0.0]], [1.0, 2.0, 6.0])
-    >>> with tempfile.TemporaryDirectory() as folder:  # doctest: +ELLIPSIS
-    ...     path = save_model(model, Path(folder) / "dummy.greyml")
-    ...     try:
-    ...         load_model(path)
-    ...     except UnsafeModelError as exc:
-    ...         print(exc)
-    ...     again = load_model(path, trusted=["sklearn.dummy.DummyRegressor"])
-    Refusing to load ...dummy.greyml: it names classes that are not on greyml's
-    allowlist: sklearn.dummy.DummyRegressor (if you trust the file's source, pass
-    them as load_model(..., trusted=[...])).
-    >>> again.predict([[0.0]]).tolist()
-    [3.0]
-    >>> issubclass(UnsafeModelError, ValueError)
-    True
-    """
 
 
 class _Corrupt(Exception):

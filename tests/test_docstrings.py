@@ -27,6 +27,7 @@ MODULES = [
     "greyml.selection",
     "greyml.gap",
     "greyml.dynamic",
+    "greyml.exceptions",
 ]
 
 # numpydoc section header: the title, then a line of dashes at least as long

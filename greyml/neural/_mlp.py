@@ -19,6 +19,7 @@ from greyml._validation import (
     standard_scaling,
     validate_sequences,
 )
+from greyml.exceptions import UnderdeterminedWarning
 from greyml.neural._kernels import (
     ACTIVATIONS,
     init_nguyen_widrow,
@@ -30,33 +31,6 @@ from greyml.neural._kernels import (
 )
 
 __all__ = ["MLPBaseline", "UnderdeterminedWarning"]
-
-
-class UnderdeterminedWarning(UserWarning):
-    """A network has more weights than training rows.
-
-    :class:`MLPBaseline` still trains it: Levenberg–Marquardt's damping μ keeps
-    every step defined, and the goal or the validation stop ends training. But
-    many weight vectors then fit the training rows equally well, so the
-    network can interpolate them and generalise poorly; fewer hidden units or
-    more rows make the fit determined.
-
-    Examples
-    --------
-    Twenty rows of three inputs are fewer than the 51 weights of a 3-10-1
-    network:
-
-    >>> import warnings
-    >>> import numpy as np
-    >>> from greyml.neural import MLPBaseline, UnderdeterminedWarning
-    >>> rng = np.random.default_rng(0)
-    >>> X, y = rng.random((20, 3)), rng.random(20)
-    >>> with warnings.catch_warnings(record=True) as caught:
-    ...     warnings.simplefilter("always")
-    ...     model = MLPBaseline(max_iter=20, random_state=0).fit(X, y)
-    >>> [w.category.__name__ for w in caught]
-    ['UnderdeterminedWarning']
-    """
 
 
 class MLPBaseline(RegressorMixin, BaseEstimator):
