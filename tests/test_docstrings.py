@@ -28,6 +28,7 @@ MODULES = [
     "greyml.gap",
     "greyml.dynamic",
     "greyml.exceptions",
+    "greyml.utils.discovery",
 ]
 
 # numpydoc section header: the title, then a line of dashes at least as long

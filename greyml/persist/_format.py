@@ -30,12 +30,9 @@ from sklearn.preprocessing import (
     StandardScaler,
 )
 
-from greyml.dynamic import Compensator, LagFeatures, ThermalTransferFunction
-from greyml.fuzzy import ANFISFCM, ANFISGrid
-from greyml.grey import AGO, GMC, GNNMCI, AccumulatedTargetRegressor
-from greyml.neural import MLPBaseline
 from greyml.optimize import CuckooSearch, ParticleSwarm
-from greyml.selection import GreyInfluenceSelector, TrainOnOneTest
+from greyml.selection import TrainOnOneTest
+from greyml.utils.discovery import all_estimators
 
 #: Name written in every model file, checked on loading.
 FORMAT_NAME = "greyml-model"
@@ -69,21 +66,13 @@ _MAX_INT_DIGITS = 60
 #: Classes a model file may create, by the name written in the file (read-only).
 ALLOWED_CLASSES = MappingProxyType(
     {
-        # greyml's estimators, and what they hold as parameters or results
-        "greyml.AGO": AGO,
-        "greyml.AccumulatedTargetRegressor": AccumulatedTargetRegressor,
-        "greyml.ANFISFCM": ANFISFCM,
-        "greyml.ANFISGrid": ANFISGrid,
-        "greyml.Compensator": Compensator,
-        "greyml.GMC": GMC,
-        "greyml.GNNMCI": GNNMCI,
-        "greyml.GreyInfluenceSelector": GreyInfluenceSelector,
-        "greyml.LagFeatures": LagFeatures,
-        "greyml.MLPBaseline": MLPBaseline,
+        # greyml's estimators, every one that greyml.utils.discovery finds, by
+        # its name at the top level (each is exported there), and what they
+        # hold as parameters or results
+        **{f"greyml.{name}": cls for name, cls in all_estimators()},
         "greyml.optimize.CuckooSearch": CuckooSearch,
         "greyml.optimize.ParticleSwarm": ParticleSwarm,
         "greyml.selection.TrainOnOneTest": TrainOnOneTest,
-        "greyml.ThermalTransferFunction": ThermalTransferFunction,
         "scipy.optimize.OptimizeResult": OptimizeResult,
         # scikit-learn
         "sklearn.compose.TransformedTargetRegressor": TransformedTargetRegressor,
