@@ -53,7 +53,7 @@ class MLPBaseline(RegressorMixin, BaseEstimator):
         hidden layer is supported. ``fit`` needs at least as many rows as the
         network has weights, h·(p + 2) + 1 for p inputs and h hidden units (61
         for 4 sensors and 10 units), to be determined; with fewer it still
-        trains (see Notes) and warns (:class:`UnderdeterminedWarning`).
+        trains (see Notes) and warns (:class:`~greyml.exceptions.UnderdeterminedWarning`).
     activation : {"logistic", "tanh"}, default="logistic"
         Hidden-layer function: log-sigmoid 1/(1 + e⁻ᶻ) (MATLAB's ``logsig``, seed
         000) or tanh (``tansig``). The output is linear.
@@ -144,7 +144,7 @@ class MLPBaseline(RegressorMixin, BaseEstimator):
     **Rows and weights.** Fewer training rows than weights is allowed, as in
     MATLAB: the damping μ keeps every step defined, and the goal or the
     validation stop ends training. ``fit`` then warns
-    (:class:`UnderdeterminedWarning`), since such a network can interpolate
+    (:class:`~greyml.exceptions.UnderdeterminedWarning`), since such a network can interpolate
     its training rows; it needs at least two rows. Size the network by
     cross-validation (Abdulshahed et al. (2016) tried 1 to 15 hidden units), e.g.
     ``GridSearchCV`` over ``hidden_layer_sizes`` with

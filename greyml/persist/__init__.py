@@ -12,7 +12,7 @@ hold data only:
   format, read back with ``allow_pickle=False``.
 
 Both live in one zip archive. :func:`load_model` first lists every class the
-tree names and refuses the file (:class:`UnsafeModelError`) unless each is on
+tree names and refuses the file (:class:`~greyml.exceptions.UnsafeModelError`) unless each is on
 greyml's allowlist or in the caller's ``trusted`` list. Only then does it build
 the objects, without calling their ``__init__``: it creates the bare instance
 and sets its attributes. Nothing from the file is imported, evaluated or
