@@ -336,6 +336,16 @@ def _failure(path, exc):
     )
 
 
+def _scan(path, archive, max_bytes, index_cost):
+    """The file's header, what it costs, and every name its tree holds
+    (:func:`_referenced_names`); any damage is one line naming the file."""
+    try:
+        header, json_cost = _read_header(archive, max_bytes, index_cost)
+        return header, json_cost, _referenced_names(header["tree"])
+    except Exception as exc:  # any damage: one line naming the file
+        raise _failure(path, exc) from None
+
+
 def load_model(path, *, trusted=None, max_bytes=DEFAULT_MAX_BYTES):
     """Read an estimator written by :func:`save_model`.
 
@@ -427,11 +437,7 @@ def load_model(path, *, trusted=None, max_bytes=DEFAULT_MAX_BYTES):
     trusted = _check_trusted(trusted)
     max_bytes = _check_max_bytes(max_bytes)
     with _open_archive(path, max_bytes) as (archive, index_cost):
-        try:
-            header, json_cost = _read_header(archive, max_bytes, index_cost)
-            found = _referenced_names(header["tree"])
-        except Exception as exc:  # any damage: one line naming the file
-            raise _failure(path, exc) from None
+        header, json_cost, found = _scan(path, archive, max_bytes, index_cost)
         extra = _trusted_classes(trusted, found["class"] - ALLOWED_CLASSES.keys())
         classes, others = _untrusted(found, extra)
         if classes or others:
@@ -522,11 +528,7 @@ def describe_model(path, *, max_bytes=DEFAULT_MAX_BYTES):
     path = Path(path)
     max_bytes = _check_max_bytes(max_bytes)
     with _open_archive(path, max_bytes) as (archive, index_cost):
-        try:
-            header, _ = _read_header(archive, max_bytes, index_cost)
-            found = _referenced_names(header["tree"])
-        except Exception as exc:
-            raise _failure(path, exc) from None
+        header, _, found = _scan(path, archive, max_bytes, index_cost)
     info = {k: v for k, v in header.items() if k not in ("tree", "format")}
     info["classes"] = sorted(found["class"])
     info["untrusted_types"] = sorted(sum(_untrusted(found, {}), []))
