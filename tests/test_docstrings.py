@@ -27,6 +27,8 @@ MODULES = [
     "greyml.selection",
     "greyml.gap",
     "greyml.dynamic",
+    "greyml.exceptions",
+    "greyml.utils.discovery",
 ]
 
 # numpydoc section header: the title, then a line of dashes at least as long

@@ -17,6 +17,7 @@ from sklearn.model_selection import GridSearchCV, LeaveOneGroupOut
 from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import FunctionTransformer, MinMaxScaler, StandardScaler
 
+import greyml
 from greyml import (
     AGO,
     ANFISFCM,
@@ -29,7 +30,14 @@ from greyml import (
 )
 from greyml import test_ids as _test_ids
 from greyml.optimize import CuckooSearch
-from greyml.persist import UnsafeModelError, describe_model, load_model, save_model
+from greyml.persist import (
+    ALLOWED_CLASSES,
+    UnsafeModelError,
+    describe_model,
+    load_model,
+    save_model,
+)
+from greyml.utils.discovery import all_estimators
 
 DRIVERS = ["T1_C", "T2_C", "T3_C", "T4_C"]
 
@@ -132,6 +140,18 @@ def test_round_trip_is_exact(name, data, tmp_path):
     _assert_same_params(loaded, model)
     assert list(loaded.feature_names_in_) == DRIVERS
     assert describe_model(path)["untrusted_types"] == []
+
+
+def test_the_allowlist_holds_every_estimator_by_its_top_level_name():
+    estimators = all_estimators()
+    assert len(estimators) >= 11
+    for name, cls in estimators:
+        assert getattr(greyml, name) is cls  # exported at the top level, as the file names it
+        assert ALLOWED_CLASSES[f"greyml.{name}"] is cls
+    greyml_classes = {k for k in ALLOWED_CLASSES if k.startswith("greyml.")}
+    others = {"greyml.optimize.CuckooSearch", "greyml.optimize.ParticleSwarm"}
+    others.add("greyml.selection.TrainOnOneTest")
+    assert greyml_classes == {f"greyml.{name}" for name, _ in estimators} | others
 
 
 def test_loaded_model_clones_and_refits(data, tmp_path):

@@ -423,7 +423,7 @@ def test_1_each_member_is_inflated_once_and_each_reference_is_its_own(tmp_path, 
         reads.append(info.filename)
         return read_npy(archive, info, header)
 
-    monkeypatch.setattr(persist, "_read_npy", counting)
+    monkeypatch.setattr(persist._reader, "_read_npy", counting)  # where load_model reads
     model = load_model(path)
     arrays = sorted(name for name in _members(path) if name.startswith("arrays/"))
     assert sorted(reads) == arrays and "arrays/99.npy" in arrays  # each inflated once

@@ -18,10 +18,12 @@ from greyml import (
     ANFISGrid,
     GreyInfluenceSelector,
     MLPBaseline,
+    RelativeToStart,
     make_test_index,
     simulate_gmc,
 )
 from greyml.grey import ago, iago
+from greyml.utils.discovery import all_estimators
 
 PROPERTY_SETTINGS = settings(
     max_examples=200,
@@ -153,7 +155,21 @@ def _all_estimators():
         "MLPBaseline": MLPBaseline(hidden_layer_sizes=3, max_iter=30, n_restarts=1, random_state=0),
         "GreyInfluenceSelector": GreyInfluenceSelector(n_clusters=2, n_init=2, random_state=0),
         "AccumulatedTargetRegressor": AccumulatedTargetRegressor(Ridge()),
+        "RelativeToStart": RelativeToStart(),
     }
+
+
+# Estimators that greyml.utils.discovery finds but these properties do not run
+# on yet: the dynamic models came after them and are tested in
+# test_dynamic_*.py. Any other estimator must have an instance above.
+NOT_HERE_YET = {"Compensator", "LagFeatures", "ThermalTransferFunction"}
+
+
+def test_the_properties_cover_every_estimator():
+    covered = {type(estimator) for estimator in _all_estimators().values()}
+    covered |= {type(estimator) for estimator in _fast_estimators(0).values()}
+    missing = sorted(name for name, cls in all_estimators() if cls not in covered)
+    assert missing == sorted(NOT_HERE_YET), f"in no property test: {missing}"
 
 
 STOCHASTIC = ["GMC_pso", "GNNMCI", "ANFISFCM", "MLPBaseline", "GreyInfluenceSelector"]

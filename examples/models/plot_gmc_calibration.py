@@ -14,7 +14,7 @@ drift into a spurious offset. b₁ is kept ≥ 0 for the swarm and cuckoo solver
 that the response cannot grow without bound. The least-squares solver is given the
 papers' box (``bounds="papers"``, b₁ in [−100, 100]) to show what it does without
 that constraint: here it settles on b₁ < 0, and GMC warns as it calibrates
-(:class:`greyml.GreyStabilityWarning`), which the script prints. GMC's default box
+(:class:`greyml.exceptions.GreyStabilityWarning`), which the script prints. GMC's default box
 (``bounds="stable"``) keeps b₁ ≥ 0 for every solver.
 
 The script prints the paper's metrics (R, RMSE, E, ±residual, improvement) next to

@@ -8,6 +8,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
+from greyml.exceptions import GapWarning
+
 __all__ = ["GapReport", "GapWarning", "VERDICTS"]
 
 #: The verdicts of a diagnosis, from best to worst.
@@ -15,24 +17,6 @@ VERDICTS = ("within_noise", "explained", "partial", "unexplained")
 #: A held-out remainder up to this multiple of the noise floor counts as noise.
 NOISE_RATIO = 1.5
 
-
-class GapWarning(UserWarning):
-    """A gap diagnosis whose result needs a second look.
-
-    Raised when a named effect's fitted time constant ends at the bound of
-    its search: the true one may lie beyond, and a ``time_s`` column in
-    minutes or hours labelled as seconds shows itself this way.
-
-    Examples
-    --------
-    >>> import warnings
-    >>> from greyml.gap import GapWarning
-    >>> with warnings.catch_warnings(record=True) as caught:
-    ...     warnings.simplefilter("always")
-    ...     warnings.warn("time constant at its bound", GapWarning)
-    >>> caught[0].category.__name__
-    'GapWarning'
-    """
 
 #: Units of greyml's column suffixes, for axis labels.
 _UNITS = {"um": "µm", "mm": "mm", "C": "°C", "ue": "µε"}

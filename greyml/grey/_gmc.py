@@ -16,13 +16,13 @@ from greyml._rng import make_generator
 from greyml._sequences import segment_label
 from greyml._threads import blas_threads_for
 from greyml._validation import check_int_param, column_names, require_y, validate_sequences
-from greyml.grey._kernels import _grey_lstsq, ago, gmc_design, gmc_lstsq_fixed_b1
-from greyml.grey._response import gmc_predict, gmc_separable, gmc_sse_population
-from greyml.grey._warnings import (
+from greyml.exceptions import (
     GreyConditioningWarning,
     GreyStabilityWarning,
     GreyWarmStartWarning,
 )
+from greyml.grey._kernels import _grey_lstsq, ago, gmc_design, gmc_lstsq_fixed_b1
+from greyml.grey._response import gmc_predict, gmc_separable, gmc_sse_population
 from greyml.optimize import CuckooSearch, ParticleSwarm, PopulationOptimizer
 from greyml.optimize._base import PENALTY, check_bounds
 
@@ -206,7 +206,7 @@ class _GreyConvolutionModel(RegressorMixin, BaseEstimator):
             first driver values lie away from the training tests' first values
             by more than their range (at least ``START_TOLERANCE`` = 10 % of
             the column's range in ``fit``) gets a
-            :class:`GreyWarmStartWarning` naming the test and the column.
+            :class:`~greyml.exceptions.GreyWarmStartWarning` naming the test and the column.
 
         Returns
         -------
@@ -328,7 +328,7 @@ class GMC(_GreyConvolutionModel):
         settles (b₁ ≥ 0), as :class:`GNNMCI` does. ``"papers"``: [−100, 100] for
         every coefficient, b₁ included, the setting of Tien (2012) and
         Abdulshahed et al. (2017); it admits b₁ < 0, which
-        :class:`GreyStabilityWarning` reports. A pair gives the box itself.
+        :class:`~greyml.exceptions.GreyStabilityWarning` reports. A pair gives the box itself.
         With ``search="full"``: for (b₁, b₂…b_N, u),
         the same for all coefficients when scalars. With
         ``search="separable"``: for b₁ (the first entry when arrays are given).
@@ -408,7 +408,7 @@ class GMC(_GreyConvolutionModel):
     −0.03) grows without overflowing: on a test longer than the training tests
     it can predict absurd values. The default ``bounds="stable"`` therefore
     keeps b₁ ≥ 0; with ``bounds="papers"`` (or any box that admits b₁ < 0)
-    ``fit`` warns (:class:`GreyStabilityWarning`) whenever it ends with b₁ < 0.
+    ``fit`` warns (:class:`~greyml.exceptions.GreyStabilityWarning`) whenever it ends with b₁ < 0.
 
     References
     ----------

@@ -19,7 +19,7 @@ import warnings
 
 import numpy as np
 
-from greyml.grey._warnings import GreyConditioningWarning
+from greyml.exceptions import GreyConditioningWarning
 
 __all__ = [
     "ago",

@@ -19,6 +19,7 @@ from greyml._validation import (
     standard_scaling,
     validate_sequences,
 )
+from greyml.exceptions import UnderdeterminedWarning
 from greyml.neural._kernels import (
     ACTIVATIONS,
     init_nguyen_widrow,
@@ -30,33 +31,6 @@ from greyml.neural._kernels import (
 )
 
 __all__ = ["MLPBaseline", "UnderdeterminedWarning"]
-
-
-class UnderdeterminedWarning(UserWarning):
-    """A network has more weights than training rows.
-
-    :class:`MLPBaseline` still trains it: Levenberg–Marquardt's damping μ keeps
-    every step defined, and the goal or the validation stop ends training. But
-    many weight vectors then fit the training rows equally well, so the
-    network can interpolate them and generalise poorly; fewer hidden units or
-    more rows make the fit determined.
-
-    Examples
-    --------
-    Twenty rows of three inputs are fewer than the 51 weights of a 3-10-1
-    network:
-
-    >>> import warnings
-    >>> import numpy as np
-    >>> from greyml.neural import MLPBaseline, UnderdeterminedWarning
-    >>> rng = np.random.default_rng(0)
-    >>> X, y = rng.random((20, 3)), rng.random(20)
-    >>> with warnings.catch_warnings(record=True) as caught:
-    ...     warnings.simplefilter("always")
-    ...     model = MLPBaseline(max_iter=20, random_state=0).fit(X, y)
-    >>> [w.category.__name__ for w in caught]
-    ['UnderdeterminedWarning']
-    """
 
 
 class MLPBaseline(RegressorMixin, BaseEstimator):
@@ -79,7 +53,7 @@ class MLPBaseline(RegressorMixin, BaseEstimator):
         hidden layer is supported. ``fit`` needs at least as many rows as the
         network has weights, h·(p + 2) + 1 for p inputs and h hidden units (61
         for 4 sensors and 10 units), to be determined; with fewer it still
-        trains (see Notes) and warns (:class:`UnderdeterminedWarning`).
+        trains (see Notes) and warns (:class:`~greyml.exceptions.UnderdeterminedWarning`).
     activation : {"logistic", "tanh"}, default="logistic"
         Hidden-layer function: log-sigmoid 1/(1 + e⁻ᶻ) (MATLAB's ``logsig``, seed
         000) or tanh (``tansig``). The output is linear.
@@ -170,7 +144,7 @@ class MLPBaseline(RegressorMixin, BaseEstimator):
     **Rows and weights.** Fewer training rows than weights is allowed, as in
     MATLAB: the damping μ keeps every step defined, and the goal or the
     validation stop ends training. ``fit`` then warns
-    (:class:`UnderdeterminedWarning`), since such a network can interpolate
+    (:class:`~greyml.exceptions.UnderdeterminedWarning`), since such a network can interpolate
     its training rows; it needs at least two rows. Size the network by
     cross-validation (Abdulshahed et al. (2016) tried 1 to 15 hidden units), e.g.
     ``GridSearchCV`` over ``hidden_layer_sizes`` with

@@ -101,7 +101,7 @@ class GreyInfluenceSelector(SelectorMixin, BaseEstimator):
     accumulation crossing a boundary. With many near-collinear sensors the
     least-squares system is ill-conditioned and individual weights are
     uncertain; a rank-deficient system warns
-    (:class:`~greyml.GreyConditioningWarning`) and uses the minimum-norm
+    (:class:`~greyml.exceptions.GreyConditioningWarning`) and uses the minimum-norm
     solution.
 
     References
