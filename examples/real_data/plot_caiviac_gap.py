@@ -59,9 +59,13 @@ repeated with the simulation calibrated on each other cycle.
 * *Whether we believe it*: the verdict, yes; the events, no. A knocked probe
   or a re-clamp would not come back at the same time after every switch; and
   the data's description says a speed change moves the probes *at once* by up
-  to about 0.7 µm, not 2.6 to 5.9 µm a quarter of an hour later. These are bends
-  of a transient that a transfer function fitted at 1250 rpm shapes wrongly
-  at the other speeds, which the event detector takes for steps. That no
+  to about 0.7 µm, not 2.6 to 5.9 µm a quarter of an hour later. The first
+  figure shows where they come from: at the faster speeds the simulation
+  overshoots in the first quarter hour after the start and dips after the
+  stop, the work of its fast lags, whose gains alternate in sign (printed
+  above) because cycle 1 alone, at one speed, cannot pin them down. Where
+  that transient ends the gap bends, and the event detector takes the bend
+  for a step: the events are the simulation's, not the machine's. That no
   candidate is named is the honest answer: calibrated on the other cycles,
   the first diagnosis names *something* every time (with 19 placebos instead
   of 39, to keep it quick), but a different set each time: ``sensor_lag``
@@ -70,16 +74,17 @@ repeated with the simulation calibrated on each other cycle.
   An effect that depends on which cycle was fitted is not a cause of the
   machine. T4 is no clean air sensor either: it rises by 4.7 and 5.4 °C
   while the spindle runs in cycles 3 and 4. What the data show is that ch3
-  falls much further in cycles 3 and 4 than their speeds say (T1 rises by
-  3.6 and 2.8 °C there and falls a little in the other cycles), and less in cycle 5. The
+  falls about as far in cycle 3 (3750 rpm, 58.6 µm) as in cycle 4
+  (5000 rpm, 60.7 µm) and much less in cycle 5 (3500 rpm, 16.6 µm); T1 rises
+  by 3.6 and 2.8 °C in cycles 3 and 4 and falls a little in the others. The
   data's description reads ch3's large negative excursions, which recur about
-  a day apart, as environmental; this run cannot confirm that (40 h hold too
+  a day apart, as environmental. This run cannot confirm that (40 h hold too
   few days), but it is consistent with it: the gap is a slow load that comes
-  in two consecutive cycles and not with the speed, which a simulation driven
-  by the speed alone cannot know and which none of greyml's candidate effects,
-  built from these undocumented sensors, carries from four cycles to the
-  fifth. A logged air temperature and the sensor positions would be needed
-  to name it.
+  in cycles 3 and 4 (bias −24.55 and −11.30 µm) and not with the speed,
+  which a simulation driven by the speed alone cannot know and which none of
+  greyml's candidate effects, built from these undocumented sensors, carries
+  from four cycles to the fifth. A logged air temperature and the sensor
+  positions would be needed to name it.
 """
 
 # %%
