@@ -18,7 +18,7 @@ from sklearn.preprocessing import StandardScaler
 
 from greyml import ANFISFCM, ANFISGrid, make_test_index
 from greyml import test_ids as groups_of
-from greyml.fuzzy import (
+from greyml.fuzzy.kernels import (
     JangStepSize,
     anfis_forward,
     log_firing,

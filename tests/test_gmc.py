@@ -19,7 +19,7 @@ from greyml import (
     simulate_gmc,
 )
 from greyml import test_ids as groups_of
-from greyml.grey import gmc_design
+from greyml.grey.kernels import gmc_design
 from greyml.optimize import ParticleSwarm
 
 SENSORS = ["T1_C", "T2_C", "T3_C", "T4_C"]

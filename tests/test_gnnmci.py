@@ -12,8 +12,8 @@ from sklearn.preprocessing import StandardScaler
 
 from greyml import GMC, GNNMCI, GreyStabilityWarning, make_test_index, simulate_gmc
 from greyml import test_ids as groups_of
-from greyml.grey import ago, gmc_response, gnnmci_layers
 from greyml.grey._response import gmc_forcing, gmc_initial
+from greyml.grey.kernels import ago, gmc_response, gnnmci_layers
 
 
 def _midpoint_tests(noise=0.0, seed=0):

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from greyml import GreyConditioningWarning, fit_gm1n
-from greyml.grey import (
+from greyml.grey.kernels import (
     ago,
     gm1n_design,
     gmc_basis,

@@ -18,9 +18,8 @@ from sklearn.preprocessing import StandardScaler
 
 from greyml import make_test_index
 from greyml import test_ids as groups_of
-from greyml.neural import (
-    MLPBaseline,
-    UnderdeterminedWarning,
+from greyml.neural import MLPBaseline, UnderdeterminedWarning
+from greyml.neural.kernels import (
     hidden,
     init_nguyen_widrow,
     levenberg_marquardt,

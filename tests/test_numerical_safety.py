@@ -7,10 +7,10 @@ import pandas as pd
 import pytest
 
 from greyml import ANFISFCM, ANFISGrid, GreyConditioningWarning, fit_gm1n, make_test_index
-from greyml.fuzzy import JangStepSize, anfis_forward, hybrid_learning, normalised_firing
 from greyml.fuzzy._kernels import NO_FIRE_LOG
-from greyml.grey import gm1n_design
+from greyml.fuzzy.kernels import JangStepSize, anfis_forward, hybrid_learning, normalised_firing
 from greyml.grey._kernels import CONDITION_LIMIT, gm1n_conditioning
+from greyml.grey.kernels import gm1n_design
 from greyml.optimize import PENALTY, CuckooSearch, ParticleSwarm
 
 OPTIMIZERS = [

@@ -22,7 +22,7 @@ from greyml import (
     make_test_index,
     simulate_gmc,
 )
-from greyml.grey import ago, iago
+from greyml.grey.kernels import ago, iago
 from greyml.utils.discovery import all_estimators
 
 PROPERTY_SETTINGS = settings(

@@ -10,7 +10,7 @@ from sklearn.pipeline import make_pipeline
 from greyml import GreyInfluenceSelector, TrainOnOneTest, make_test_index
 from greyml import test_ids as groups_of
 from greyml.datasets import load_vmc_tests
-from greyml.grey import gm1n_lstsq
+from greyml.grey.kernels import gm1n_lstsq
 
 
 def _three_groups(seed=0):

@@ -1,28 +1,13 @@
-"""Takagi–Sugeno fuzzy inference (ANFIS) with Jang's hybrid learning."""
+"""Takagi–Sugeno fuzzy inference (ANFIS) with Jang's hybrid learning.
 
+Its numerical kernels are in :mod:`greyml.fuzzy.kernels`.
+"""
+
+from greyml._moved import moved_getattr
+from greyml.fuzzy import kernels
 from greyml.fuzzy._anfis import ANFISFCM, ANFISGrid
-from greyml.fuzzy._kernels import (
-    JangStepSize,
-    anfis_forward,
-    fcm_memberships,
-    fuzzy_cmeans,
-    hybrid_learning,
-    log_firing,
-    normalised_firing,
-    premise_gradient,
-    solve_consequents,
-)
 
-__all__ = [
-    "ANFISFCM",
-    "ANFISGrid",
-    "JangStepSize",
-    "anfis_forward",
-    "fcm_memberships",
-    "fuzzy_cmeans",
-    "hybrid_learning",
-    "log_firing",
-    "normalised_firing",
-    "premise_gradient",
-    "solve_consequents",
-]
+__all__ = ["ANFISFCM", "ANFISGrid", "kernels"]
+
+# the kernels were exported here until this release
+__getattr__ = moved_getattr("greyml.fuzzy", kernels.__all__, "greyml.fuzzy.kernels")

@@ -1,5 +1,10 @@
-"""Grey models: AGO, GM(1,N), GMC(1,N) and the grey neural network GNNMCI(1,N)."""
+"""Grey models: AGO, GM(1,N), GMC(1,N) and the grey neural network GNNMCI(1,N).
 
+Their numerical kernels are in :mod:`greyml.grey.kernels`.
+"""
+
+from greyml._moved import moved_getattr
+from greyml.grey import kernels
 from greyml.grey._ago import AGO, AccumulatedTargetRegressor
 from greyml.grey._functions import fit_gm1n, simulate_gmc
 from greyml.grey._gmc import (
@@ -9,25 +14,6 @@ from greyml.grey._gmc import (
     GreyWarmStartWarning,
 )
 from greyml.grey._gnnmci import GNNMCI
-from greyml.grey._kernels import (
-    ago,
-    background,
-    gm1n_design,
-    gm1n_lstsq,
-    gmc_design,
-    gmc_lstsq,
-    gmc_lstsq_fixed_b1,
-    iago,
-)
-from greyml.grey._response import (
-    gmc_basis,
-    gmc_predict,
-    gmc_predict_population,
-    gmc_response,
-    gmc_separable,
-    gmc_sse_population,
-    gnnmci_layers,
-)
 
 __all__ = [
     "AGO",
@@ -37,21 +23,10 @@ __all__ = [
     "GreyConditioningWarning",
     "GreyStabilityWarning",
     "GreyWarmStartWarning",
-    "ago",
-    "background",
     "fit_gm1n",
-    "gm1n_design",
-    "gm1n_lstsq",
-    "gmc_basis",
-    "gmc_design",
-    "gmc_lstsq",
-    "gmc_lstsq_fixed_b1",
-    "gmc_predict",
-    "gmc_predict_population",
-    "gmc_response",
-    "gmc_separable",
-    "gmc_sse_population",
-    "gnnmci_layers",
-    "iago",
+    "kernels",
     "simulate_gmc",
 ]
+
+# the kernels were exported here until this release
+__getattr__ = moved_getattr("greyml.grey", kernels.__all__, "greyml.grey.kernels")

@@ -1,32 +1,13 @@
-"""Neural models: the multilayer-perceptron baseline of Abdulshahed et al. (2016)."""
+"""Neural models: the multilayer-perceptron baseline of Abdulshahed et al. (2016).
 
-from greyml.neural._kernels import (
-    ACTIVATIONS,
-    LMResult,
-    hidden,
-    init_nguyen_widrow,
-    levenberg_marquardt,
-    mlp_forward,
-    mlp_jacobian,
-    mlp_residuals,
-    n_params,
-    pack,
-    unpack,
-)
+Its numerical kernels are in :mod:`greyml.neural.kernels`.
+"""
+
+from greyml._moved import moved_getattr
+from greyml.neural import kernels
 from greyml.neural._mlp import MLPBaseline, UnderdeterminedWarning
 
-__all__ = [
-    "ACTIVATIONS",
-    "LMResult",
-    "MLPBaseline",
-    "hidden",
-    "init_nguyen_widrow",
-    "levenberg_marquardt",
-    "mlp_forward",
-    "mlp_jacobian",
-    "mlp_residuals",
-    "n_params",
-    "UnderdeterminedWarning",
-    "pack",
-    "unpack",
-]
+__all__ = ["MLPBaseline", "UnderdeterminedWarning", "kernels"]
+
+# the kernels were exported here until this release
+__getattr__ = moved_getattr("greyml.neural", kernels.__all__, "greyml.neural.kernels")
