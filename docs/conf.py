@@ -18,6 +18,7 @@ import re
 import shutil
 import sys
 import urllib.request
+import warnings
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
@@ -115,6 +116,12 @@ intersphinx_timeout = 10
 # so the build leaves the variable unset and nothing is written or printed.
 os.environ.pop("GREYML_EXAMPLE_OUT", None)
 
+# sphinx-gallery finds the objects an example uses by trying each shorter
+# module path (greyml.fuzzy.log_firing before greyml.fuzzy.kernels.log_firing):
+# the old kernel paths answer with a FutureWarning (greyml._moved) that is no
+# news to the reader of a build log
+warnings.filterwarnings("ignore", message=r"greyml\.\w+\.\w+ moved to ", category=FutureWarning)
+
 sphinx_gallery_conf = {
     # examples/README.txt is the gallery's header; each sub-folder with a
     # README.txt is a section, in this order (a folder not named here comes
@@ -188,7 +195,8 @@ def _constant_doc(app, what, name, obj, options, lines):
 
     short = name.rpartition(".")[2]
     for modname, module in sorted(sys.modules.items()):
-        if not modname.startswith("greyml") or getattr(module, short, None) is not obj:
+        # vars(), not getattr(): a package's __getattr__ serves moved names with a warning
+        if not modname.startswith("greyml") or vars(module).get(short) is not obj:
             continue
         try:
             docs = ModuleAnalyzer.for_module(modname).find_attr_docs()
