@@ -10,7 +10,7 @@ from sklearn.base import BaseEstimator, TransformerMixin
 from sklearn.utils.validation import check_is_fitted
 
 from greyml._sequences import TEST_LEVEL, TIME_LEVEL, segment_label
-from greyml._validation import validate_sequences
+from greyml._validation import segment_of, validate_sequences
 from greyml.dynamic._kernels import lag_filter
 
 __all__ = ["LagFeatures"]
@@ -444,7 +444,7 @@ class LagFeatures(TransformerMixin, BaseEstimator):
             negative = np.flatnonzero(Xa[:, j] < 0)
             if negative.size:
                 k = int(negative[0])
-                seg = next(s for s in segments if s.start <= k < s.stop)
+                seg = segment_of(segments, k)
                 raise ValueError(
                     f"LagFeatures: column {names[j]!r} is negative ({Xa[k, j]:g}) in "
                     f"{segment_label(seg)} at row {k}, so its power {fractional[0]:g} is not "
@@ -516,7 +516,7 @@ class LagFeatures(TransformerMixin, BaseEstimator):
                 bad = np.flatnonzero(~np.isfinite(rows[i]))
                 if bad.size:
                     k = int(bad[0])
-                    seg = next(s for s in segments if s.start <= k < s.stop)
+                    seg = segment_of(segments, k)
                     raise ValueError(
                         f"LagFeatures: column {names[j]!r} to the power {p:g} overflows to "
                         f"infinity in {segment_label(seg)} at row {k}; scale the column "

@@ -32,7 +32,7 @@ from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.utils.validation import check_is_fitted
 
 from greyml._sequences import TIME_LEVEL, segment_label
-from greyml._validation import column_names, require_y, validate_sequences
+from greyml._validation import column_names, require_y, segment_of, validate_sequences
 from greyml.dynamic._gram import (
     _cols_all,
     design,
@@ -542,7 +542,7 @@ class ThermalTransferFunction(_TransferReadout, RegressorMixin, BaseEstimator):
         bad = np.flatnonzero(~np.isfinite(w) | (w < 0))
         if bad.size:
             r = int(bad[0])
-            seg = next(s for s in segments if s.start <= r < s.stop)
+            seg = segment_of(segments, r)
             raise ValueError(
                 f"{type(self).__name__}: sample_weight of row {r} ({segment_label(seg)}) is "
                 f"{w[r]!r}; weights must be finite and >= 0."
