@@ -82,6 +82,47 @@ class _Deprecated(argparse.Action):
         setattr(namespace, self.dest, values)
 
 
+def _add_old_spelling(parser, flag, *, dest, new, type, metavar, as_list=False):
+    """``flag``, a deprecated spelling of ``new`` that is left out of the help."""
+    parser.add_argument(
+        flag,
+        dest=dest,
+        type=type,
+        action=_Deprecated,
+        new=new,
+        as_list=as_list,
+        metavar=metavar,
+        help=argparse.SUPPRESS,
+    )
+
+
+def _add_names(parser, flag, help, *, metavar="A,B"):
+    """``flag A,B``: a comma-separated list of names; repeating the flag adds to it."""
+    parser.add_argument(flag, type=_names, action="extend", metavar=metavar, help=help)
+
+
+def _add_target(parser, help="target column, e.g. dy_um"):
+    """The required ``--target COL``."""
+    parser.add_argument("--target", required=True, type=_name, metavar="COL", help=help)
+
+
+def _add_random_state(parser, help, default=0):
+    """``--random-state N``, the seed of the command's random choices."""
+    parser.add_argument("--random-state", type=int, default=default, metavar="N", help=help)
+
+
+def _name_value(text, names):
+    """``NAME=VALUE`` with NAME (whitespace stripped) one of ``names``: ``(NAME, VALUE)``.
+
+    None when ``text`` has no ``=`` or its NAME is not one of ``names``.
+    """
+    name, sep, value = text.partition("=")
+    name = name.strip()
+    if not sep or name not in names:
+        return None
+    return name, value
+
+
 def _add_quiet(parser):
     parser.add_argument(
         "--quiet",
@@ -126,6 +167,18 @@ def _add_csv_options(parser):
 def _csv_options(args):
     """The keyword arguments of ``read_tests_csv`` from the parsed options."""
     return {"time_unit": args.time_unit, "sep": args.sep, "decimal": args.decimal}
+
+
+def _end_options(parser, handler, *, reads_csv=True):
+    """What every subcommand ends with: the CSV options if it reads CSV files, ``--quiet``.
+
+    Also sets ``handler`` (a function of the parsed arguments returning the
+    exit code) and ``parser`` on the parsed arguments.
+    """
+    if reads_csv:
+        _add_csv_options(parser)
+    _add_quiet(parser)
+    parser.set_defaults(handler=handler, parser=parser)
 
 
 def _count(text):

@@ -8,7 +8,7 @@ from pathlib import Path
 
 from greyml._cli._files import _check_output_file, _read, _require_values, _where
 from greyml._cli._fitting import _final_step, _predict_quietly
-from greyml._cli._flags import _EXIT_CODES, _add_csv_options, _add_quiet, _csv_options, _subparser
+from greyml._cli._flags import _EXIT_CODES, _csv_options, _end_options, _subparser
 from greyml._cli._printing import _progress, _warn, printable
 
 _PREDICT_EPILOG = (
@@ -61,9 +61,7 @@ def _add_predict_parser(subparsers):
             "every test (VALUE) or of the tests named, for tests that start mid-run"
         ),
     )
-    _add_csv_options(parser)
-    _add_quiet(parser)
-    parser.set_defaults(handler=_run_predict, parser=parser)
+    _end_options(parser, _run_predict)
 
 
 def _run_predict(args):

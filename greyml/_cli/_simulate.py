@@ -2,11 +2,18 @@
 
 from __future__ import annotations
 
-import argparse
 import os
 
 from greyml._cli._files import _check_output_file
-from greyml._cli._flags import _EXIT_CODES, _add_quiet, _Deprecated, _names, _subparser, _unique
+from greyml._cli._flags import (
+    _EXIT_CODES,
+    _add_old_spelling,
+    _add_random_state,
+    _end_options,
+    _names,
+    _subparser,
+    _unique,
+)
 from greyml._cli._printing import _progress
 from greyml._command_names import MACHINES
 
@@ -74,26 +81,16 @@ def _add_simulate_parser(subparsers):
         metavar="C",
         help="air temperature in degrees C of --programme tests (default: 20)",
     )
-    parser.add_argument(
-        "--random-state",
-        type=int,
-        default=0,
-        metavar="N",
-        help="seed of the measurement noise (default: 0, the data of greyml.datasets); "
+    _add_random_state(
+        parser,
+        "seed of the measurement noise (default: 0, the data of greyml.datasets); "
         "--seed N is its deprecated spelling",
     )
-    parser.add_argument(
-        "--seed",
-        dest="random_state",
-        type=int,
-        action=_Deprecated,
-        new="--random-state",
-        metavar="N",
-        help=argparse.SUPPRESS,
+    _add_old_spelling(
+        parser, "--seed", dest="random_state", new="--random-state", type=int, metavar="N"
     )
     parser.add_argument("--force", action="store_true", help="replace FILE.csv if it exists")
-    _add_quiet(parser)
-    parser.set_defaults(handler=_run_simulate, parser=parser)
+    _end_options(parser, _run_simulate, reads_csv=False)
 
 
 def _run_simulate(args):
