@@ -5,7 +5,13 @@ from __future__ import annotations
 import io
 import os
 
-from greyml._cli._files import _check_output_file, _load_training, _require_columns, _require_values
+from greyml._cli._files import (
+    _check_output_file,
+    _load_training,
+    _require_columns,
+    _require_values,
+    _test_labels,
+)
 from greyml._cli._fitting import _final_step, _fit_quietly, _predict_quietly, _selector
 from greyml._cli._flags import (
     _CLUSTER_HELP,
@@ -277,7 +283,7 @@ def run_fit(
     _warn("fit", messages)
     model_step = estimator[-1] if steps else estimator
     inputs = list(estimator["select"].selected_) if select is not None else columns
-    tests = list(dict.fromkeys(frame.index.get_level_values("test")))
+    tests = _test_labels(frame)
     print(f"trained {MODEL_NAMES[model]} ({settings}) in {seconds:.1f} s")
     print(
         f"  data: {_tests_words(tests)} of {os.fspath(data)!r} ({len(frame)} rows), "

@@ -6,9 +6,9 @@ import os
 import warnings
 from pathlib import Path
 
-from greyml._cli._files import _check_output_file, _read, _require_values, _where
+from greyml._cli._files import _check_output_file, _read, _require_values, _test_labels, _where
 from greyml._cli._fitting import _final_step, _predict_quietly
-from greyml._cli._flags import _EXIT_CODES, _csv_options, _end_options, _subparser
+from greyml._cli._flags import _EXIT_CODES, _csv_options, _end_options, _name_value, _subparser
 from greyml._cli._printing import _progress, _warn, printable
 
 _PREDICT_EPILOG = (
@@ -152,13 +152,13 @@ def _initial_displacement(text, tests, model):
     by_name = {str(t): t for t in tests}
     values = {}
     for item in text.split(","):
-        name, sep, word = item.partition("=")
-        name = name.strip()
-        if not sep or name not in by_name:
+        pair = _name_value(item, by_name)
+        if pair is None:
             raise ValueError(
                 f"--initial-displacement: {item.strip()!r} is not TEST=VALUE for a test of the "
                 f"data (its tests: {', '.join(list(by_name)[:10])})."
             )
+        name, word = pair
         values[by_name[name]] = number(word.strip(), f"the value of test {name!r}")
     return {"initial_displacement": values}
 
@@ -242,7 +242,7 @@ def run_predict(
             {c: frame[c] if c in frame.columns else 0.0 for c in inputs}, index=frame.index
         )
         progress.step(f"predicting {len(frame)} rows")
-        tests = list(dict.fromkeys(frame.index.get_level_values("test")))
+        tests = _test_labels(frame)
         params = _initial_displacement(initial_displacement, tests, estimator)
         pred, messages = _predict_quietly(estimator, X, **params)
         _require_finite_predictions(pred, frame, model, data)

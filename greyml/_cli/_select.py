@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import os
 
-from greyml._cli._files import _load_training
+from greyml._cli._files import _load_training, _test_labels
 from greyml._cli._fitting import _fit_quietly, _selector
 from greyml._cli._flags import (
     _CLUSTER_HELP,
@@ -155,7 +155,7 @@ def run_select(
         _, messages = _fit_quietly(selector, frame[columns], frame[target])
     _warn("select", messages)
     names = list(selector.feature_names_in_)
-    tests = list(dict.fromkeys(frame.index.get_level_values("test")))
+    tests = _test_labels(frame)
     print(
         f"GreyInfluenceSelector(n_clusters={n}, cluster_on={cluster_on!r}) on "
         f"{_tests_words(tests)} ({len(frame)} rows) of {os.fspath(data)!r}, target "

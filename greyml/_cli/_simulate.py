@@ -4,12 +4,13 @@ from __future__ import annotations
 
 import os
 
-from greyml._cli._files import _check_output_file
+from greyml._cli._files import _check_output_file, _test_labels
 from greyml._cli._flags import (
     _EXIT_CODES,
     _add_old_spelling,
     _add_random_state,
     _end_options,
+    _name_value,
     _names,
     _subparser,
     _unique,
@@ -148,13 +149,13 @@ def parse_programme(spec, inputs):
             ) from None
         values = {}
         for level in levels:
-            name, sep, value = level.partition("=")
-            name = name.strip()
-            if not sep or name not in inputs:
+            pair = _name_value(level, inputs)
+            if pair is None:
                 raise ValueError(
                     f"segment {segment!r} of --programme: {level!r} must be NAME=VALUE with "
                     f"NAME one of {', '.join(inputs)} (this machine's inputs)."
                 )
+            name, value = pair
             try:
                 values[name] = float(value)
             except ValueError:
@@ -232,7 +233,7 @@ def run_simulate(
                 frame = frame[keep]
         progress.step(f"writing {os.fspath(path)!r}")
         write_tests_csv(frame, path, overwrite=force)
-    labels = list(dict.fromkeys(frame.index.get_level_values("test")))
+    labels = _test_labels(frame)
     print(
         f"wrote {len(frame)} rows of {len(labels)} simulated test(s) of the {machine} "
         f"({', '.join(labels)}) to {os.fspath(path)!r}: columns test, time_s, "
