@@ -82,18 +82,13 @@ class _Deprecated(argparse.Action):
         setattr(namespace, self.dest, values)
 
 
-def _add_old_spelling(parser, flag, *, dest, new, type, metavar, as_list=False):
-    """``flag``, a deprecated spelling of ``new`` that is left out of the help."""
-    parser.add_argument(
-        flag,
-        dest=dest,
-        type=type,
-        action=_Deprecated,
-        new=new,
-        as_list=as_list,
-        metavar=metavar,
-        help=argparse.SUPPRESS,
-    )
+def _add_old_spelling(parser, flag, *, new, **kwargs):
+    """``flag``, a deprecated spelling of ``new`` that is left out of the help.
+
+    ``kwargs`` (``dest``, ``type``, ``metavar``, ``as_list``...) go to
+    ``add_argument`` and :class:`_Deprecated`.
+    """
+    parser.add_argument(flag, action=_Deprecated, new=new, help=argparse.SUPPRESS, **kwargs)
 
 
 def _add_names(parser, flag, help, *, metavar="A,B"):
@@ -111,15 +106,15 @@ def _add_random_state(parser, help, default=0):
     parser.add_argument("--random-state", type=int, default=default, metavar="N", help=help)
 
 
-def _name_value(text, names):
+def _name_value(text, names, error):
     """``NAME=VALUE`` with NAME (whitespace stripped) one of ``names``: ``(NAME, VALUE)``.
 
-    None when ``text`` has no ``=`` or its NAME is not one of ``names``.
+    Anything else (no ``=``, another NAME) is a ValueError with the message ``error``.
     """
     name, sep, value = text.partition("=")
     name = name.strip()
     if not sep or name not in names:
-        return None
+        raise ValueError(error)
     return name, value
 
 

@@ -152,13 +152,12 @@ def _initial_displacement(text, tests, model):
     by_name = {str(t): t for t in tests}
     values = {}
     for item in text.split(","):
-        pair = _name_value(item, by_name)
-        if pair is None:
-            raise ValueError(
-                f"--initial-displacement: {item.strip()!r} is not TEST=VALUE for a test of the "
-                f"data (its tests: {', '.join(list(by_name)[:10])})."
-            )
-        name, word = pair
+        name, word = _name_value(
+            item,
+            by_name,
+            f"--initial-displacement: {item.strip()!r} is not TEST=VALUE for a test of the "
+            f"data (its tests: {', '.join(list(by_name)[:10])}).",
+        )
         values[by_name[name]] = number(word.strip(), f"the value of test {name!r}")
     return {"initial_displacement": values}
 

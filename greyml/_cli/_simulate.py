@@ -149,13 +149,12 @@ def parse_programme(spec, inputs):
             ) from None
         values = {}
         for level in levels:
-            pair = _name_value(level, inputs)
-            if pair is None:
-                raise ValueError(
-                    f"segment {segment!r} of --programme: {level!r} must be NAME=VALUE with "
-                    f"NAME one of {', '.join(inputs)} (this machine's inputs)."
-                )
-            name, value = pair
+            name, value = _name_value(
+                level,
+                inputs,
+                f"segment {segment!r} of --programme: {level!r} must be NAME=VALUE with "
+                f"NAME one of {', '.join(inputs)} (this machine's inputs).",
+            )
             try:
                 values[name] = float(value)
             except ValueError:
