@@ -17,6 +17,7 @@ from greyml._cli._flags import (
     _csv_options,
     _end_options,
     _name,
+    _subparser,
     _unique,
 )
 from greyml._cli._printing import _progress
@@ -54,19 +55,17 @@ def _gap_epilog():
 
 def _add_gap_parser(subparsers):
     """The ``gap`` subcommand: its arguments and its handler."""
-    parser = subparsers.add_parser(
+    parser = _subparser(
+        subparsers,
         "gap",
         help="diagnose the gap between measured tests and a simulation",
-        description=textwrap.fill(
+        description=(
             "Locate the gap between measured tests and a simulation of them (by test, "
             "phase, time and frequency band) and name the unmodelled effect that "
             "explains it, scored on held-out tests against random placebos "
-            "(greyml.gap.diagnose_gap).",
-            width=79,
+            "(greyml.gap.diagnose_gap)."
         ),
         epilog=_gap_epilog,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-        one_line=True,
     )
     _add_gap_arguments(parser)
     return parser
