@@ -243,7 +243,7 @@ def make_model(name, *, random_state=0, quick=False, drivers=(), max_sensors=Non
     description : str
         The settings in words.
     """
-    from greyml import ANFISFCM, GMC, GNNMCI, ANFISGrid, MLPBaseline, ThermalTransferFunction
+    from greyml import GMC, GNNMCI, MLPBaseline, ThermalTransferFunction
 
     if name == "transfer-function":
         model = ThermalTransferFunction(
@@ -264,21 +264,11 @@ def make_model(name, *, random_state=0, quick=False, drivers=(), max_sensors=Non
         return model, f"GNNMCI(1,N), swarm of {particles} particles x {iterations} iterations"
     if name == "anfis-grid":
         mfs, epochs = (2, 20) if quick else (GRID_MFS, ANFIS_EPOCHS)
-        model = ANFISGrid(
-            mfs,
-            n_epochs=epochs,
-            validation_fraction=CHECKING_FRACTION,
-            random_state=random_state,
-        )
+        model = make_anfis_grid(random_state, n_mfs=mfs, n_epochs=epochs)
         return model, f"ANFIS, grid of {mfs} MFs per input, {epochs} epochs, {check}"
     if name == "anfis-fcm":
         epochs = 20 if quick else ANFIS_EPOCHS
-        model = ANFISFCM(
-            FCM_RULES,
-            n_epochs=epochs,
-            validation_fraction=CHECKING_FRACTION,
-            random_state=random_state,
-        )
+        model = make_anfis_fcm(FCM_RULES, epochs)(random_state)
         return model, f"ANFIS, {FCM_RULES} fuzzy c-means rules, {epochs} epochs, {check}"
     if name == "mlp":
         restarts, epochs = (1, 200) if quick else (5, 5000)
@@ -298,12 +288,12 @@ def make_ridge(random_state=None):
     return make_pipeline(StandardScaler(), Ridge(alpha=RIDGE_ALPHA))
 
 
-def make_anfis_grid(random_state=RANDOM_STATE):
+def make_anfis_grid(random_state=RANDOM_STATE, *, n_mfs=GRID_MFS, n_epochs=ANFIS_EPOCHS):
     from greyml import ANFISGrid
 
     return ANFISGrid(
-        GRID_MFS,
-        n_epochs=ANFIS_EPOCHS,
+        n_mfs,
+        n_epochs=n_epochs,
         validation_fraction=CHECKING_FRACTION,
         random_state=random_state,
     )

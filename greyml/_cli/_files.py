@@ -96,6 +96,11 @@ def _where(frame, row, path):
     return f"line {row + 2} of {os.fspath(path)!r} (test {test!r}, time_s {time_s:g})"
 
 
+def _test_labels(frame):
+    """The labels of the tests of ``frame``, each once, in the order they first appear."""
+    return list(dict.fromkeys(frame.index.get_level_values("test")))
+
+
 def _require_columns(frame, columns, path, flag):
     missing = [c for c in columns if c not in frame.columns]
     if missing:

@@ -2,23 +2,28 @@
 
 from __future__ import annotations
 
-import argparse
 import io
 import os
 
-from greyml._cli._files import _check_output_file, _load_training, _require_columns, _require_values
+from greyml._cli._files import (
+    _check_output_file,
+    _load_training,
+    _require_columns,
+    _require_values,
+    _test_labels,
+)
 from greyml._cli._fitting import _final_step, _fit_quietly, _predict_quietly, _selector
 from greyml._cli._flags import (
     _CLUSTER_HELP,
     _EXIT_CODES,
     _SENSORS_HELP,
-    _add_csv_options,
-    _add_quiet,
+    _add_names,
+    _add_old_spelling,
+    _add_random_state,
+    _add_target,
     _count,
     _csv_options,
-    _Deprecated,
-    _name,
-    _names,
+    _end_options,
     _subparser,
     _unique,
 )
@@ -78,9 +83,7 @@ def _add_fit_parser(subparsers):
         epilog=_FIT_EPILOG,
     )
     parser.add_argument("data", metavar="DATA.csv", help="training tests (CSV)")
-    parser.add_argument(
-        "--target", required=True, type=_name, metavar="COL", help="target column, e.g. dy_um"
-    )
+    _add_target(parser)
     parser.add_argument("--model", required=True, choices=list(MODEL_NAMES), help="the model")
     parser.add_argument("--out", required=True, metavar="MODEL.file", help="model file to write")
     parser.add_argument(
@@ -90,26 +93,18 @@ def _add_fit_parser(subparsers):
         help="keep N sensors with GreyInfluenceSelector before the model; --select N is "
         "its deprecated spelling",
     )
-    parser.add_argument(
-        "--select",
-        dest="n_sensors",
-        type=_count,
-        action=_Deprecated,
-        new="--n-sensors",
-        metavar="N",
-        help=argparse.SUPPRESS,
+    _add_old_spelling(
+        parser, "--select", dest="n_sensors", new="--n-sensors", type=_count, metavar="N"
     )
     parser.add_argument(
         "--cluster-on",
         choices=("series", "influence"),
         help="the selector's grouping, with --n-sensors: " + _CLUSTER_HELP.split(": ", 1)[1],
     )
-    parser.add_argument(
+    _add_names(
+        parser,
         "--drivers",
-        type=_names,
-        action="extend",
-        metavar="A,B",
-        help="--model transfer-function: columns the controller knows (spindle speed, "
+        "--model transfer-function: columns the controller knows (spindle speed, "
         "feed), always inputs and not counted as sensors",
     )
     parser.add_argument(
@@ -119,12 +114,10 @@ def _add_fit_parser(subparsers):
         help="--model transfer-function: at most N temperature sensors, chosen inside the "
         "fit on held-out whole tests",
     )
-    parser.add_argument(
+    _add_names(
+        parser,
         "--sensors",
-        type=_names,
-        action="extend",
-        metavar="A,B",
-        help="the model's inputs, or the selector's candidates with --n-sensors, "
+        "the model's inputs, or the selector's candidates with --n-sensors, "
         + _SENSORS_HELP.split("candidate sensor columns, ", 1)[1],
     )
     parser.add_argument(
@@ -133,24 +126,10 @@ def _add_fit_parser(subparsers):
         help="inputs as rises from each test's first row (RelativeToStart, saved with the "
         "model); --drivers stay as they are",
     )
-    parser.add_argument(
-        "--train-tests",
-        type=_names,
-        action="extend",
-        metavar="A,B",
-        help="train on these tests only (default: all tests)",
-    )
-    parser.add_argument(
-        "--random-state",
-        type=int,
-        default=0,
-        metavar="N",
-        help="seed of the model's random choices (default: 0)",
-    )
+    _add_names(parser, "--train-tests", "train on these tests only (default: all tests)")
+    _add_random_state(parser, "seed of the model's random choices (default: 0)")
     parser.add_argument("--force", action="store_true", help="replace MODEL.file if it exists")
-    _add_csv_options(parser)
-    _add_quiet(parser)
-    parser.set_defaults(handler=_run_fit, parser=parser)
+    _end_options(parser, _run_fit)
 
 
 def _run_fit(args):
@@ -304,7 +283,7 @@ def run_fit(
     _warn("fit", messages)
     model_step = estimator[-1] if steps else estimator
     inputs = list(estimator["select"].selected_) if select is not None else columns
-    tests = list(dict.fromkeys(frame.index.get_level_values("test")))
+    tests = _test_labels(frame)
     print(f"trained {MODEL_NAMES[model]} ({settings}) in {seconds:.1f} s")
     print(
         f"  data: {_tests_words(tests)} of {os.fspath(data)!r} ({len(frame)} rows), "

@@ -16,6 +16,11 @@ def _selector(n, cluster_on, random_state, *, quick=False):
     return selector
 
 
+def _distinct_warnings(caught):
+    """The warnings recorded in ``caught`` as ``"Category: message"``, each once, in order."""
+    return list(dict.fromkeys(f"{x.category.__name__}: {x.message}" for x in caught))
+
+
 def _fit_quietly(estimator, X, y):
     """Fit ``estimator``; return the seconds taken and the distinct warnings raised."""
     from threadpoolctl import threadpool_limits
@@ -27,7 +32,7 @@ def _fit_quietly(estimator, X, y):
         start = time.perf_counter()
         estimator.fit(X, y)
         seconds = time.perf_counter() - start
-    return seconds, list(dict.fromkeys(f"{x.category.__name__}: {x.message}" for x in w))
+    return seconds, _distinct_warnings(w)
 
 
 def _predict_quietly(estimator, X, **params):
@@ -36,7 +41,7 @@ def _predict_quietly(estimator, X, **params):
     with warnings.catch_warnings(record=True) as w:
         warnings.simplefilter("always")
         pred = np.asarray(estimator.predict(X, **params), dtype=float)
-    return pred, list(dict.fromkeys(f"{x.category.__name__}: {x.message}" for x in w))
+    return pred, _distinct_warnings(w)
 
 
 def _final_step(estimator):

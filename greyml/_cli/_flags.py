@@ -82,6 +82,42 @@ class _Deprecated(argparse.Action):
         setattr(namespace, self.dest, values)
 
 
+def _add_old_spelling(parser, flag, *, new, **kwargs):
+    """``flag``, a deprecated spelling of ``new`` that is left out of the help.
+
+    ``kwargs`` (``dest``, ``type``, ``metavar``, ``as_list``...) go to
+    ``add_argument`` and :class:`_Deprecated`.
+    """
+    parser.add_argument(flag, action=_Deprecated, new=new, help=argparse.SUPPRESS, **kwargs)
+
+
+def _add_names(parser, flag, help, *, metavar="A,B"):
+    """``flag A,B``: a comma-separated list of names; repeating the flag adds to it."""
+    parser.add_argument(flag, type=_names, action="extend", metavar=metavar, help=help)
+
+
+def _add_target(parser, help="target column, e.g. dy_um"):
+    """The required ``--target COL``."""
+    parser.add_argument("--target", required=True, type=_name, metavar="COL", help=help)
+
+
+def _add_random_state(parser, help, default=0):
+    """``--random-state N``, the seed of the command's random choices."""
+    parser.add_argument("--random-state", type=int, default=default, metavar="N", help=help)
+
+
+def _name_value(text, names, error):
+    """``NAME=VALUE`` with NAME (whitespace stripped) one of ``names``: ``(NAME, VALUE)``.
+
+    Anything else (no ``=``, another NAME) is a ValueError with the message ``error``.
+    """
+    name, sep, value = text.partition("=")
+    name = name.strip()
+    if not sep or name not in names:
+        raise ValueError(error)
+    return name, value
+
+
 def _add_quiet(parser):
     parser.add_argument(
         "--quiet",
@@ -126,6 +162,18 @@ def _add_csv_options(parser):
 def _csv_options(args):
     """The keyword arguments of ``read_tests_csv`` from the parsed options."""
     return {"time_unit": args.time_unit, "sep": args.sep, "decimal": args.decimal}
+
+
+def _end_options(parser, handler, *, reads_csv=True):
+    """What every subcommand ends with: the CSV options if it reads CSV files, ``--quiet``.
+
+    Also sets ``handler`` (a function of the parsed arguments returning the
+    exit code) and ``parser`` on the parsed arguments.
+    """
+    if reads_csv:
+        _add_csv_options(parser)
+    _add_quiet(parser)
+    parser.set_defaults(handler=handler, parser=parser)
 
 
 def _count(text):

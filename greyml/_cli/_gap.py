@@ -11,11 +11,13 @@ from greyml._cli._files import _check_output_file, _read, _write_text
 from greyml._cli._flags import (
     EXIT_ERROR,
     EXIT_OK,
-    _add_csv_options,
-    _add_quiet,
+    _add_names,
+    _add_random_state,
+    _add_target,
     _csv_options,
+    _end_options,
     _name,
-    _names,
+    _subparser,
     _unique,
 )
 from greyml._cli._printing import _progress
@@ -53,19 +55,17 @@ def _gap_epilog():
 
 def _add_gap_parser(subparsers):
     """The ``gap`` subcommand: its arguments and its handler."""
-    parser = subparsers.add_parser(
+    parser = _subparser(
+        subparsers,
         "gap",
         help="diagnose the gap between measured tests and a simulation",
-        description=textwrap.fill(
+        description=(
             "Locate the gap between measured tests and a simulation of them (by test, "
             "phase, time and frequency band) and name the unmodelled effect that "
             "explains it, scored on held-out tests against random placebos "
-            "(greyml.gap.diagnose_gap).",
-            width=79,
+            "(greyml.gap.diagnose_gap)."
         ),
         epilog=_gap_epilog,
-        formatter_class=argparse.RawDescriptionHelpFormatter,
-        one_line=True,
     )
     _add_gap_arguments(parser)
     return parser
@@ -75,9 +75,7 @@ def _add_gap_arguments(parser):
     """The arguments of ``greyml gap``."""
     parser.add_argument("real", metavar="REAL.csv", help="measured tests (CSV)")
     parser.add_argument("sim", metavar="SIM.csv", help="simulation of the same tests (CSV)")
-    parser.add_argument(
-        "--target", required=True, type=_name, metavar="COL", help="measured target column"
-    )
+    _add_target(parser, "measured target column")
     parser.add_argument("--ambient", type=_name, metavar="COL", help="ambient temperature column")
     lists = {
         "--drivers": "operating drivers, e.g. spindle_rpm,feed_mm_min (zero when off)",
@@ -85,28 +83,17 @@ def _add_gap_arguments(parser):
         "--fbgs": "FBG columns (fbg_temperature is tried when the target is one)",
     }
     for flag, help_text in lists.items():
-        parser.add_argument(
-            flag,
-            type=_names,
-            action="extend",
-            default=None,
-            metavar="A,B",
-            help=f"{help_text}; comma-separated, may be repeated",
-        )
-    parser.add_argument(
+        _add_names(parser, flag, f"{help_text}; comma-separated, may be repeated")
+    _add_names(
+        parser,
         "--effects",
-        type=_names,
-        action="extend",
-        default=None,
+        "effects to try (default: all); comma-separated, may be repeated",
         metavar="a,b",
-        help="effects to try (default: all); comma-separated, may be repeated",
     )
-    parser.add_argument(
-        "--random-state",
-        type=int,
+    _add_random_state(
+        parser,
+        "seed of the placebos, for a repeatable diagnosis (default: unseeded)",
         default=None,
-        metavar="N",
-        help="seed of the placebos, for a repeatable diagnosis (default: unseeded)",
     )
     parser.add_argument(
         "--sensitivities",
@@ -136,9 +123,7 @@ def _add_gap_arguments(parser):
         help="write the report as JSON to FILE, or only JSON to standard output with -",
     )
     parser.add_argument("--force", action="store_true", help="replace the --json FILE if it exists")
-    _add_csv_options(parser)
-    _add_quiet(parser)
-    parser.set_defaults(handler=_run_gap, parser=parser)
+    _end_options(parser, _run_gap)
 
 
 def _custom_effect(text):

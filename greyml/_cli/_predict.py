@@ -6,9 +6,9 @@ import os
 import warnings
 from pathlib import Path
 
-from greyml._cli._files import _check_output_file, _read, _require_values, _where
+from greyml._cli._files import _check_output_file, _read, _require_values, _test_labels, _where
 from greyml._cli._fitting import _final_step, _predict_quietly
-from greyml._cli._flags import _EXIT_CODES, _add_csv_options, _add_quiet, _csv_options, _subparser
+from greyml._cli._flags import _EXIT_CODES, _csv_options, _end_options, _name_value, _subparser
 from greyml._cli._printing import _progress, _warn, printable
 
 _PREDICT_EPILOG = (
@@ -61,9 +61,7 @@ def _add_predict_parser(subparsers):
             "every test (VALUE) or of the tests named, for tests that start mid-run"
         ),
     )
-    _add_csv_options(parser)
-    _add_quiet(parser)
-    parser.set_defaults(handler=_run_predict, parser=parser)
+    _end_options(parser, _run_predict)
 
 
 def _run_predict(args):
@@ -154,13 +152,12 @@ def _initial_displacement(text, tests, model):
     by_name = {str(t): t for t in tests}
     values = {}
     for item in text.split(","):
-        name, sep, word = item.partition("=")
-        name = name.strip()
-        if not sep or name not in by_name:
-            raise ValueError(
-                f"--initial-displacement: {item.strip()!r} is not TEST=VALUE for a test of the "
-                f"data (its tests: {', '.join(list(by_name)[:10])})."
-            )
+        name, word = _name_value(
+            item,
+            by_name,
+            f"--initial-displacement: {item.strip()!r} is not TEST=VALUE for a test of the "
+            f"data (its tests: {', '.join(list(by_name)[:10])}).",
+        )
         values[by_name[name]] = number(word.strip(), f"the value of test {name!r}")
     return {"initial_displacement": values}
 
@@ -244,7 +241,7 @@ def run_predict(
             {c: frame[c] if c in frame.columns else 0.0 for c in inputs}, index=frame.index
         )
         progress.step(f"predicting {len(frame)} rows")
-        tests = list(dict.fromkeys(frame.index.get_level_values("test")))
+        tests = _test_labels(frame)
         params = _initial_displacement(initial_displacement, tests, estimator)
         pred, messages = _predict_quietly(estimator, X, **params)
         _require_finite_predictions(pred, frame, model, data)

@@ -2,22 +2,22 @@
 
 from __future__ import annotations
 
-import argparse
 import os
 
-from greyml._cli._files import _load_training
+from greyml._cli._files import _load_training, _test_labels
 from greyml._cli._fitting import _fit_quietly, _selector
 from greyml._cli._flags import (
     _CLUSTER_HELP,
     _EXIT_CODES,
     _SENSORS_HELP,
-    _add_csv_options,
-    _add_quiet,
+    _add_names,
+    _add_old_spelling,
+    _add_random_state,
+    _add_target,
     _count,
     _csv_options,
-    _Deprecated,
+    _end_options,
     _name,
-    _names,
     _subparser,
     _unique,
 )
@@ -53,9 +53,7 @@ def _add_select_parser(subparsers):
         epilog=_SELECT_EPILOG,
     )
     parser.add_argument("data", metavar="DATA.csv", help="tests (CSV)")
-    parser.add_argument(
-        "--target", required=True, type=_name, metavar="COL", help="target column, e.g. dy_um"
-    )
+    _add_target(parser)
     parser.add_argument(
         "--n-sensors",
         type=_count,
@@ -63,47 +61,26 @@ def _add_select_parser(subparsers):
         metavar="N",
         help="sensors to keep (default: 5); --n N is its deprecated spelling",
     )
-    parser.add_argument(
-        "--n",
-        dest="n_sensors",
-        type=_count,
-        action=_Deprecated,
-        new="--n-sensors",
-        metavar="N",
-        help=argparse.SUPPRESS,
-    )
+    _add_old_spelling(parser, "--n", dest="n_sensors", new="--n-sensors", type=_count, metavar="N")
     parser.add_argument("--cluster-on", choices=("series", "influence"), help=_CLUSTER_HELP)
-    parser.add_argument(
+    _add_names(
+        parser,
         "--train-tests",
-        type=_names,
-        action="extend",
-        metavar="A,B",
-        help="select on these tests only (default: all tests); --train-test LABEL is its "
+        "select on these tests only (default: all tests); --train-test LABEL is its "
         "deprecated spelling",
     )
-    parser.add_argument(
+    _add_old_spelling(
+        parser,
         "--train-test",
         dest="train_tests",
-        type=_name,
-        action=_Deprecated,
         new="--train-tests",
-        as_list=True,
+        type=_name,
         metavar="LABEL",
-        help=argparse.SUPPRESS,
+        as_list=True,
     )
-    parser.add_argument(
-        "--sensors", type=_names, action="extend", metavar="A,B", help=_SENSORS_HELP
-    )
-    parser.add_argument(
-        "--random-state",
-        type=int,
-        default=0,
-        metavar="N",
-        help="seed of the c-means starts (default: 0)",
-    )
-    _add_csv_options(parser)
-    _add_quiet(parser)
-    parser.set_defaults(handler=_run_select, parser=parser)
+    _add_names(parser, "--sensors", _SENSORS_HELP)
+    _add_random_state(parser, "seed of the c-means starts (default: 0)")
+    _end_options(parser, _run_select)
 
 
 def _run_select(args):
@@ -178,7 +155,7 @@ def run_select(
         _, messages = _fit_quietly(selector, frame[columns], frame[target])
     _warn("select", messages)
     names = list(selector.feature_names_in_)
-    tests = list(dict.fromkeys(frame.index.get_level_values("test")))
+    tests = _test_labels(frame)
     print(
         f"GreyInfluenceSelector(n_clusters={n}, cluster_on={cluster_on!r}) on "
         f"{_tests_words(tests)} ({len(frame)} rows) of {os.fspath(data)!r}, target "

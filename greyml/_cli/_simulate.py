@@ -2,11 +2,19 @@
 
 from __future__ import annotations
 
-import argparse
 import os
 
-from greyml._cli._files import _check_output_file
-from greyml._cli._flags import _EXIT_CODES, _add_quiet, _Deprecated, _names, _subparser, _unique
+from greyml._cli._files import _check_output_file, _test_labels
+from greyml._cli._flags import (
+    _EXIT_CODES,
+    _add_old_spelling,
+    _add_random_state,
+    _end_options,
+    _name_value,
+    _names,
+    _subparser,
+    _unique,
+)
 from greyml._cli._printing import _progress
 from greyml._command_names import MACHINES
 
@@ -74,26 +82,16 @@ def _add_simulate_parser(subparsers):
         metavar="C",
         help="air temperature in degrees C of --programme tests (default: 20)",
     )
-    parser.add_argument(
-        "--random-state",
-        type=int,
-        default=0,
-        metavar="N",
-        help="seed of the measurement noise (default: 0, the data of greyml.datasets); "
+    _add_random_state(
+        parser,
+        "seed of the measurement noise (default: 0, the data of greyml.datasets); "
         "--seed N is its deprecated spelling",
     )
-    parser.add_argument(
-        "--seed",
-        dest="random_state",
-        type=int,
-        action=_Deprecated,
-        new="--random-state",
-        metavar="N",
-        help=argparse.SUPPRESS,
+    _add_old_spelling(
+        parser, "--seed", dest="random_state", new="--random-state", type=int, metavar="N"
     )
     parser.add_argument("--force", action="store_true", help="replace FILE.csv if it exists")
-    _add_quiet(parser)
-    parser.set_defaults(handler=_run_simulate, parser=parser)
+    _end_options(parser, _run_simulate, reads_csv=False)
 
 
 def _run_simulate(args):
@@ -151,13 +149,12 @@ def parse_programme(spec, inputs):
             ) from None
         values = {}
         for level in levels:
-            name, sep, value = level.partition("=")
-            name = name.strip()
-            if not sep or name not in inputs:
-                raise ValueError(
-                    f"segment {segment!r} of --programme: {level!r} must be NAME=VALUE with "
-                    f"NAME one of {', '.join(inputs)} (this machine's inputs)."
-                )
+            name, value = _name_value(
+                level,
+                inputs,
+                f"segment {segment!r} of --programme: {level!r} must be NAME=VALUE with "
+                f"NAME one of {', '.join(inputs)} (this machine's inputs).",
+            )
             try:
                 values[name] = float(value)
             except ValueError:
@@ -235,7 +232,7 @@ def run_simulate(
                 frame = frame[keep]
         progress.step(f"writing {os.fspath(path)!r}")
         write_tests_csv(frame, path, overwrite=force)
-    labels = list(dict.fromkeys(frame.index.get_level_values("test")))
+    labels = _test_labels(frame)
     print(
         f"wrote {len(frame)} rows of {len(labels)} simulated test(s) of the {machine} "
         f"({', '.join(labels)}) to {os.fspath(path)!r}: columns test, time_s, "
