@@ -303,8 +303,13 @@ def test_any_bad_cell_is_named(entry, row, col, value, stage):
 @pytest.mark.parametrize(
     "development, driving, match",
     [
-        ("0.3", [1.0, 1.0, 1.0], r"development must be a finite number; got '0.3'"),
-        (np.nan, [1.0, 1.0, 1.0], r"development must be a finite number; got nan"),
+        (
+            "0.3",
+            [1.0, 1.0, 1.0],
+            r"'development' parameter of simulate_gmc must be a float in the range "
+            r"\(-inf, inf\). Got '0.3'",
+        ),
+        (np.nan, [1.0, 1.0, 1.0], r"'development' parameter of simulate_gmc .* Got nan"),
         (0.3, ["a", 1.0, 1.0], r"driving must be numbers"),
         (0.3, [1.0, np.inf, 1.0], r"driving must be finite"),
         (0.3, [1.0, 1.0], r"driving has 2 coefficients but X has 3 columns"),

@@ -99,9 +99,15 @@ def test_sensitivities_must_cover_the_rows(drift_case):
 
 def test_bad_arguments_fail_before_the_search(drift_case):
     case = drift_case
-    with pytest.raises(ValueError, match="max_effects must be an integer >= 1"):
+    with pytest.raises(
+        ValueError,
+        match=r"'max_effects' parameter of diagnose_gap must be an int in the range \[1, inf\)",
+    ):
         diagnose_gap(case.real, case.sim, **case.roles, max_effects=0)
-    with pytest.raises(ValueError, match="tolerance must be a finite number"):
+    with pytest.raises(
+        ValueError,
+        match=r"'tolerance' parameter of diagnose_gap must be a float in the range \[0.0, inf\)",
+    ):
         diagnose_gap(case.real, case.sim, **case.roles, tolerance=-0.1)
     uneven = case.real.drop(index=case.real.index[5])
     with pytest.raises(ValueError, match="sampling interval of test 'T1' is not constant"):
