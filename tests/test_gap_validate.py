@@ -159,9 +159,9 @@ def test_an_effect_hidden_by_a_parameter_error_of_opposite_sign_is_found():
 
 
 def test_backward_pruning_drops_an_effect_that_two_others_explain():
-    from greyml.gap._search import _prune
     from greyml.gap._effects import Candidate
     from greyml.gap._fit import evaluate
+    from greyml.gap._search import _prune
 
     rng = np.random.default_rng(0)
     bounds = [(0, 200), (200, 400), (400, 600), (600, 800)]
@@ -177,8 +177,6 @@ def test_backward_pruning_drops_an_effect_that_two_others_explain():
     base = [np.zeros((800, 0))] * 4
     named = []
     for cand in (both, drift, other):
-        fold = [
-            np.hstack([b] + [c.make(())[:, 0, :] for c, _, _ in named]) for b in base
-        ]
+        fold = [np.hstack([b] + [c.make(())[:, 0, :] for c, _, _ in named]) for b in base]
         named.append((cand, evaluate(r, fold, cand.make, cand.settings, bounds), None))
     assert _prune(ctx, named, base, None, 0.02) == [both]
