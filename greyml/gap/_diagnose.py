@@ -36,8 +36,8 @@ __all__ = ["diagnose_gap", "GapContext"]
     {
         "real": "no_validation",  # a DataFrame or a path, checked when read
         "sim": "no_validation",  # a DataFrame, Series, path or callable
-        "target": [str],
-        "ambient": [str, None],
+        "target": "no_validation",  # column names: checked with the roles, which
+        "ambient": "no_validation",  # say "one column name" (ambient may be a 1-list)
         "drivers": "no_validation",
         "sensors": "no_validation",
         "effects": "no_validation",  # names, checked against EFFECTS
