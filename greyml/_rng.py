@@ -6,7 +6,19 @@ import numbers
 
 import numpy as np
 
-__all__ = ["make_generator"]
+from greyml._param_validation import Integral, Interval
+
+__all__ = ["RANDOM_STATE_CONSTRAINT", "make_generator"]
+
+#: The ``_parameter_constraints`` entry of every ``random_state``: what
+#: :func:`make_generator` accepts (scikit-learn's ``"random_state"`` plus a
+#: ``Generator``, and any non-negative int rather than ints below 2**32).
+RANDOM_STATE_CONSTRAINT = [
+    Interval(Integral, 0, None, closed="left"),
+    np.random.RandomState,
+    np.random.Generator,
+    None,
+]
 
 
 def make_generator(random_state) -> np.random.Generator:

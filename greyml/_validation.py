@@ -9,7 +9,6 @@ in, so that every message names both.
 from __future__ import annotations
 
 import math
-import numbers
 
 import numpy as np
 import pandas as pd
@@ -20,9 +19,7 @@ from greyml._sequences import TIME_LEVEL, Segment, has_test_index, segment_label
 __all__ = [
     "validate_sequences",
     "column_names",
-    "check_int_param",
     "check_unique_columns",
-    "check_real_param",
     "check_sampling_interval",
     "first_non_finite",
     "param_error",
@@ -311,44 +308,6 @@ def validate_sequences(
     if reject_constant:
         _check_constant(Xa, names, segments)
     return Xa, ya, segments
-
-
-def check_int_param(estimator, name, value, low, high=None):
-    """Raise the scikit-learn style message for an integer parameter."""
-    ok = isinstance(value, numbers.Integral) and not isinstance(value, bool)
-    ok = ok and value >= low and (high is None or value <= high)
-    if not ok:
-        upper = "inf)" if high is None else f"{high}]"
-        raise ValueError(
-            f"The {name!r} parameter of {type(estimator).__name__} must be an int "
-            f"in the range [{low}, {upper}. Got {value!r} instead."
-        )
-    return int(value)
-
-
-def check_real_param(estimator, name, value, low=None, high=None, closed=(True, True)):
-    """Raise the scikit-learn style message for a real parameter.
-
-    ``value`` must be a finite real within ``low``/``high`` (``None``: unbounded);
-    ``closed`` says whether each end is included. The ends are printed as given
-    (``0`` or ``0.0``), so callers choose the form of their message.
-    """
-    ok = isinstance(value, numbers.Real) and not isinstance(value, bool)
-    ok = ok and np.isfinite(value)
-    if ok and low is not None:
-        ok = value >= low if closed[0] else value > low
-    if ok and high is not None:
-        ok = value <= high if closed[1] else value < high
-    if not ok:
-        lo = "-inf" if low is None else str(low)
-        hi = "inf" if high is None else str(high)
-        lb = "[" if closed[0] else "("
-        rb = "]" if closed[1] else ")"
-        raise ValueError(
-            f"The {name!r} parameter of {type(estimator).__name__} must be a float in "
-            f"the range {lb}{lo}, {hi}{rb}. Got {value!r} instead."
-        )
-    return float(value)
 
 
 def require_y(estimator, y, why="give the measured target (e.g. the displacement) of every row"):

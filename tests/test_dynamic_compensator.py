@@ -205,7 +205,7 @@ def test_bad_rows():
         (["T1_C"], [("T1_C", 1, 60.0, np.nan)], "has weight nan"),
         (["T1_C"], [("T1_C", 1, 60.0)], r"must be \(input_name, power, tau_s, weight\)"),
         (["T1_C", "T1_C"], [], "names 'T1_C' more than once"),
-        ("T1_C", [], "must be a list of input names"),
+        ("T1_C", [], r"'inputs' parameter of Compensator must be an instance of 'list'"),
     ],
 )
 def test_bad_parameters(inputs, terms, match):

@@ -99,9 +99,15 @@ def test_sensitivities_must_cover_the_rows(drift_case):
 
 def test_bad_arguments_fail_before_the_search(drift_case):
     case = drift_case
-    with pytest.raises(ValueError, match="max_effects must be an integer >= 1"):
+    with pytest.raises(
+        ValueError,
+        match=r"'max_effects' parameter of diagnose_gap must be an int in the range \[1, inf\)",
+    ):
         diagnose_gap(case.real, case.sim, **case.roles, max_effects=0)
-    with pytest.raises(ValueError, match="tolerance must be a finite number"):
+    with pytest.raises(
+        ValueError,
+        match=r"'tolerance' parameter of diagnose_gap must be a float in the range \[0.0, inf\)",
+    ):
         diagnose_gap(case.real, case.sim, **case.roles, tolerance=-0.1)
     uneven = case.real.drop(index=case.real.index[5])
     with pytest.raises(ValueError, match="sampling interval of test 'T1' is not constant"):
@@ -153,9 +159,9 @@ def test_an_effect_hidden_by_a_parameter_error_of_opposite_sign_is_found():
 
 
 def test_backward_pruning_drops_an_effect_that_two_others_explain():
-    from greyml.gap._search import _prune
     from greyml.gap._effects import Candidate
     from greyml.gap._fit import evaluate
+    from greyml.gap._search import _prune
 
     rng = np.random.default_rng(0)
     bounds = [(0, 200), (200, 400), (400, 600), (600, 800)]
@@ -171,8 +177,6 @@ def test_backward_pruning_drops_an_effect_that_two_others_explain():
     base = [np.zeros((800, 0))] * 4
     named = []
     for cand in (both, drift, other):
-        fold = [
-            np.hstack([b] + [c.make(())[:, 0, :] for c, _, _ in named]) for b in base
-        ]
+        fold = [np.hstack([b] + [c.make(())[:, 0, :] for c, _, _ in named]) for b in base]
         named.append((cand, evaluate(r, fold, cand.make, cand.settings, bounds), None))
     assert _prune(ctx, named, base, None, 0.02) == [both]

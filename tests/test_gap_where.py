@@ -568,7 +568,7 @@ def test_bad_parameters(small):
     r, drivers = small
     with pytest.raises(
         ValueError,
-        match=r"The 'max_lag_s' parameter of residual_diagnostics must be a real number in the range \[0, inf\). Got -1 instead.",
+        match=r"The 'max_lag_s' parameter of residual_diagnostics must be a float in the range \[0.0, inf\) or None. Got -1 instead.",
     ):
         residual_diagnostics(r, drivers, max_lag_s=-1)
     with pytest.raises(ValueError, match="'max_lag_s' parameter"):

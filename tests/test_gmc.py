@@ -256,7 +256,10 @@ def test_mismatched_columns(gmc_tests):
             r"'n_population' parameter of GMC must be an int in the range \[2, inf\)",
         ),
         ({"solver": "pso", "bounds": (5, -5)}, "lower 5 is not below upper -5"),
-        ({"solver": "cs", "bounds": 5.0}, "bounds must be a pair"),
+        (
+            {"solver": "cs", "bounds": 5.0},
+            r"'bounds' parameter of GMC must be.*array-like. Got 5.0",
+        ),
         (
             {"solver": "pso", "bounds": ([0, 1], [1, 2])},
             "bounds must be scalars or arrays of length 6",

@@ -422,13 +422,13 @@ def test_more_than_one_hidden_layer_is_refused():
     [
         (
             {"hidden_layer_sizes": 0},
-            r"'hidden_layer_sizes' parameter of MLPBaseline must be an int in the range \[1, inf\) or a tuple of one such int. Got 0",
+            r"'hidden_layer_sizes' parameter of MLPBaseline must be an int in the range \[1, inf\), an instance of 'tuple' or an instance of 'list'. Got 0",
         ),
         ({"hidden_layer_sizes": ()}, r"'hidden_layer_sizes' .* Got \(\) instead"),
         ({"hidden_layer_sizes": 2.5}, r"'hidden_layer_sizes' .* Got 2.5 instead"),
         (
             {"activation": "relu"},
-            r"'activation' parameter of MLPBaseline must be a str among \{'logistic', 'tanh'\}. Got 'relu'",
+            r"'activation' parameter of MLPBaseline must be a str among \{('logistic', 'tanh'|'tanh', 'logistic')\}. Got 'relu'",
         ),
         (
             {"max_iter": 0},
@@ -445,7 +445,7 @@ def test_more_than_one_hidden_layer_is_refused():
             {"validation_fraction": 1.0},
             r"'validation_fraction' parameter of MLPBaseline must be a float in the range \[0.0, 1.0\). Got 1.0",
         ),
-        ({"random_state": -1}, r"random_state must be a non-negative int"),
+        ({"random_state": -1}, r"'random_state' parameter of MLPBaseline must be .* Got -1"),
     ],
 )
 def test_bad_parameters(params, match):

@@ -96,7 +96,7 @@ def test_bad_bounds(bounds, match):
         (ParticleSwarm(inertia=0.5), "'inertia'"),
         (
             CuckooSearch(pa=1.5),
-            r"'pa' parameter of CuckooSearch must be a float in the range \[0, 1\]",
+            r"'pa' parameter of CuckooSearch must be a float in the range \[0.0, 1.0\]",
         ),
         (CuckooSearch(n_nests=1), "'n_nests'"),
         (CuckooSearch(beta=3.0), "'beta'"),

@@ -584,3 +584,21 @@ def test_arrays_read_through_the_bounded_reader_are_exact(tmp_path):
         assert np.array_equal(read, saved) and np.shape(read) == np.shape(saved)
     assert loaded.extra_[0].flags.f_contiguous and loaded.extra_[0][1, 2] == 5.0
     assert loaded.extra_[1].tolist() == [0, 1, 2]
+
+
+@pytest.mark.parametrize(
+    "attributes, match",
+    [
+        ({"response": "euler"}, r"invalid parameter: The 'response' parameter of GMC must be"),
+        ({"n_population": -1}, r"invalid parameter: The 'n_population' parameter of GMC"),
+    ],
+)
+def test_a_parameter_outside_its_constraints_is_refused(tmp_path, attributes, match):
+    """Loading runs the estimator's own _validate_params: a value that fit would
+    refuse is refused, one line naming the file and the parameter."""
+    X, y = _frame()
+    gmc = save_model(GMC().fit(X, y), tmp_path / "gmc.greyml")
+    bad = _tamper(gmc, tmp_path / "gmc-bad.greyml", _set(**attributes))
+    with pytest.raises(ValueError, match=match) as info:
+        load_model(bad)
+    assert "\n" not in str(info.value) and "gmc-bad.greyml" in str(info.value)

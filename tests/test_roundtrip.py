@@ -559,7 +559,7 @@ def test_duplicate_archive_member_is_refused(model_file, tripwire, name):
         (lambda s: s.update(response="evil"), "'response' parameter of GMC"),
         (lambda s: s.update(initial=None), "'initial' parameter of GMC"),
         # the attribute table and containers themselves
-        (lambda s: s.clear() or s.update(steps=None), "has no attribute 'response'"),
+        (lambda s: s.clear() or s.update(steps=None), "has no attribute 'bounds'"),
         (lambda s: s.update(bounds={"kind": "dict", "items": "x"}), "no items list"),
         (lambda s: s.update(bounds={"kind": "dict", "items": [[1, 2, 3]]}), "key-value"),
         (lambda s: s.update(bounds={"kind": "tuple"}), "no items list"),

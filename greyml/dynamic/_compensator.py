@@ -14,6 +14,7 @@ from sklearn.pipeline import Pipeline
 from sklearn.preprocessing import StandardScaler
 from sklearn.utils.validation import check_is_fitted
 
+from greyml._param_validation import Interval, Real
 from greyml._sequences import TIME_LEVEL
 from greyml.dynamic._lags import LagFeatures, _power_name, format_seconds
 
@@ -108,6 +109,14 @@ class Compensator(BaseEstimator):
     {'T1_C|lag 15 min': 20.632120558828558}
     """
 
+    _parameter_constraints: dict = {
+        "inputs": [list, tuple, np.ndarray],
+        "terms": ["array-like"],
+        "intercept": [Interval(Real, None, None, closed="neither")],
+        "relative_to_start": ["boolean"],
+        "nominal_step_s": [Interval(Real, 0, None, closed="neither"), None],
+    }
+
     def __init__(
         self, inputs, terms, intercept=0.0, *, relative_to_start=False, nominal_step_s=None
     ):
@@ -120,15 +129,11 @@ class Compensator(BaseEstimator):
     # -- parameters and the plan -------------------------------------------
 
     def _check_params(self):
-        """Check the parameters; return the plan of an update (arrays over terms)."""
+        """Check the parameters (the constraints, then the terms one by one); return
+        the plan of an update (arrays over terms)."""
         name = type(self).__name__
-        inputs = self.inputs
-        if isinstance(inputs, str) or not isinstance(inputs, (list, tuple, np.ndarray)):
-            raise ValueError(
-                f"The 'inputs' parameter of {name} must be a list of input names. "
-                f"Got {inputs!r} instead."
-            )
-        inputs = [str(v) for v in inputs]
+        self._validate_params()
+        inputs = [str(v) for v in self.inputs]
         if len(set(inputs)) != len(inputs) or TIME_LEVEL in inputs:
             bad = (
                 TIME_LEVEL
@@ -138,22 +143,6 @@ class Compensator(BaseEstimator):
             raise ValueError(
                 f"The 'inputs' parameter of {name} names {bad!r} "
                 + ("more than once." if bad != TIME_LEVEL else "; time_s is read apart.")
-            )
-        if not _real(self.intercept):
-            raise ValueError(
-                f"The 'intercept' parameter of {name} must be a finite number. "
-                f"Got {self.intercept!r} instead."
-            )
-        if not isinstance(self.relative_to_start, (bool, np.bool_)):
-            raise ValueError(
-                f"The 'relative_to_start' parameter of {name} must be a bool. "
-                f"Got {self.relative_to_start!r} instead."
-            )
-        step = self.nominal_step_s
-        if step is not None and not (_real(step) and step > 0):
-            raise ValueError(
-                f"The 'nominal_step_s' parameter of {name} must be a float in the range "
-                f"(0, inf) or None. Got {step!r} instead."
             )
         if isinstance(self.terms, (str, Mapping)) or not hasattr(self.terms, "__iter__"):
             raise ValueError(

@@ -9,6 +9,7 @@ import pandas as pd
 from sklearn.base import BaseEstimator, TransformerMixin
 from sklearn.utils.validation import check_is_fitted
 
+from greyml._param_validation import Integral, Interval, Real, StrOptions
 from greyml._sequences import TEST_LEVEL, TIME_LEVEL, segment_label
 from greyml._validation import segment_of, validate_sequences
 from greyml.dynamic._kernels import lag_filter
@@ -193,6 +194,15 @@ class LagFeatures(TransformerMixin, BaseEstimator):
     [0.0, 1896.4, 2594.0, 2850.6]
     """
 
+    _parameter_constraints: dict = {
+        "time_constants": [Interval(Real, 0, None, closed="neither"), "array-like"],
+        "columns": [None, str, Integral, "array-like"],
+        "state": [StrOptions(set(_STATES))],
+        "powers": [Interval(Real, 0, None, closed="neither"), dict, "array-like"],
+        "include_input": ["boolean"],
+        "sample_step_s": [Interval(Real, 0, None, closed="neither"), None],
+    }
+
     def __init__(
         self,
         time_constants,
@@ -213,7 +223,8 @@ class LagFeatures(TransformerMixin, BaseEstimator):
     # -- parameters ---------------------------------------------------------
 
     def _check_params(self):
-        """Check the parameters that do not depend on X; return the time constants."""
+        """Check what the constraints cannot say (the entries of the sequences, a
+        repeated time constant or power); return the time constants."""
         name = type(self).__name__
         taus = _real_tuple(self.time_constants)
         if taus is None:
@@ -233,22 +244,6 @@ class LagFeatures(TransformerMixin, BaseEstimator):
             raise ValueError(
                 f"The 'time_constants' parameter of {name} holds {format_seconds(dup)} "
                 "more than once; give each time constant once."
-            )
-        if self.state not in _STATES:
-            raise ValueError(
-                f"The 'state' parameter of {name} must be a str among "
-                f"{{'restart', 'carry'}}. Got {self.state!r} instead."
-            )
-        if not isinstance(self.include_input, (bool, np.bool_)):
-            raise ValueError(
-                f"The 'include_input' parameter of {name} must be a bool. "
-                f"Got {self.include_input!r} instead."
-            )
-        step = self.sample_step_s
-        if step is not None and not (_is_real(step) and np.isfinite(step) and step > 0):
-            raise ValueError(
-                f"The 'sample_step_s' parameter of {name} must be a float in the range "
-                f"(0, inf) or None. Got {step!r} instead."
             )
         powers = self.powers
         items = powers.items() if isinstance(powers, dict) else [(None, powers)]
@@ -423,6 +418,7 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         -------
         self : LagFeatures
         """
+        self._validate_params()
         taus = self._check_params()
         Xa, _, segments = validate_sequences(self, X, reset=True)
         names = self._input_names()

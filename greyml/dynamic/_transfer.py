@@ -31,6 +31,7 @@ from scipy.optimize import minimize
 from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.utils.validation import check_is_fitted
 
+from greyml._param_validation import Integral, Interval, StrOptions
 from greyml._sequences import TIME_LEVEL, segment_label
 from greyml._validation import column_names, require_y, segment_of, validate_sequences
 from greyml.dynamic._gram import (
@@ -229,6 +230,19 @@ class ThermalTransferFunction(_TransferReadout, RegressorMixin, BaseEstimator):
     ('spindle_rpm', 1, None)
     """
 
+    _parameter_constraints: dict = {
+        "drivers": ["array-like"],
+        "max_sensors": [Interval(Integral, 1, None, closed="left"), None],
+        "time_constants": [StrOptions({"fit"}), "array-like", None],
+        "state": [StrOptions({"restart", "carry"})],
+        "random_state": ["random_state"],
+        "driver_powers": ["array-like"],
+        "driver_time_constants": ["array-like", None],
+        "relative_to_start": ["boolean"],
+        "alphas": ["array-like", None],
+        "selection": [StrOptions({"forward", "stable"})],
+    }
+
     def __init__(
         self,
         *,
@@ -259,12 +273,6 @@ class ThermalTransferFunction(_TransferReadout, RegressorMixin, BaseEstimator):
     def _taus(self, name, value, default):
         if value is None:
             return np.asarray(default, dtype=float)
-        if isinstance(value, str):
-            also = " or 'fit'" if name == "time_constants" else ""
-            raise ValueError(
-                f"The {name!r} parameter of {type(self).__name__} must be a sequence of "
-                f"time constants in seconds{also} or None. Got {value!r} instead."
-            )
         try:
             taus = np.asarray(value, dtype=float).reshape(-1)
         except (TypeError, ValueError):
@@ -285,12 +293,8 @@ class ThermalTransferFunction(_TransferReadout, RegressorMixin, BaseEstimator):
         return taus
 
     def _check_params(self):
+        """Check what the constraints cannot say: the entries of the sequences."""
         name = type(self).__name__
-        if self.state not in ("restart", "carry"):
-            raise ValueError(
-                f"The 'state' parameter of {name} must be 'restart' or 'carry'. "
-                f"Got {self.state!r} instead."
-            )
         fit_taus = isinstance(self.time_constants, str) and self.time_constants == "fit"
         taus = self._taus(
             "time_constants", None if fit_taus else self.time_constants, DEFAULT_TIME_CONSTANTS
@@ -301,15 +305,6 @@ class ThermalTransferFunction(_TransferReadout, RegressorMixin, BaseEstimator):
             if dtaus is None
             else self._taus("driver_time_constants", dtaus, DEFAULT_TIME_CONSTANTS)
         )
-        if self.max_sensors is not None and (
-            not isinstance(self.max_sensors, numbers.Integral)
-            or isinstance(self.max_sensors, bool)
-            or self.max_sensors < 1
-        ):
-            raise ValueError(
-                f"The 'max_sensors' parameter of {name} must be an int in the range "
-                f"[1, inf) or None. Got {self.max_sensors!r} instead."
-            )
         powers = tuple(self.driver_powers)
         if not powers or any(
             not isinstance(p, numbers.Real) or isinstance(p, bool) or not np.isfinite(p) or p <= 0
@@ -324,21 +319,6 @@ class ThermalTransferFunction(_TransferReadout, RegressorMixin, BaseEstimator):
             raise ValueError(
                 f"The 'alphas' parameter of {name} must be a non-empty sequence of finite "
                 f"floats > 0. Got {self.alphas!r} instead."
-            )
-        if self.selection not in ("forward", "stable"):
-            raise ValueError(
-                f"The 'selection' parameter of {name} must be 'forward' or 'stable'. "
-                f"Got {self.selection!r} instead."
-            )
-        if not isinstance(self.relative_to_start, (bool, np.bool_)):
-            raise ValueError(
-                f"The 'relative_to_start' parameter of {name} must be True or False. "
-                f"Got {self.relative_to_start!r} instead."
-            )
-        if isinstance(self.drivers, str):
-            raise ValueError(
-                f"The 'drivers' parameter of {name} must be a sequence of column names, "
-                f"e.g. [{self.drivers!r}]. Got the string {self.drivers!r} instead."
             )
         return taus, driver_taus, fit_taus, powers, alphas
 
@@ -428,6 +408,14 @@ class ThermalTransferFunction(_TransferReadout, RegressorMixin, BaseEstimator):
         -------
         self : ThermalTransferFunction
         """
+        if isinstance(self.drivers, str):
+            # before the constraints, which would only say "an array-like"
+            raise ValueError(
+                f"The 'drivers' parameter of {type(self).__name__} must be a sequence of "
+                f"column names, e.g. [{self.drivers!r}]. Got the string {self.drivers!r} "
+                "instead."
+            )
+        self._validate_params()
         require_y(self, y)
         taus, driver_taus, fit_taus, powers, alphas = self._check_params()
         Xa, ya, segments = validate_sequences(self, X, y, reset=True)

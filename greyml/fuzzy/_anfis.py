@@ -10,11 +10,10 @@ from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.utils.validation import check_is_fitted
 
 from greyml._checking import checking_split
-from greyml._rng import make_generator
+from greyml._param_validation import Integral, Interval, Real
+from greyml._rng import RANDOM_STATE_CONSTRAINT, make_generator
 from greyml._threads import blas_threads_for
 from greyml._validation import (
-    check_int_param,
-    check_real_param,
     column_names,
     require_y,
     standard_scaling,
@@ -40,21 +39,28 @@ class _ANFISBase(RegressorMixin, BaseEstimator):
     """Shared fit/predict of the two ANFIS partitions; subclasses build the
     initial premise (``_initial_premise``)."""
 
+    _parameter_constraints: dict = {
+        "n_epochs": [Interval(Integral, 1, None, closed="left")],
+        "step_size": [Interval(Real, 0, None, closed="neither")],
+        "step_increase": [Interval(Real, 0, None, closed="neither")],
+        "step_decrease": [Interval(Real, 0, None, closed="neither")],
+        "alpha": [Interval(Real, 0, None, closed="left")],
+        "validation_fraction": [Interval(Real, 0, 1, closed="left")],
+        "error_goal": [Interval(Real, 0, None, closed="left")],
+        "random_state": RANDOM_STATE_CONSTRAINT,
+    }
+
+    def _check_params(self):
+        """Checks of a partition's parameters that the constraints cannot say."""
+
     def _check_common_params(self):
-        check_int_param(self, "n_epochs", self.n_epochs, 1)
-        for name in ("step_size", "step_increase", "step_decrease"):
-            check_real_param(self, name, getattr(self, name), 0.0, closed=(False, False))
+        """What the constraints cannot say: how the two step factors relate."""
         if not self.step_increase >= 1.0 or not self.step_decrease <= 1.0:
             raise ValueError(
                 f"{type(self).__name__} needs step_increase >= 1 and step_decrease <= 1 "
                 f"(Jang's rule grows then shrinks the step); got {self.step_increase!r} "
                 f"and {self.step_decrease!r}."
             )
-        check_real_param(self, "alpha", self.alpha, 0.0, closed=(True, False))
-        check_real_param(self, "error_goal", self.error_goal, 0.0, closed=(True, False))
-        check_real_param(
-            self, "validation_fraction", self.validation_fraction, 0.0, 1.0, (True, False)
-        )
 
     def fit(self, X, y, X_val=None, y_val=None):
         """Hybrid learning on training data, keeping the epoch with the lowest
@@ -75,6 +81,7 @@ class _ANFISBase(RegressorMixin, BaseEstimator):
         -------
         self
         """
+        self._validate_params()
         self._check_params()
         self._check_common_params()
         name = type(self).__name__
@@ -408,13 +415,17 @@ class ANFISGrid(_ANFISBase):
         self.max_rules = max_rules
         self.random_state = random_state
 
+    _parameter_constraints: dict = {
+        **_ANFISBase._parameter_constraints,
+        "n_mfs": [Interval(Integral, 1, None, closed="left"), "array-like"],
+        "mf_overlap": [Interval(Real, 0, 1, closed="neither")],
+        "max_rules": [Interval(Integral, 1, None, closed="left")],
+    }
+
     def _check_params(self):
-        check_int_param(self, "max_rules", self.max_rules, 1)
-        check_real_param(self, "mf_overlap", self.mf_overlap, 0.0, 1.0, (False, False))
+        """What the constraints cannot say: every entry of a sequence ``n_mfs``."""
         n = self.n_mfs
-        if isinstance(n, numbers.Integral) and not isinstance(n, bool):
-            check_int_param(self, "n_mfs", n, 1)
-        else:
+        if not isinstance(n, numbers.Integral):
             try:
                 values = list(n)
             except TypeError:
@@ -592,12 +603,14 @@ feature_names_in_
         self.error_goal = error_goal
         self.random_state = random_state
 
-    def _check_params(self):
-        check_int_param(self, "n_clusters", self.n_clusters, 1)
-        check_int_param(self, "fcm_max_iter", self.fcm_max_iter, 1)
-        check_int_param(self, "fcm_max_samples", self.fcm_max_samples, 2)
-        check_real_param(self, "fcm_tol", self.fcm_tol, 0.0, closed=(False, False))
-        check_real_param(self, "m", self.m, 1.0, closed=(False, False))
+    _parameter_constraints: dict = {
+        **_ANFISBase._parameter_constraints,
+        "n_clusters": [Interval(Integral, 1, None, closed="left")],
+        "m": [Interval(Real, 1, None, closed="neither")],
+        "fcm_max_iter": [Interval(Integral, 1, None, closed="left")],
+        "fcm_max_samples": [Interval(Integral, 2, None, closed="left")],
+        "fcm_tol": [Interval(Real, 0, None, closed="neither")],
+    }
 
     def _min_rows(self, n_features):
         return max(n_features + 2, self.n_clusters)

@@ -13,7 +13,8 @@ import warnings
 import numpy as np
 import pandas as pd
 
-from greyml._rng import make_generator
+from greyml._param_validation import Integral, Interval, Real, validate_params
+from greyml._rng import RANDOM_STATE_CONSTRAINT, make_generator
 from greyml.gap._effects import (
     DESCRIPTIONS,
     EFFECTS,
@@ -31,6 +32,28 @@ from greyml.gap._where import gap_breakdown, residual_diagnostics
 __all__ = ["diagnose_gap", "GapContext"]
 
 
+@validate_params(
+    {
+        "real": "no_validation",  # a DataFrame or a path, checked when read
+        "sim": "no_validation",  # a DataFrame, Series, path or callable
+        "target": "no_validation",  # column names: checked with the roles, which
+        "ambient": "no_validation",  # say "one column name" (ambient may be a 1-list)
+        "drivers": "no_validation",
+        "sensors": "no_validation",
+        "effects": "no_validation",  # names, checked against EFFECTS
+        "random_state": RANDOM_STATE_CONSTRAINT,
+        "fbgs": "no_validation",
+        "max_effects": [Interval(Integral, 1, None, closed="left")],
+        "n_placebo": [Interval(Integral, 1, None, closed="left")],
+        "min_shrinkage": [Interval(Real, 0, 1, closed="left")],
+        "tie_tolerance": [Interval(Real, 0, 1, closed="left")],
+        "recalibrate": ["boolean"],
+        "sensitivities": "no_validation",  # a DataFrame or a path
+        "tolerance": [Interval(Real, 0, None, closed="left")],
+        "custom_effects": [dict, None],
+    },
+    prefer_skip_nested_validation=True,
+)
 def diagnose_gap(
     real,
     sim,
@@ -156,7 +179,7 @@ def diagnose_gap(
     ('drift', 0.98)
     """
     effects, search = check_parameters(
-        effects, custom_effects, max_effects, tolerance, n_placebo, min_shrinkage, tie_tolerance
+        effects, custom_effects, max_effects, n_placebo, min_shrinkage, tie_tolerance
     )
     roles = dict(target=target, ambient=ambient, drivers=drivers, sensors=sensors, fbgs=fbgs)
     real, ctx, custom = prepare(real, sim, custom_effects, **roles)

@@ -35,10 +35,10 @@ import numpy as np
 import pandas as pd
 from scipy.stats import chi2
 
+from greyml._param_validation import Integral, Interval, Real, validate_params
 from greyml._sequences import segment_label
 from greyml.gap._where_checks import (
     _check_band_edges,
-    _check_diagnostics_params,
     _check_frame,
     _check_gap,
     _check_time_edges,
@@ -131,6 +131,15 @@ def _band_labels(edges: np.ndarray) -> list[str]:
 # --------------------------------------------------------------------------
 
 
+@validate_params(
+    {
+        "r": "no_validation",  # a Series indexed by (test, time_s), checked with its index
+        "drivers": "no_validation",  # a DataFrame with r's index, or None
+        "time_edges_s": ["array-like", None],
+        "bands_s": ["array-like", None],
+    },
+    prefer_skip_nested_validation=True,
+)
 def gap_breakdown(
     r: pd.Series,
     *,
@@ -300,6 +309,15 @@ def gap_breakdown(
     return table.astype({"n": np.int64})
 
 
+@validate_params(
+    {
+        "r": "no_validation",
+        "signals": "no_validation",
+        "max_lag_s": [Interval(Real, 0, None, closed="left"), None],
+        "n_lags_whiteness": [Interval(Integral, 1, None, closed="left"), None],
+    },
+    prefer_skip_nested_validation=True,
+)
 def residual_diagnostics(
     r: pd.Series,
     signals: pd.DataFrame,
@@ -423,7 +441,7 @@ def residual_diagnostics(
     """
     values, layout = _check_gap(r)
     S, names = _check_frame(signals, "signals", r, layout)
-    max_lag_s = _check_diagnostics_params(max_lag_s, n_lags_whiteness)
+    max_lag_s = _HOUR if max_lag_s is None else max_lag_s
 
     q, dof, lag1 = _ljung_box(values, layout.segments, n_lags_whiteness)
     if dof == 0:

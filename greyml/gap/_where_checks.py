@@ -7,7 +7,6 @@ sampling interval, the parameter message) are greyml's shared ones in
 
 from __future__ import annotations
 
-import numbers
 from dataclasses import dataclass
 
 import numpy as np
@@ -25,7 +24,6 @@ from greyml._validation import (
 )
 from greyml.io._csv import describe_input
 
-_HOUR = 3600.0
 #: Largest relative deviation of a time step of a test from its first step.
 _STEP_RTOL = 1e-3
 
@@ -145,30 +143,3 @@ def _check_band_edges(bands_s) -> np.ndarray:
     if np.any(np.diff(edges) == 0):
         raise param_error("gap_breakdown", "bands_s", what, bands_s)
     return edges
-
-
-def _check_diagnostics_params(max_lag_s, n_lags_whiteness) -> float:
-    """Check the parameters of residual_diagnostics; return ``max_lag_s`` (1 h if None)."""
-    if max_lag_s is None:
-        max_lag_s = _HOUR
-    if (
-        not isinstance(max_lag_s, numbers.Real)
-        or isinstance(max_lag_s, bool)
-        or not np.isfinite(max_lag_s)
-        or max_lag_s < 0
-    ):
-        raise param_error(
-            "residual_diagnostics", "max_lag_s", "a real number in the range [0, inf)", max_lag_s
-        )
-    if n_lags_whiteness is not None and (
-        not isinstance(n_lags_whiteness, numbers.Integral)
-        or isinstance(n_lags_whiteness, bool)
-        or n_lags_whiteness < 1
-    ):
-        raise param_error(
-            "residual_diagnostics",
-            "n_lags_whiteness",
-            "an int in the range [1, inf)",
-            n_lags_whiteness,
-        )
-    return max_lag_s

@@ -14,6 +14,7 @@ from sklearn.base import (
 from sklearn.linear_model import LinearRegression
 from sklearn.utils.validation import check_is_fitted
 
+from greyml._param_validation import HasMethods
 from greyml._sequences import keep_test_index
 from greyml._validation import require_y, validate_sequences
 from greyml.grey._kernels import ago, iago
@@ -63,6 +64,8 @@ class AGO(OneToOneFeatureMixin, TransformerMixin, BaseEstimator):
     [1.0, 3.0, 6.0, 10.0, 30.0]
     """
 
+    _parameter_constraints: dict = {}
+
     def fit(self, X, y=None):
         """Record the number and names of the columns.
 
@@ -75,6 +78,7 @@ class AGO(OneToOneFeatureMixin, TransformerMixin, BaseEstimator):
         -------
         self : AGO
         """
+        self._validate_params()
         validate_sequences(self, X, reset=True)
         return self
 
@@ -183,6 +187,8 @@ class AccumulatedTargetRegressor(RegressorMixin, BaseEstimator):
     [2.0, 4.0, 8.0, 2.0, 6.0]
     """
 
+    _parameter_constraints: dict = {"regressor": [HasMethods(["fit", "predict"]), None]}
+
     def __init__(self, regressor=None):
         self.regressor = regressor
 
@@ -201,6 +207,7 @@ class AccumulatedTargetRegressor(RegressorMixin, BaseEstimator):
         -------
         self : AccumulatedTargetRegressor
         """
+        self._validate_params()
         require_y(self, y)
         _, ya, segments = validate_sequences(
             self, X, y, reset=True, min_rows=1, n_params_msg="an accumulated target"

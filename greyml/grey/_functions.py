@@ -2,11 +2,10 @@
 
 from __future__ import annotations
 
-import numbers
-
 import numpy as np
 from sklearn.base import BaseEstimator
 
+from greyml._param_validation import Interval, Real, StrOptions, validate_params
 from greyml._sequences import segment_label
 from greyml._validation import column_names, validate_sequences
 from greyml.grey._kernels import CONDITION_LIMIT, _grey_lstsq, ago, gm1n_design, iago
@@ -19,6 +18,7 @@ class _Inputs(BaseEstimator):
     """Holds what validation learns about a function's inputs (names, counts)."""
 
 
+@validate_params({"X": ["array-like"], "y": ["array-like"]}, prefer_skip_nested_validation=True)
 def fit_gm1n(X, y):
     """GM(1,N) coefficients by least squares.
 
@@ -74,6 +74,17 @@ def fit_gm1n(X, y):
     return float(a), np.asarray(b, dtype=float)
 
 
+@validate_params(
+    {
+        "X": ["array-like"],
+        "development": [Interval(Real, None, None, closed="neither")],
+        "driving": ["array-like", Real],  # a number for one column, as before
+        "control": [Interval(Real, None, None, closed="neither")],
+        "form": [StrOptions({"trapezoid", "midpoint"})],
+        "initial": [StrOptions({"model", "zero"})],
+    },
+    prefer_skip_nested_validation=True,
+)
 def simulate_gmc(X, development, driving, control=0.0, *, form="trapezoid", initial="model"):
     """The GMC(1,N) prediction x̂₁⁽⁰⁾ for given coefficients, per test.
 
@@ -119,9 +130,6 @@ def simulate_gmc(X, development, driving, control=0.0, *, form="trapezoid", init
         raise ValueError(
             f"driving has {driving.size} coefficients but X has {Xa.shape[1]} columns."
         )
-    for what, value in [("development", development), ("control", control)]:
-        if not (isinstance(value, numbers.Real) and np.isfinite(value)):
-            raise ValueError(f"simulate_gmc: {what} must be a finite number; got {value!r}.")
     if not np.isfinite(driving).all():
         raise ValueError(f"simulate_gmc: driving must be finite; got {driving.tolist()}.")
     test_bounds = [(s.start, s.stop) for s in segments]

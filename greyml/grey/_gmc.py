@@ -12,10 +12,11 @@ from scipy.optimize import minimize_scalar
 from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.utils.validation import check_is_fitted
 
-from greyml._rng import make_generator
+from greyml._param_validation import Integral, Interval, StrOptions
+from greyml._rng import RANDOM_STATE_CONSTRAINT, make_generator
 from greyml._sequences import segment_label
 from greyml._threads import blas_threads_for
-from greyml._validation import check_int_param, column_names, require_y, validate_sequences
+from greyml._validation import column_names, require_y, validate_sequences
 from greyml.exceptions import (
     GreyConditioningWarning,
     GreyStabilityWarning,
@@ -54,6 +55,16 @@ class _GreyConvolutionModel(RegressorMixin, BaseEstimator):
     their defaults and optimiser. Subclasses define ``_check_params``, which
     returns the population optimiser (or ``None`` for least squares)."""
 
+    _parameter_constraints: dict = {
+        "search": [StrOptions({"separable", "full"})],
+        "bounds": [StrOptions(set(BOUNDS_NAMES)), "array-like"],
+        "max_iter": [Interval(Integral, 1, None, closed="left")],
+        "initial": [StrOptions({"model", "zero"})],
+        "polish": ["boolean"],
+        "warm_start_ls": ["boolean"],
+        "random_state": RANDOM_STATE_CONSTRAINT,
+    }
+
     # -- fit / predict ----------------------------------------------------
     def fit(self, X, y):
         """Calibrate b₁, b₂…b_N and u on one or more tests.
@@ -69,6 +80,7 @@ class _GreyConvolutionModel(RegressorMixin, BaseEstimator):
         -------
         self
         """
+        self._validate_params()
         optimizer = self._check_params()
         require_y(self, y)
         Xa, ya, segments = validate_sequences(
@@ -270,12 +282,6 @@ class _GreyConvolutionModel(RegressorMixin, BaseEstimator):
     def _search_bounds(self, n_theta):
         """The optimiser's box for (b₁, b₂…b_N, u), with the named boxes resolved."""
         if isinstance(self.bounds, str):
-            if self.bounds not in BOUNDS_NAMES:
-                raise ValueError(
-                    f"The 'bounds' parameter of {type(self).__name__} must be a str among "
-                    f"{{'stable', 'papers'}} or a (lower, upper) pair. Got {self.bounds!r} "
-                    "instead."
-                )
             lower = np.full(n_theta, PAPERS_BOUNDS[0])
             if self.bounds == "stable":
                 lower[0] = 0.0
@@ -456,35 +462,19 @@ class GMC(_GreyConvolutionModel):
         self.warm_start_ls = warm_start_ls
         self.random_state = random_state
 
+    _parameter_constraints: dict = {
+        **_GreyConvolutionModel._parameter_constraints,
+        "solver": [StrOptions(set(_SOLVERS)), PopulationOptimizer],
+        "n_population": [Interval(Integral, 2, None, closed="left")],
+        "response": [StrOptions({"trapezoid", "midpoint"})],
+    }
+
     # -- parameter checks -------------------------------------------------
     def _check_params(self):
-        if self.response not in ("trapezoid", "midpoint"):
-            raise ValueError(
-                "The 'response' parameter of GMC must be a str among "
-                f"{{'trapezoid', 'midpoint'}}. Got {self.response!r} instead."
-            )
-        if self.initial not in ("model", "zero"):
-            raise ValueError(
-                "The 'initial' parameter of GMC must be a str among "
-                f"{{'model', 'zero'}}. Got {self.initial!r} instead."
-            )
-        if self.search not in ("separable", "full"):
-            raise ValueError(
-                "The 'search' parameter of GMC must be a str among "
-                f"{{'separable', 'full'}}. Got {self.search!r} instead."
-            )
         if isinstance(self.solver, PopulationOptimizer):
             return self.solver
-        if self.solver not in _SOLVERS:
-            raise ValueError(
-                "The 'solver' parameter of GMC must be a str among "
-                f"{{'ls', 'pso', 'cs'}} or a PopulationOptimizer. Got "
-                f"{self.solver!r} instead."
-            )
         if self.solver == "ls":
             return None
-        check_int_param(self, "n_population", self.n_population, 2)
-        check_int_param(self, "max_iter", self.max_iter, 1)
         if self.solver == "pso":
             return ParticleSwarm(n_particles=self.n_population, max_iter=self.max_iter)
         return CuckooSearch(n_nests=self.n_population, max_iter=self.max_iter)

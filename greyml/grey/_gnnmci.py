@@ -4,8 +4,9 @@ from __future__ import annotations
 
 from sklearn.utils.validation import check_is_fitted
 
+from greyml._param_validation import Integral, Interval, Real
 from greyml._sequences import segment_label
-from greyml._validation import check_int_param, check_real_param, validate_sequences
+from greyml._validation import validate_sequences
 from greyml.grey._gmc import _GreyConvolutionModel
 from greyml.grey._kernels import ago
 from greyml.grey._response import gmc_forcing, gmc_initial, gnnmci_layers
@@ -112,6 +113,14 @@ class GNNMCI(_GreyConvolutionModel):
 
     response = "midpoint"
 
+    _parameter_constraints: dict = {
+        **_GreyConvolutionModel._parameter_constraints,
+        "n_particles": [Interval(Integral, 2, None, closed="left")],
+        "c1": [Interval(Real, 0, None, closed="left")],
+        "c2": [Interval(Real, 0, None, closed="left")],
+        "inertia": ["array-like"],
+    }
+
     def __init__(
         self,
         n_particles=90,
@@ -140,18 +149,6 @@ class GNNMCI(_GreyConvolutionModel):
         self.random_state = random_state
 
     def _check_params(self):
-        for name in ("initial", "search"):
-            allowed = ("model", "zero") if name == "initial" else ("separable", "full")
-            value = getattr(self, name)
-            if value not in allowed:
-                raise ValueError(
-                    f"The {name!r} parameter of GNNMCI must be a str among "
-                    f"{set(allowed)}. Got {value!r} instead."
-                )
-        check_int_param(self, "n_particles", self.n_particles, 2)
-        check_int_param(self, "max_iter", self.max_iter, 1)
-        for name in ("c1", "c2"):
-            check_real_param(self, name, getattr(self, name), 0.0, closed=(True, False))
         return ParticleSwarm(
             n_particles=self.n_particles,
             max_iter=self.max_iter,

@@ -10,11 +10,10 @@ from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.utils.validation import check_is_fitted
 
 from greyml._checking import checking_split
-from greyml._rng import make_generator
+from greyml._param_validation import Integral, Interval, Real, StrOptions
+from greyml._rng import RANDOM_STATE_CONSTRAINT, make_generator
 from greyml._threads import blas_threads_for
 from greyml._validation import (
-    check_int_param,
-    check_real_param,
     require_y,
     standard_scaling,
     validate_sequences,
@@ -190,6 +189,17 @@ class MLPBaseline(RegressorMixin, BaseEstimator):
     True
     """
 
+    _parameter_constraints: dict = {
+        "hidden_layer_sizes": [Interval(Integral, 1, None, closed="left"), tuple, list],
+        "activation": [StrOptions(set(ACTIVATIONS))],
+        "max_iter": [Interval(Integral, 1, None, closed="left")],
+        "goal": [Interval(Real, 0, None, closed="left")],
+        "n_restarts": [Interval(Integral, 1, None, closed="left")],
+        "validation_fraction": [Interval(Real, 0, 1, closed="left")],
+        "max_fail": [Interval(Integral, 1, None, closed="left")],
+        "random_state": RANDOM_STATE_CONSTRAINT,
+    }
+
     def __init__(
         self,
         hidden_layer_sizes=10,
@@ -232,22 +242,6 @@ class MLPBaseline(RegressorMixin, BaseEstimator):
             )
         return int(sizes)
 
-    def _check_params(self):
-        n_hidden = self._n_hidden()
-        if self.activation not in ACTIVATIONS:
-            raise ValueError(
-                f"The 'activation' parameter of {type(self).__name__} must be a str "
-                f"among {{'logistic', 'tanh'}}. Got {self.activation!r} instead."
-            )
-        check_int_param(self, "max_iter", self.max_iter, 1)
-        check_int_param(self, "n_restarts", self.n_restarts, 1)
-        check_int_param(self, "max_fail", self.max_fail, 1)
-        check_real_param(self, "goal", self.goal, 0.0, closed=(True, False))
-        fraction = check_real_param(
-            self, "validation_fraction", self.validation_fraction, 0.0, 1.0, (True, False)
-        )
-        return n_hidden, fraction
-
     # -- fit / predict ----------------------------------------------------
     def fit(self, X, y):
         """Train the network, keeping the best of ``n_restarts`` initialisations.
@@ -264,7 +258,9 @@ class MLPBaseline(RegressorMixin, BaseEstimator):
         -------
         self : MLPBaseline
         """
-        n_hidden, fraction = self._check_params()
+        self._validate_params()
+        n_hidden = self._n_hidden()
+        fraction = float(self.validation_fraction)
         require_y(self, y)
         Xa, ya, segments = validate_sequences(
             self,

@@ -26,7 +26,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import OptimizeResult
 
-from greyml._validation import check_int_param
+from greyml._param_validation import validate_parameter_constraints
 
 __all__ = ["PopulationOptimizer", "PENALTY", "check_bounds"]
 
@@ -117,10 +117,6 @@ def check_bounds(bounds, n_dim=None, x0=None):
     return lower, upper
 
 
-def _check_count(owner, name, value, low=1):
-    return check_int_param(owner, name, value, low)
-
-
 class PopulationOptimizer:
     """Base class: stores settings, checks them in :meth:`minimize`.
 
@@ -167,6 +163,24 @@ class PopulationOptimizer:
     >>> res.x.tolist(), res.fun, res.nfev
     ([0.0, 0.0], 0.0, 20)
     """
+
+    #: Constraints of the settings, as scikit-learn declares an estimator's
+    #: parameters; a subclass that declares none is not checked.
+    _parameter_constraints: dict = {}
+
+    def _validate_params(self):
+        """Check the settings against ``_parameter_constraints``.
+
+        A PopulationOptimizer is not a BaseEstimator, so this is the method
+        scikit-learn's BaseEstimator would give it; it raises
+        :class:`~sklearn.utils._param_validation.InvalidParameterError` (a
+        ``ValueError``) naming the setting and the optimiser.
+        """
+        validate_parameter_constraints(
+            self._parameter_constraints,
+            self.get_params(deep=False),
+            caller_name=type(self).__name__,
+        )
 
     def __repr__(self):
         args = ", ".join(f"{k}={v!r}" for k, v in self.get_params().items())

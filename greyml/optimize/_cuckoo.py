@@ -6,13 +6,8 @@ import math
 
 import numpy as np
 
-from greyml._validation import check_real_param
-from greyml.optimize._base import (
-    PopulationOptimizer,
-    _check_count,
-    _Evaluations,
-    check_bounds,
-)
+from greyml._param_validation import Integral, Interval, Real
+from greyml.optimize._base import PopulationOptimizer, _Evaluations, check_bounds
 
 __all__ = ["CuckooSearch", "mantegna_sigma", "levy_steps"]
 
@@ -118,6 +113,14 @@ class CuckooSearch(PopulationOptimizer):
 
     _param_names = ("n_nests", "max_iter", "pa", "alpha", "beta")
 
+    _parameter_constraints: dict = {
+        "n_nests": [Interval(Integral, 2, None, closed="left")],
+        "max_iter": [Interval(Integral, 1, None, closed="left")],
+        "pa": [Interval(Real, 0, 1, closed="both")],
+        "alpha": [Interval(Real, 0, None, closed="neither")],
+        "beta": [Interval(Real, 0, 2, closed="right")],
+    }
+
     def __init__(self, n_nests=25, max_iter=100, pa=0.25, alpha=0.01, beta=1.5):
         self.n_nests = n_nests
         self.max_iter = max_iter
@@ -131,11 +134,9 @@ class CuckooSearch(PopulationOptimizer):
 
     def minimize(self, fun, bounds, rng, x0=None, n_dim=None):
         """Minimise ``fun`` over the box ``bounds`` (same contract as PSO's)."""
-        n = _check_count(self, "n_nests", self.n_nests, 2)
-        iters = _check_count(self, "max_iter", self.max_iter)
-        pa = check_real_param(self, "pa", self.pa, 0, 1)
-        alpha = check_real_param(self, "alpha", self.alpha, 0, None, (False, True))
-        beta = check_real_param(self, "beta", self.beta, 0, 2, (False, True))
+        self._validate_params()
+        n, iters = int(self.n_nests), int(self.max_iter)
+        pa, alpha, beta = float(self.pa), float(self.alpha), float(self.beta)
         rng = self._check_rng(rng)
         lower, upper = check_bounds(bounds, n_dim, x0)
         sigma = mantegna_sigma(beta)

@@ -4,13 +4,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from greyml._validation import check_real_param
-from greyml.optimize._base import (
-    PopulationOptimizer,
-    _check_count,
-    _Evaluations,
-    check_bounds,
-)
+from greyml._param_validation import Integral, Interval, Real, validate_parameter_constraints
+from greyml.optimize._base import PopulationOptimizer, _Evaluations, check_bounds
 
 __all__ = ["ParticleSwarm"]
 
@@ -72,6 +67,15 @@ class ParticleSwarm(PopulationOptimizer):
 
     _param_names = ("n_particles", "max_iter", "c1", "c2", "inertia", "velocity_clamp")
 
+    _parameter_constraints: dict = {
+        "n_particles": [Interval(Integral, 1, None, closed="left")],
+        "max_iter": [Interval(Integral, 1, None, closed="left")],
+        "c1": [Interval(Real, 0, None, closed="left")],
+        "c2": [Interval(Real, 0, None, closed="left")],
+        "inertia": ["array-like"],
+        "velocity_clamp": [Interval(Real, 0, None, closed="neither")],
+    }
+
     def __init__(
         self,
         n_particles=25,
@@ -93,10 +97,7 @@ class ParticleSwarm(PopulationOptimizer):
         return self.n_particles
 
     def _validated(self):
-        n = _check_count(self, "n_particles", self.n_particles)
-        iters = _check_count(self, "max_iter", self.max_iter)
-        c1 = check_real_param(self, "c1", self.c1, 0)
-        c2 = check_real_param(self, "c2", self.c2, 0)
+        self._validate_params()
         try:
             w0, w1 = self.inertia
         except (TypeError, ValueError):
@@ -104,11 +105,16 @@ class ParticleSwarm(PopulationOptimizer):
                 "The 'inertia' parameter of ParticleSwarm must be a pair "
                 f"(start, end). Got {self.inertia!r} instead."
             ) from None
-        w0 = check_real_param(self, "inertia[0]", w0, 0, 2)
-        w1 = check_real_param(self, "inertia[1]", w1, 0, 2)
-        kappa = check_real_param(
-            self, "velocity_clamp", self.velocity_clamp, 0, None, (False, True)
+        # each end of the pair, in scikit-learn's words
+        weight = [Interval(Real, 0, 2, closed="both")]
+        validate_parameter_constraints(
+            {"inertia[0]": weight, "inertia[1]": weight},
+            {"inertia[0]": w0, "inertia[1]": w1},
+            caller_name=type(self).__name__,
         )
+        n, iters = int(self.n_particles), int(self.max_iter)
+        c1, c2, kappa = float(self.c1), float(self.c2), float(self.velocity_clamp)
+        w0, w1 = float(w0), float(w1)
         return n, iters, c1, c2, w0, w1, kappa
 
     def minimize(self, fun, bounds, rng, x0=None, n_dim=None):

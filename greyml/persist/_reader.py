@@ -313,9 +313,12 @@ def _check_greyml_params(estimator, name):
 
     A model fitted with its parameters passes them, so a failure means the file
     was altered (e.g. ``initial`` or ``response`` of a GMC, which ``predict``
-    uses too). The checks are the class's own methods, never an attribute.
+    uses too). The checks are the class's own methods, never an attribute:
+    ``_validate_params`` (the declared ``_parameter_constraints``; its
+    ``InvalidParameterError`` is a ``ValueError``), then the checks the
+    constraints cannot express.
     """
-    for check in ("_check_params", "_check_common_params"):
+    for check in ("_validate_params", "_check_params", "_check_common_params"):
         method = inspect.getattr_static(type(estimator), check, None)
         if not inspect.isfunction(method):
             continue

@@ -63,6 +63,8 @@ class RelativeToStart(OneToOneFeatureMixin, TransformerMixin, BaseEstimator):
     [0.0, 1.5, 3.0, 0.0, 0.5]
     """
 
+    _parameter_constraints: dict = {"columns": ["array-like", None]}
+
     def __init__(self, columns=None):
         self.columns = columns
 
@@ -79,6 +81,14 @@ class RelativeToStart(OneToOneFeatureMixin, TransformerMixin, BaseEstimator):
         -------
         self : RelativeToStart
         """
+        # before the constraints, which would only say "an array-like"
+        if isinstance(self.columns, str):
+            raise ValueError(
+                "The 'columns' parameter of RelativeToStart must be a sequence of column "
+                f"names or positions, e.g. [{self.columns!r}]. Got the string "
+                f"{self.columns!r} instead."
+            )
+        self._validate_params()
         Xa, _, _ = validate_sequences(self, X, reset=True)
         names = column_names(self, Xa.shape[1])
         self.columns_ = [names[j] for j in self._positions(names)]
@@ -87,12 +97,6 @@ class RelativeToStart(OneToOneFeatureMixin, TransformerMixin, BaseEstimator):
     def _positions(self, names):
         if self.columns is None:
             return list(range(len(names)))
-        if isinstance(self.columns, str):
-            raise ValueError(
-                "The 'columns' parameter of RelativeToStart must be a sequence of column "
-                f"names or positions, e.g. [{self.columns!r}]. Got the string "
-                f"{self.columns!r} instead."
-            )
         positions = []
         for c in self.columns:
             if isinstance(c, (int, np.integer)) and not isinstance(c, bool):

@@ -7,16 +7,11 @@ from sklearn.base import BaseEstimator
 from sklearn.feature_selection import SelectorMixin
 from sklearn.utils.validation import check_is_fitted
 
-from greyml._rng import make_generator
+from greyml._param_validation import Integral, Interval, Real, StrOptions
+from greyml._rng import RANDOM_STATE_CONSTRAINT, make_generator
 from greyml._sequences import keep_test_index
 from greyml._threads import blas_threads_for
-from greyml._validation import (
-    check_int_param,
-    check_real_param,
-    column_names,
-    require_y,
-    validate_sequences,
-)
+from greyml._validation import column_names, require_y, validate_sequences
 from greyml.fuzzy._kernels import fuzzy_cmeans
 from greyml.grey._kernels import _grey_lstsq, gm1n_design
 
@@ -131,6 +126,17 @@ class GreyInfluenceSelector(SelectorMixin, BaseEstimator):
     2
     """
 
+    _parameter_constraints: dict = {
+        "n_clusters": [Interval(Integral, 1, None, closed="left")],
+        "m": [Interval(Real, 1, None, closed="neither")],
+        "cluster_on": [StrOptions(set(_CLUSTER_ON))],
+        "normalisation": [StrOptions(set(_NORMALISATIONS))],
+        "max_iter": [Interval(Integral, 1, None, closed="left")],
+        "tol": [Interval(Real, 0, None, closed="neither")],
+        "n_init": [Interval(Integral, 1, None, closed="left")],
+        "random_state": RANDOM_STATE_CONSTRAINT,
+    }
+
     def __init__(
         self,
         n_clusters=5,
@@ -151,20 +157,6 @@ class GreyInfluenceSelector(SelectorMixin, BaseEstimator):
         self.tol = tol
         self.n_init = n_init
         self.random_state = random_state
-
-    def _check_params(self):
-        check_int_param(self, "n_clusters", self.n_clusters, 1)
-        check_int_param(self, "max_iter", self.max_iter, 1)
-        check_int_param(self, "n_init", self.n_init, 1)
-        for name, allowed in (("cluster_on", _CLUSTER_ON), ("normalisation", _NORMALISATIONS)):
-            value = getattr(self, name)
-            if value not in allowed:
-                raise ValueError(
-                    f"The {name!r} parameter of GreyInfluenceSelector must be a str "
-                    f"among {set(allowed)}. Got {value!r} instead."
-                )
-        check_real_param(self, "m", self.m, 1.0, closed=(False, False))
-        check_real_param(self, "tol", self.tol, 0.0, closed=(False, False))
 
     def _normalise(self, Xa, names):
         if self.normalisation == "range":
@@ -194,7 +186,7 @@ class GreyInfluenceSelector(SelectorMixin, BaseEstimator):
         -------
         self
         """
-        self._check_params()
+        self._validate_params()
         require_y(self, y, "the influence of a sensor is measured against the target")
         Xa, ya, segments = validate_sequences(
             self,
