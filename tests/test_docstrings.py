@@ -20,8 +20,12 @@ MODULES = [
     "greyml.metrics",
     "greyml.optimize",
     "greyml.grey",
+    "greyml.grey.kernels",
     "greyml.fuzzy",
+    "greyml.fuzzy.kernels",
     "greyml.neural",
+    "greyml.neural.kernels",
+    "greyml.preprocessing",
     "greyml.persist",
     "greyml.cli",
     "greyml.selection",
@@ -44,6 +48,19 @@ def _public_names():
             if inspect.isclass(obj) or inspect.isfunction(obj):
                 names.append(pytest.param(obj, id=f"{module_name}.{name}"))
     return names
+
+
+def test_every_public_module_is_checked():
+    import pkgutil
+
+    import greyml
+
+    public = {
+        name
+        for _, name, _ in pkgutil.walk_packages(greyml.__path__, prefix="greyml.")
+        if "._" not in name and name != "greyml.utils"
+    }
+    assert sorted(public - set(MODULES)) == []
 
 
 def test_every_module_exports_names():

@@ -14,7 +14,14 @@ from scipy.linalg import LinAlgError, cho_factor, cho_solve
 
 from greyml.dynamic._kernels import lag_filter
 
-__all__ = ["design", "held_out_scores", "select_sensors", "solve_all", "test_grams", "train_scores"]
+__all__ = [
+    "design",
+    "held_out_scores",
+    "select_sensors",
+    "solve_all",
+    "grams_by_test",
+    "train_scores",
+]
 
 #: Relative improvement of the held-out score below which forward selection adds no sensor.
 _RESOLUTION = 1e-6
@@ -46,7 +53,7 @@ def design(x, dt, bounds, spec, carry):
     return F
 
 
-def test_grams(A, y, w, bounds):
+def grams_by_test(A, y, w, bounds):
     """Per-test weighted Gram matrices ``A'WA``, ``A'Wy``, ``y'Wy`` and weight sums."""
     G, b, yy, sw = [], [], [], []
     for start, stop in bounds:

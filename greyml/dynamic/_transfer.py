@@ -37,10 +37,10 @@ from greyml._validation import column_names, require_y, segment_of, validate_seq
 from greyml.dynamic._gram import (
     _cols_all,
     design,
+    grams_by_test,
     held_out_scores,
     select_sensors,
     solve_all,
-    test_grams,
 )
 from greyml.dynamic._transfer_readout import _round_step, _TransferReadout
 
@@ -548,7 +548,7 @@ class ThermalTransferFunction(_TransferReadout, RegressorMixin, BaseEstimator):
         pen = np.ones(A.shape[1])
         if not self.relative_to_start:
             pen[-1] = 0.0
-        return test_grams(A, y, w, bounds), pen
+        return grams_by_test(A, y, w, bounds), pen
 
     def _fit_taus(
         self,

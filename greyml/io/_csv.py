@@ -19,7 +19,6 @@ back without it.
 from __future__ import annotations
 
 import csv
-import io
 import os
 import re
 import secrets
