@@ -132,4 +132,6 @@ def test_levy_steps_heavy_tailed():
 def test_optimizers_pickle_and_compare():
     opt = CuckooSearch(n_nests=10)
     assert pickle.loads(pickle.dumps(opt)) == opt
-    assert repr(ParticleSwarm()).startswith("ParticleSwarm(n_particles=25")
+    # scikit-learn's repr: the settings that differ from the defaults
+    assert repr(ParticleSwarm()) == "ParticleSwarm()"
+    assert repr(ParticleSwarm(n_particles=10, c1=1.5)) == "ParticleSwarm(c1=1.5, n_particles=10)"

@@ -25,8 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 from scipy.optimize import OptimizeResult
-
-from greyml._param_validation import validate_parameter_constraints
+from sklearn.base import BaseEstimator
 
 __all__ = ["PopulationOptimizer", "PENALTY", "check_bounds"]
 
@@ -117,13 +116,15 @@ def check_bounds(bounds, n_dim=None, x0=None):
     return lower, upper
 
 
-class PopulationOptimizer:
+class PopulationOptimizer(BaseEstimator):
     """Base class: stores settings, checks them in :meth:`minimize`.
 
-    A subclass names its settings in ``_param_names``, stores them in
-    ``__init__`` and implements ``population_size`` and ``minimize``; the
-    base class gives it ``get_params``, ``set_params``, ``repr`` and
-    equality, and helpers for the initial population, the evaluation of a
+    A subclass stores its settings in ``__init__`` (keyword arguments kept
+    unchanged, as for any scikit-learn estimator), declares them in
+    ``_parameter_constraints`` and implements ``population_size`` and
+    ``minimize``. As a scikit-learn ``BaseEstimator`` it has ``get_params``,
+    ``set_params``, ``repr`` and ``_validate_params``; this class adds
+    equality and helpers for the initial population, the evaluation of a
     population and the result.
 
     Examples
@@ -133,8 +134,6 @@ class PopulationOptimizer:
     >>> import numpy as np
     >>> from greyml.optimize import PopulationOptimizer, check_bounds
     >>> class RandomSearch(PopulationOptimizer):
-    ...     _param_names = ("n_points",)
-    ...
     ...     def __init__(self, n_points=100):
     ...         self.n_points = n_points
     ...
@@ -167,34 +166,6 @@ class PopulationOptimizer:
     #: Constraints of the settings, as scikit-learn declares an estimator's
     #: parameters; a subclass that declares none is not checked.
     _parameter_constraints: dict = {}
-
-    def _validate_params(self):
-        """Check the settings against ``_parameter_constraints``.
-
-        A PopulationOptimizer is not a BaseEstimator, so this is the method
-        scikit-learn's BaseEstimator would give it; it raises
-        :class:`~sklearn.utils._param_validation.InvalidParameterError` (a
-        ``ValueError``) naming the setting and the optimiser.
-        """
-        validate_parameter_constraints(
-            self._parameter_constraints,
-            self.get_params(deep=False),
-            caller_name=type(self).__name__,
-        )
-
-    def __repr__(self):
-        args = ", ".join(f"{k}={v!r}" for k, v in self.get_params().items())
-        return f"{type(self).__name__}({args})"
-
-    def get_params(self, deep=True):
-        return {k: getattr(self, k) for k in self._param_names}
-
-    def set_params(self, **params):
-        for k, v in params.items():
-            if k not in self._param_names:
-                raise ValueError(f"Invalid parameter {k!r} for {type(self).__name__}.")
-            setattr(self, k, v)
-        return self
 
     def __eq__(self, other):
         return type(self) is type(other) and self.get_params() == other.get_params()

@@ -111,7 +111,6 @@ class CuckooSearch(PopulationOptimizer):
     True
     """
 
-    _param_names = ("n_nests", "max_iter", "pa", "alpha", "beta")
 
     _parameter_constraints: dict = {
         "n_nests": [Interval(Integral, 2, None, closed="left")],

@@ -65,7 +65,6 @@ class ParticleSwarm(PopulationOptimizer):
     True
     """
 
-    _param_names = ("n_particles", "max_iter", "c1", "c2", "inertia", "velocity_clamp")
 
     _parameter_constraints: dict = {
         "n_particles": [Interval(Integral, 1, None, closed="left")],

@@ -65,6 +65,7 @@ def all_estimators(type_filter=None):
     from sklearn.base import BaseEstimator
 
     import greyml
+    from greyml.optimize import PopulationOptimizer
 
     if type_filter is None:
         wanted = None
@@ -89,6 +90,9 @@ def all_estimators(type_filter=None):
                 not name.startswith("_")
                 and cls.__module__.partition(".")[0] == "greyml"
                 and issubclass(cls, BaseEstimator)
+                # optimisers are BaseEstimators for their parameters, but a
+                # setting of an estimator, never fitted to data themselves
+                and not issubclass(cls, PopulationOptimizer)
                 and not inspect.isabstract(cls)
             ):
                 found.add((name, cls))
