@@ -235,3 +235,20 @@ def test_lag_signatures_run_on_the_shared_kernel_as_before():
     # by hand: the first sample of a test is (1 - a)·x, the lag starts from rest
     a = np.exp(-30.0 / 120.0)
     assert lags[0, 0, 0] == pytest.approx((1 - a) * x[0, 0], rel=1e-15)
+
+
+def test_a_limit_of_the_effect_itself_does_not_blame_the_time_unit():
+    from types import SimpleNamespace
+
+    from greyml.gap._diagnose import _bound_cause
+    from greyml.gap._effects import tau_grid
+
+    # 1-min rows, 6-h tests: the shared grid runs from 120 s to 12 h
+    ctx = SimpleNamespace(dt=np.full(360, 60.0), durations=[6 * 3600.0])
+    grid = tau_grid(ctx.dt, ctx.durations)
+    assert grid[0] == 120.0 and grid[-1] == 12 * 3600.0
+    for setting in [(grid[0], 900.0), (600.0, grid[-1])]:
+        assert "convert it to seconds" in _bound_cause(ctx, grid, "heat_source", setting)
+    # sensor_lag stops at max_sensor_lag_s (1 h), inside the grid
+    own = _bound_cause(ctx, grid, "sensor_lag", (3600.0,))
+    assert "max_sensor_lag_s" in own and "convert" not in own

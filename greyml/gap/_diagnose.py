@@ -268,7 +268,7 @@ def _events(ctx, final, floor):
 def _causes(ctx, found, skipped):
     """The ``causes`` table: named effects, the last step's losers, the dropped, the skipped."""
     rows = []
-    unit = _time_unit_hint(ctx)
+    grid = tau_grid(ctx.dt, ctx.durations)
     for best, ev, step in found.named:
         detail = best.describe(best.variants[ev.variant], ev.tau)
         bound = _at_bound(best, ev.tau)
@@ -276,7 +276,7 @@ def _causes(ctx, found, skipped):
             detail += f"; {bound}"
             warnings.warn(
                 f"diagnose_gap: the time constant of {best.effect!r} ended at {bound}; the "
-                f"true one may lie beyond it. {unit}",
+                f"true one may lie beyond it. {_bound_cause(ctx, grid, best.effect, ev.tau)}",
                 GapWarning,
                 stacklevel=4,  # the caller of diagnose_gap (via _report)
             )
@@ -368,6 +368,24 @@ def _time_unit_hint(ctx):
         f"({fmt_tau(lo)}) to twice the longest test ({2 * max(ctx.durations):g} s = "
         f"{fmt_tau(2 * max(ctx.durations))}); if time_s holds minutes or hours, that is "
         "the likely cause: convert it to seconds."
+    )
+
+
+def _bound_cause(ctx, grid, effect, setting, rtol=1e-9):
+    """Why a time constant may have ended at a bound: the time unit, or the effect's own limit.
+
+    Only the ends of the shared grid (two samples, twice the longest test)
+    say something about the unit of ``time_s``; an effect that searches less
+    than the grid (``sensor_lag`` up to ``max_sensor_lag_s``) ends at a limit
+    of its own, which a time unit would not explain.
+    """
+    ends = (grid[0], grid[-1])
+    if any(abs(tau - end) <= rtol * end for tau in setting for end in ends):
+        return _time_unit_hint(ctx)
+    return (
+        f"That is the longest time constant {effect!r} searches, shorter than the other "
+        "effects' (for sensor_lag: max_sensor_lag_s); it says nothing about the unit of "
+        "time_s."
     )
 
 
