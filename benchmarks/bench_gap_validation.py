@@ -48,6 +48,12 @@ def main(argv=None):
     parser.add_argument("--custom", type=int, default=10, help="custom-effect cases per error")
     parser.add_argument("--custom-size", type=float, default=30.0)
     parser.add_argument("--json", default=None)
+    parser.add_argument(
+        "--verbose",
+        type=int,
+        default=5,
+        help="joblib's progress on standard error while the cases run (0: none; default 5)",
+    )
     args = parser.parse_args(argv)
 
     start = time.perf_counter()
@@ -67,6 +73,7 @@ def main(argv=None):
         kind=args.kind,
         sensitivities=not args.no_sensitivities,
         n_jobs=args.n_jobs,
+        verbose=args.verbose,
     )
     wall = time.perf_counter() - start
     pd.set_option("display.width", 160)

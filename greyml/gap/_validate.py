@@ -590,6 +590,7 @@ def validate_withheld(
     n_events=0,
     n_custom=0,
     custom_size=10,
+    verbose=0,
     **diagnose_kwargs,
 ):
     """Run the diagnosis on many withheld-effect cases of greyml's simulator.
@@ -629,6 +630,9 @@ def validate_withheld(
         Cases run in parallel with joblib (module-level workers, so that
         joblib's ``dask`` backend runs them on a cluster with the same
         results).
+    verbose : int, default=0
+        joblib's progress messages on standard error (cases done, time
+        elapsed) for long runs; 0 prints nothing.
     n_events : int, default=0
         Cases per parameter error with a step of 3-6 times the probe noise in
         the probe reading of one test (``withheld == "event"``).
@@ -676,7 +680,7 @@ def validate_withheld(
         for _ in range(n_custom):
             specs.append((("custom",), custom_size, param_error, counter))
             counter += 1
-    rows = Parallel(n_jobs=n_jobs)(
+    rows = Parallel(n_jobs=n_jobs, verbose=verbose)(
         delayed(_run_case)(
             spec, machine, target, kind, n_tests, n_sensors, sensitivities, diagnose_kwargs
         )
