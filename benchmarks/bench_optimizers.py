@@ -207,7 +207,7 @@ def run_greyml_pso(problem, seed, max_iter):
     from greyml.optimize import ParticleSwarm
 
     optimiser = ParticleSwarm(
-        n_particles=POPULATION,
+        n_population=POPULATION,
         max_iter=max_iter,
         c1=C1,
         c2=C2,
@@ -225,7 +225,7 @@ def run_greyml_pso(problem, seed, max_iter):
 def run_greyml_cs(problem, seed, max_iter):
     from greyml.optimize import CuckooSearch
 
-    optimiser = CuckooSearch(n_nests=POPULATION, max_iter=max_iter, pa=PA, alpha=ALPHA, beta=BETA)
+    optimiser = CuckooSearch(n_population=POPULATION, max_iter=max_iter, pa=PA, alpha=ALPHA, beta=BETA)
     objective = VectorObjective(problem.fun)
     rng = np.random.default_rng(seed)
     start = time.perf_counter()
@@ -264,7 +264,7 @@ def run_pyswarms_pso(problem, seed, max_iter):
     # pyswarms draws from NumPy's global random state only.
     np.random.seed(seed)  # noqa: NPY002
     optimiser = GlobalBestPSO(
-        n_particles=POPULATION,
+        n_population=POPULATION,
         dimensions=problem.dim,
         options={"c1": C1, "c2": C2, "w": INERTIA[0]},
         bounds=(problem.lower, problem.upper),

@@ -132,7 +132,7 @@ def gnnmci(n_inputs):
     model, applied = with_budget(
         model,
         n_population=PSO_POPULATION,
-        n_particles=PSO_POPULATION,
+        n_population=PSO_POPULATION,
         max_iter=PSO_ITERATIONS,
         n_epochs=EPOCHS,
     )

@@ -260,7 +260,7 @@ def make_model(name, *, random_state=0, quick=False, drivers=(), max_sensors=Non
         return GMC(solver="ls"), "GMC(1,N) calibrated by least squares, b1 >= 0 (GMC-LS)"
     if name == "gnnmci":
         particles, iterations = (20, 20) if quick else (90, 100)
-        model = GNNMCI(n_particles=particles, max_iter=iterations, random_state=random_state)
+        model = GNNMCI(n_population=particles, max_iter=iterations, random_state=random_state)
         return model, f"GNNMCI(1,N), swarm of {particles} particles x {iterations} iterations"
     if name == "anfis-grid":
         mfs, epochs = (2, 20) if quick else (GRID_MFS, ANFIS_EPOCHS)

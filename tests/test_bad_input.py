@@ -89,7 +89,7 @@ ENTRIES = [
         lambda: GMC(solver="cs", n_population=6, max_iter=3, random_state=0),
         MODEL,
     ),
-    Entry("GNNMCI", lambda: GNNMCI(n_particles=6, max_iter=3, random_state=0), MODEL),
+    Entry("GNNMCI", lambda: GNNMCI(n_population=6, max_iter=3, random_state=0), MODEL),
     Entry("ANFISGrid", lambda: ANFISGrid(n_epochs=3, random_state=0), MODEL),
     Entry("ANFISFCM", lambda: ANFISFCM(n_clusters=2, n_epochs=3, random_state=0), MODEL),
     Entry(
@@ -214,7 +214,7 @@ PARAM_CASES = [
     ),
     (GMC, {"response": "spline"}, r"'response'.*Got 'spline'"),
     (GMC, {**PSO, "random_state": "x"}, r"'random_state'.*GMC.*Got 'x'"),
-    (GNNMCI, {"n_particles": 0}, r"'n_particles'.*GNNMCI.*Got 0"),
+    (GNNMCI, {"n_population": 0}, r"'n_population'.*GNNMCI.*Got 0"),
     (GNNMCI, {"max_iter": 0}, r"'max_iter'.*Got 0"),
     (GNNMCI, {"bounds": (3.0, 1.0)}, r"out of order.*lower 3.*upper 1"),
     (GNNMCI, {"c1": -1.0}, r"'c1'.*Got -1.0"),

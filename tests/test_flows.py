@@ -80,10 +80,10 @@ def test_selector_then_gnnmci_keeps_the_tests(vmc):
     Xs, ys = X[keep], y[keep]
     pipe = make_pipeline(
         GreyInfluenceSelector(n_clusters=3, cluster_on="series", random_state=0),
-        GNNMCI(n_particles=20, max_iter=20, random_state=0),
+        GNNMCI(n_population=20, max_iter=20, random_state=0),
     ).fit(Xs, ys)
     kept = list(pipe[0].get_feature_names_out())
-    direct = GNNMCI(n_particles=20, max_iter=20, random_state=0).fit(Xs[kept], ys)
+    direct = GNNMCI(n_population=20, max_iter=20, random_state=0).fit(Xs[kept], ys)
     np.testing.assert_array_equal(pipe.predict(Xs), direct.predict(Xs[kept]))
     scores = cross_val_score(
         pipe, Xs, ys, groups=groups_of(Xs), cv=LeaveOneGroupOut(), scoring=get_scorer("neg_rmse")
@@ -118,7 +118,7 @@ def test_grid_search_over_the_selector_and_all_five_models(vmc):
     Xs, ys = X.loc[keep, X.columns[::3]], y[keep]
     candidates = [
         GMC(solver="pso", n_population=20, max_iter=20, random_state=0),
-        GNNMCI(n_particles=20, max_iter=20, random_state=0),
+        GNNMCI(n_population=20, max_iter=20, random_state=0),
         ANFISGrid(n_mfs=2, n_epochs=20, random_state=0),
         ANFISFCM(n_clusters=3, random_state=0),
         MLPBaseline(hidden_layer_sizes=5, random_state=0),

@@ -166,7 +166,7 @@ def test_fit_does_not_modify_inputs(gmc_tests):
 
 def test_optimizer_instance_as_solver(gmc_tests):
     X, y = gmc_tests[SENSORS], gmc_tests["dz_um"]
-    model = GMC(solver=ParticleSwarm(n_particles=10, max_iter=30), random_state=0).fit(X, y)
+    model = GMC(solver=ParticleSwarm(n_population=10, max_iter=30), random_state=0).fit(X, y)
     # 10 × 31 population evaluations, then the Brent polish
     assert model.optimizer_result_.nfev > 10 * 31 and model.n_iter_ == 30
 
@@ -420,7 +420,7 @@ def test_initial_displacement_starts_a_mid_run_test_from_its_measured_value():
     # GNNMCI shares the implementation
     from greyml import GNNMCI
 
-    net = GNNMCI(n_particles=10, max_iter=10, random_state=0).fit(X, y)
+    net = GNNMCI(n_population=10, max_iter=10, random_state=0).fit(X, y)
     with pytest.warns(GreyWarmStartWarning, match=r"GNNMCI predicts test 'C-tail'"):
         net.predict(tail)
     assert net.predict(tail, initial_displacement=start)[0] == pytest.approx(start, rel=1e-12)

@@ -49,7 +49,7 @@ def test_layers_multiply_out_to_the_midpoint_response():
 
 def test_layer_outputs_of_a_fitted_model_reproduce_predict():
     X, y = _midpoint_tests()
-    model = GNNMCI(n_particles=20, max_iter=20, random_state=0).fit(X, y)
+    model = GNNMCI(n_population=20, max_iter=20, random_state=0).fit(X, y)
     pred = model.predict(X)
     start = 0
     for layers, label in zip(model.layer_outputs(X), ["Z", "C", "helical"]):
@@ -105,9 +105,9 @@ def test_pipeline_gridsearch_logo_pickle_and_determinism():
         scoring="neg_root_mean_squared_error",
     )
     assert scores.shape == (3,) and np.all(np.isfinite(scores))
-    search = GridSearchCV(pipe, {"gnnmci__n_particles": [10, 20]}, cv=LeaveOneGroupOut())
+    search = GridSearchCV(pipe, {"gnnmci__n_population": [10, 20]}, cv=LeaveOneGroupOut())
     search.fit(X, y, groups=groups_of(X))
-    assert search.best_params_["gnnmci__n_particles"] in (10, 20)
+    assert search.best_params_["gnnmci__n_population"] in (10, 20)
     a = GNNMCI(max_iter=15, random_state=4).fit(X, y)
     b = GNNMCI(max_iter=15, random_state=4).fit(X, y)
     assert a.predict(X).tobytes() == b.predict(X).tobytes()
@@ -119,7 +119,7 @@ def test_pipeline_gridsearch_logo_pickle_and_determinism():
 @pytest.mark.parametrize(
     "params, match",
     [
-        ({"n_particles": 1}, "'n_particles' parameter of GNNMCI"),
+        ({"n_population": 1}, "'n_population' parameter of GNNMCI"),
         ({"max_iter": 0}, "'max_iter' parameter of GNNMCI"),
         ({"c1": -1.0}, "'c1' parameter of GNNMCI"),
         ({"search": "grid"}, "'search' parameter of GNNMCI"),
@@ -163,3 +163,31 @@ def test_stable_default_keeps_b1_non_negative_where_unconstrained_diverges():
     assert np.sqrt(np.mean(err**2)) < 0.25 * np.abs(y[~train]).max()
     with pytest.raises(ValueError, match="'bounds' parameter of GNNMCI"):
         GNNMCI(bounds="loose").fit(X[train], y[train])
+
+
+def test_n_particles_is_the_old_name_of_n_population(tmp_path):
+    import json
+    import zipfile
+
+    from greyml.persist import load_model, save_model
+
+    X, y = _midpoint_tests()
+    with pytest.warns(FutureWarning, match="'n_particles' parameter of GNNMCI was renamed"):
+        old = GNNMCI(n_particles=6, max_iter=3, random_state=0).fit(X, y)
+    new = GNNMCI(n_population=6, max_iter=3, random_state=0).fit(X, y)
+    np.testing.assert_array_equal(old.predict(X), new.predict(X))
+    # a file written before the rename (n_particles, no n_population) loads as n_population
+    path = save_model(new, tmp_path / "new.greyml")
+    with zipfile.ZipFile(path) as z:
+        members = {n: z.read(n) for n in z.namelist()}
+    tree = json.loads(members["model.json"])
+    state = tree["tree"]["state"]
+    state["n_particles"] = state.pop("n_population")
+    members["model.json"] = json.dumps(tree).encode()
+    old_file = tmp_path / "old.greyml"
+    with zipfile.ZipFile(old_file, "w") as z:
+        for name, data in members.items():
+            z.writestr(name, data)
+    loaded = load_model(old_file)
+    assert loaded.n_population == 6 and loaded.n_particles == "deprecated"
+    np.testing.assert_array_equal(loaded.predict(X), new.predict(X))

@@ -89,8 +89,8 @@ def test_bad_bounds(bounds, match):
     "opt, match",
     [
         (
-            ParticleSwarm(n_particles=0),
-            r"'n_particles' parameter of ParticleSwarm must be an int in the range \[1, inf\). Got 0",
+            ParticleSwarm(n_population=0),
+            r"'n_population' parameter of ParticleSwarm must be an int in the range \[1, inf\). Got 0",
         ),
         (ParticleSwarm(max_iter=0), "'max_iter'"),
         (ParticleSwarm(inertia=0.5), "'inertia'"),
@@ -98,7 +98,7 @@ def test_bad_bounds(bounds, match):
             CuckooSearch(pa=1.5),
             r"'pa' parameter of CuckooSearch must be a float in the range \[0.0, 1.0\]",
         ),
-        (CuckooSearch(n_nests=1), "'n_nests'"),
+        (CuckooSearch(n_population=1), "'n_population'"),
         (CuckooSearch(beta=3.0), "'beta'"),
     ],
 )
@@ -130,8 +130,23 @@ def test_levy_steps_heavy_tailed():
 
 
 def test_optimizers_pickle_and_compare():
-    opt = CuckooSearch(n_nests=10)
+    opt = CuckooSearch(n_population=10)
     assert pickle.loads(pickle.dumps(opt)) == opt
     # scikit-learn's repr: the settings that differ from the defaults
     assert repr(ParticleSwarm()) == "ParticleSwarm()"
-    assert repr(ParticleSwarm(n_particles=10, c1=1.5)) == "ParticleSwarm(c1=1.5, n_particles=10)"
+    assert repr(ParticleSwarm(n_population=10, c1=1.5)) == "ParticleSwarm(c1=1.5, n_population=10)"
+
+
+@pytest.mark.parametrize(
+    "make, old",
+    [
+        (lambda **kw: ParticleSwarm(max_iter=5, **kw), "n_particles"),
+        (lambda **kw: CuckooSearch(max_iter=5, **kw), "n_nests"),
+    ],
+)
+def test_old_population_names_warn_and_still_work(make, old):
+    sphere = lambda P: (P**2).sum(axis=1)  # noqa: E731
+    new = make(n_population=7).minimize(sphere, (-1, 1), np.random.default_rng(0), n_dim=2)
+    with pytest.warns(FutureWarning, match=rf"'{old}' parameter .* was renamed 'n_population'"):
+        was = make(**{old: 7}).minimize(sphere, (-1, 1), np.random.default_rng(0), n_dim=2)
+    assert was.nfev == new.nfev and was.fun == new.fun

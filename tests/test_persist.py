@@ -64,11 +64,11 @@ MODELS = {
     "GMC-pso": lambda X, y: GMC(solver="pso", max_iter=5, random_state=0).fit(X, y),
     # an optimiser object as the solver, a Generator as random_state
     "GMC-cs-object": lambda X, y: GMC(
-        solver=CuckooSearch(n_nests=6, max_iter=3),
+        solver=CuckooSearch(n_population=6, max_iter=3),
         search="full",
         random_state=np.random.default_rng(3),
     ).fit(X, y),
-    "GNNMCI": lambda X, y: GNNMCI(n_particles=5, max_iter=3, random_state=0).fit(X, y),
+    "GNNMCI": lambda X, y: GNNMCI(n_population=5, max_iter=3, random_state=0).fit(X, y),
     "ANFISGrid": lambda X, y: ANFISGrid(n_mfs=2, n_epochs=3).fit(X, y),
     "ANFISFCM": lambda X, y: ANFISFCM(n_clusters=2, n_epochs=3, random_state=0).fit(X, y),
     "MLPBaseline": lambda X, y: MLPBaseline(

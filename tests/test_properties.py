@@ -149,7 +149,7 @@ def _all_estimators():
         "AGO": AGO(),
         "GMC_ls": GMC(solver="ls"),
         "GMC_pso": GMC(solver="pso", n_population=8, max_iter=5, random_state=0),
-        "GNNMCI": GNNMCI(n_particles=8, max_iter=5, random_state=0),
+        "GNNMCI": GNNMCI(n_population=8, max_iter=5, random_state=0),
         "ANFISGrid": ANFISGrid(n_mfs=2, n_epochs=5, random_state=0),
         "ANFISFCM": ANFISFCM(n_clusters=2, n_epochs=5, random_state=0),
         "MLPBaseline": MLPBaseline(hidden_layer_sizes=3, max_iter=30, n_restarts=1, random_state=0),
@@ -238,7 +238,7 @@ def _fast_estimators(seed):
         "GMC_ls": GMC(solver="ls"),
         "GMC_pso": GMC(solver="pso", n_population=6, max_iter=3, random_state=seed),
         "GMC_cs": GMC(solver="cs", n_population=6, max_iter=3, random_state=seed),
-        "GNNMCI": GNNMCI(n_particles=6, max_iter=3, random_state=seed),
+        "GNNMCI": GNNMCI(n_population=6, max_iter=3, random_state=seed),
         "ANFISGrid": ANFISGrid(n_mfs=2, n_epochs=2, random_state=seed),
         "ANFISFCM": ANFISFCM(n_clusters=2, n_epochs=2, random_state=seed),
         "MLPBaseline": MLPBaseline(

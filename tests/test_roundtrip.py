@@ -77,7 +77,7 @@ ESTIMATORS = {
     "GMC-ls": lambda: GMC(solver="ls"),
     "GMC-pso": lambda: GMC(solver="pso", n_population=6, max_iter=3, random_state=0),
     "GMC-cs": lambda: GMC(solver="cs", n_population=6, max_iter=3, random_state=0),
-    "GNNMCI": lambda: GNNMCI(n_particles=5, max_iter=3, random_state=0),
+    "GNNMCI": lambda: GNNMCI(n_population=5, max_iter=3, random_state=0),
     "ANFISGrid": lambda: ANFISGrid(n_mfs=2, n_epochs=3),
     "ANFISFCM": _fast_anfis_fcm,
     "MLPBaseline": lambda: MLPBaseline(

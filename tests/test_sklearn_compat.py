@@ -41,7 +41,7 @@ ESTIMATORS = [
     # default budgets are exercised in tests/test_gmc.py and tests/test_gnnmci.py
     GMC(solver="pso", n_population=10, max_iter=20),
     GMC(solver="cs", n_population=10, max_iter=20),
-    GNNMCI(n_particles=20, max_iter=20),
+    GNNMCI(n_population=20, max_iter=20),
     ANFISGrid(),
     ANFISFCM(),
     # the defaults: scikit-learn's checks fit as few as 20 rows of 3 columns,

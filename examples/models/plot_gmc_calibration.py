@@ -65,7 +65,7 @@ models = {
     "GMC-LS": GMC(solver="ls", bounds="papers"),
     "PSO-GMC": GMC(solver="pso", bounds=(0.0, 100.0), random_state=0),
     "CS-GMC": GMC(solver="cs", bounds=(0.0, 100.0), random_state=0),
-    "GNNMCI": GNNMCI(n_particles=30, max_iter=50, random_state=0),
+    "GNNMCI": GNNMCI(n_population=30, max_iter=50, random_state=0),
     "linear regression": LinearRegression(),
     "AGO + regression": make_pipeline(AGO(), AccumulatedTargetRegressor(LinearRegression())),
 }

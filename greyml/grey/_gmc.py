@@ -476,8 +476,8 @@ class GMC(_GreyConvolutionModel):
         if self.solver == "ls":
             return None
         if self.solver == "pso":
-            return ParticleSwarm(n_particles=self.n_population, max_iter=self.max_iter)
-        return CuckooSearch(n_nests=self.n_population, max_iter=self.max_iter)
+            return ParticleSwarm(n_population=self.n_population, max_iter=self.max_iter)
+        return CuckooSearch(n_population=self.n_population, max_iter=self.max_iter)
 
 
 def _initial_values(estimator, given, segments):

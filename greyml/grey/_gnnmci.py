@@ -4,7 +4,8 @@ from __future__ import annotations
 
 from sklearn.utils.validation import check_is_fitted
 
-from greyml._param_validation import Integral, Interval, Real
+from greyml._param_validation import Hidden, Integral, Interval, Real, StrOptions
+from greyml._renamed import DEPRECATED, renamed_value
 from greyml._sequences import segment_label
 from greyml._validation import validate_sequences
 from greyml.grey._gmc import _GreyConvolutionModel
@@ -31,7 +32,7 @@ class GNNMCI(_GreyConvolutionModel):
 
     Parameters
     ----------
-    n_particles : int, default=90
+    n_population : int, default=90
     max_iter : int, default=100
         Swarm size and epochs (Abdulshahed et al. (2016)).
     c1, c2 : float, default=1.5, 2.0
@@ -59,6 +60,9 @@ class GNNMCI(_GreyConvolutionModel):
         As in :class:`GMC`.
     random_state : int, Generator, RandomState or None, default=None
         Seeds the swarm. The global NumPy state is never used.
+    n_particles : int, default="deprecated"
+        The old name of ``n_population``: still accepted in this release, with
+        a ``FutureWarning``.
 
     Attributes
     ----------
@@ -115,15 +119,22 @@ class GNNMCI(_GreyConvolutionModel):
 
     _parameter_constraints: dict = {
         **_GreyConvolutionModel._parameter_constraints,
-        "n_particles": [Interval(Integral, 2, None, closed="left")],
+        "n_population": [Interval(Integral, 2, None, closed="left")],
+        "n_particles": [
+            Interval(Integral, 2, None, closed="left"),
+            Hidden(StrOptions({DEPRECATED})),
+        ],
         "c1": [Interval(Real, 0, None, closed="left")],
         "c2": [Interval(Real, 0, None, closed="left")],
         "inertia": ["array-like"],
     }
 
+    #: old parameter names, still accepted for one release (greyml._renamed)
+    _renamed_params = {"n_particles": "n_population"}
+
     def __init__(
         self,
-        n_particles=90,
+        n_population=90,
         *,
         max_iter=100,
         c1=1.5,
@@ -135,8 +146,9 @@ class GNNMCI(_GreyConvolutionModel):
         polish=True,
         warm_start_ls=True,
         random_state=None,
+        n_particles=DEPRECATED,
     ):
-        self.n_particles = n_particles
+        self.n_population = n_population
         self.max_iter = max_iter
         self.c1 = c1
         self.c2 = c2
@@ -147,10 +159,11 @@ class GNNMCI(_GreyConvolutionModel):
         self.polish = polish
         self.warm_start_ls = warm_start_ls
         self.random_state = random_state
+        self.n_particles = n_particles
 
     def _check_params(self):
         return ParticleSwarm(
-            n_particles=self.n_particles,
+            n_population=renamed_value(self, "n_particles", "n_population"),
             max_iter=self.max_iter,
             c1=self.c1,
             c2=self.c2,

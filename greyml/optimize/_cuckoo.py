@@ -6,7 +6,8 @@ import math
 
 import numpy as np
 
-from greyml._param_validation import Integral, Interval, Real
+from greyml._param_validation import Hidden, Integral, Interval, Real, StrOptions
+from greyml._renamed import DEPRECATED, renamed_value
 from greyml.optimize._base import PopulationOptimizer, _Evaluations, check_bounds
 
 __all__ = ["CuckooSearch", "mantegna_sigma", "levy_steps"]
@@ -71,13 +72,13 @@ class CuckooSearch(PopulationOptimizer):
     description says (a fraction pa of nests is abandoned), which was also the
     more accurate of the two in ``benchmarks/bench_optimizers.py``. Each
     iteration evaluates the population twice, so
-    ``nfev = n_nests·(1 + 2·max_iter)``.
+    ``nfev = n_population·(1 + 2·max_iter)``.
 
     Read more in the :ref:`User Guide <ug-gmc-calibration>`.
 
     Parameters
     ----------
-    n_nests : int, default=25
+    n_population : int, default=25
         Number of nests (Abdulshahed et al. (2017): 25).
     max_iter : int, default=100
         Iterations (Abdulshahed et al. (2017): 100).
@@ -87,6 +88,9 @@ class CuckooSearch(PopulationOptimizer):
         Step-size scale of the Lévy flights (Yang 2010).
     beta : float, default=1.5
         Lévy exponent (Yang & Deb 2009).
+    n_nests : int, default="deprecated"
+        The old name of ``n_population``: still accepted in this release, with
+        a ``FutureWarning``.
 
     See Also
     --------
@@ -111,30 +115,39 @@ class CuckooSearch(PopulationOptimizer):
     True
     """
 
+    #: old parameter names, still accepted for one release (greyml._renamed)
+    _renamed_params = {"n_nests": "n_population"}
 
     _parameter_constraints: dict = {
-        "n_nests": [Interval(Integral, 2, None, closed="left")],
+        "n_population": [Interval(Integral, 2, None, closed="left")],
+        "n_nests": [
+            Interval(Integral, 2, None, closed="left"),
+            Hidden(StrOptions({DEPRECATED})),
+        ],
         "max_iter": [Interval(Integral, 1, None, closed="left")],
         "pa": [Interval(Real, 0, 1, closed="both")],
         "alpha": [Interval(Real, 0, None, closed="neither")],
         "beta": [Interval(Real, 0, 2, closed="right")],
     }
 
-    def __init__(self, n_nests=25, max_iter=100, pa=0.25, alpha=0.01, beta=1.5):
-        self.n_nests = n_nests
+    def __init__(
+        self, n_population=25, max_iter=100, pa=0.25, alpha=0.01, beta=1.5, n_nests=DEPRECATED
+    ):
+        self.n_population = n_population
         self.max_iter = max_iter
         self.pa = pa
         self.alpha = alpha
         self.beta = beta
+        self.n_nests = n_nests
 
     @property
     def population_size(self) -> int:
-        return self.n_nests
+        return renamed_value(self, "n_nests", "n_population")
 
     def minimize(self, fun, bounds, rng, x0=None, n_dim=None):
         """Minimise ``fun`` over the box ``bounds`` (same contract as PSO's)."""
         self._validate_params()
-        n, iters = int(self.n_nests), int(self.max_iter)
+        n, iters = int(self.population_size), int(self.max_iter)
         pa, alpha, beta = float(self.pa), float(self.alpha), float(self.beta)
         rng = self._check_rng(rng)
         lower, upper = check_bounds(bounds, n_dim, x0)

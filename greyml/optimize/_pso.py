@@ -4,7 +4,15 @@ from __future__ import annotations
 
 import numpy as np
 
-from greyml._param_validation import Integral, Interval, Real, validate_parameter_constraints
+from greyml._param_validation import (
+    Hidden,
+    Integral,
+    Interval,
+    Real,
+    StrOptions,
+    validate_parameter_constraints,
+)
+from greyml._renamed import DEPRECATED, renamed_value
 from greyml.optimize._base import PopulationOptimizer, _Evaluations, check_bounds
 
 __all__ = ["ParticleSwarm"]
@@ -28,7 +36,7 @@ class ParticleSwarm(PopulationOptimizer):
 
     Parameters
     ----------
-    n_particles : int, default=25
+    n_population : int, default=25
         Swarm size (Abdulshahed et al. (2017): 25; Abdulshahed et al.'s (2016) GNNMCI: 90).
     max_iter : int, default=100
         Iterations after the initial evaluation.
@@ -41,6 +49,9 @@ class ParticleSwarm(PopulationOptimizer):
         κ, the largest step per iteration as a fraction of each parameter's range
         (not given by the seeds; 0.2 measured best of 0.2 and 0.5 in
         ``benchmarks/bench_optimizers.py``).
+    n_particles : int, default="deprecated"
+        The old name of ``n_population``: still accepted in this release, with
+        a ``FutureWarning``.
 
     See Also
     --------
@@ -65,9 +76,15 @@ class ParticleSwarm(PopulationOptimizer):
     True
     """
 
+    #: old parameter names, still accepted for one release (greyml._renamed)
+    _renamed_params = {"n_particles": "n_population"}
 
     _parameter_constraints: dict = {
-        "n_particles": [Interval(Integral, 1, None, closed="left")],
+        "n_population": [Interval(Integral, 1, None, closed="left")],
+        "n_particles": [
+            Interval(Integral, 1, None, closed="left"),
+            Hidden(StrOptions({DEPRECATED})),
+        ],
         "max_iter": [Interval(Integral, 1, None, closed="left")],
         "c1": [Interval(Real, 0, None, closed="left")],
         "c2": [Interval(Real, 0, None, closed="left")],
@@ -77,23 +94,25 @@ class ParticleSwarm(PopulationOptimizer):
 
     def __init__(
         self,
-        n_particles=25,
+        n_population=25,
         max_iter=100,
         c1=2.0,
         c2=2.0,
         inertia=(0.9, 0.4),
         velocity_clamp=0.2,
+        n_particles=DEPRECATED,
     ):
-        self.n_particles = n_particles
+        self.n_population = n_population
         self.max_iter = max_iter
         self.c1 = c1
         self.c2 = c2
         self.inertia = inertia
         self.velocity_clamp = velocity_clamp
+        self.n_particles = n_particles
 
     @property
     def population_size(self) -> int:
-        return self.n_particles
+        return renamed_value(self, "n_particles", "n_population")
 
     def _validated(self):
         self._validate_params()
@@ -111,7 +130,7 @@ class ParticleSwarm(PopulationOptimizer):
             {"inertia[0]": w0, "inertia[1]": w1},
             caller_name=type(self).__name__,
         )
-        n, iters = int(self.n_particles), int(self.max_iter)
+        n, iters = int(self.population_size), int(self.max_iter)
         c1, c2, kappa = float(self.c1), float(self.c2), float(self.velocity_clamp)
         w0, w1 = float(w0), float(w1)
         return n, iters, c1, c2, w0, w1, kappa

@@ -11,6 +11,7 @@ from pathlib import Path
 import numpy as np
 import sklearn
 
+from greyml._renamed import upgrade_renamed
 from greyml.exceptions import UnsafeModelError
 from greyml.persist._archive import (
     _check_max_bytes,
@@ -211,6 +212,7 @@ class _Reader:
                 )
         if "n_jobs" in attributes:  # processes are the caller's choice, not the file's
             attributes["n_jobs"] = None
+        upgrade_renamed(attributes, cls)  # a file from before a parameter was renamed
         obj = cls.__new__(cls)
         if "items" in node:
             dict.update(obj, self._pairs(node, depth))
