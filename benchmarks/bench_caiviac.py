@@ -118,6 +118,22 @@ def load(path=None, target=TARGET, reference=REFERENCE, step=STEP):
     return X, frame[target], data
 
 
+def with_driver(X, rpm):
+    """``X`` with the spindle speed as its first column (the transfer functions' driver)."""
+    Xd = X.copy()
+    Xd.insert(0, DRIVER, np.asarray(rpm))
+    return Xd
+
+
+def load_or_say(args, target, reference):
+    """``load`` at every row, or None after saying where the data was looked for."""
+    try:
+        return load(args.data, target, reference, 1)
+    except FileNotFoundError:
+        print(f"CAIVIAC data not found at {where_looked(args.data)}; skipping")
+        return None
+
+
 def where_looked(path):
     from greyml.datasets import caiviac_candidates
 
@@ -472,8 +488,7 @@ def dynamic_loco(X, y, rpm, reference, recording=None):
     from greyml import test_ids
     from greyml.metrics import rmse
 
-    Xd = X.copy()
-    Xd.insert(0, DRIVER, rpm.to_numpy())
+    Xd = with_driver(X, rpm)
     groups = np.asarray(test_ids(X))
     models = transfer_models(reference)
     rows = []
@@ -498,8 +513,7 @@ def dynamic_loco(X, y, rpm, reference, recording=None):
                 if recording is None:
                     continue
                 Xr, yr = recording
-                Xrd = Xr.copy()
-                Xrd.insert(0, DRIVER, rpm.to_numpy())
+                Xrd = with_driver(Xr, rpm)
                 model.fit(Xrd, yr, sample_weight=train.astype(float))
                 pred = model.predict(Xrd)[held]
                 pred = pred - pred[0]
@@ -520,8 +534,7 @@ def fit_timing(X, rpm, y, repeats=3):
     """Seconds to fit ThermalTransferFunction(max_sensors=5) on all five cycles (best of 3)."""
     from greyml import ThermalTransferFunction
 
-    Xd = X.copy()
-    Xd.insert(0, DRIVER, rpm.to_numpy())
+    Xd = with_driver(X, rpm)
     out = {}
     for state in ("restart", "carry"):
         best = np.inf
@@ -631,19 +644,16 @@ def run_sensitivity(args):
     out = {}
     for reference in args.reference:
         for target in args.target:
-            try:
-                X, y, data = load(args.data, target, reference, 1)
-            except FileNotFoundError:
-                print(f"CAIVIAC data not found at {where_looked(args.data)}; skipping")
+            loaded = load_or_say(args, target, reference)
+            if loaded is None:
                 return None
-            Xd = X.copy()
-            Xd.insert(0, DRIVER, data.frame[DRIVER].to_numpy())
+            X, y, data = loaded
+            Xd = with_driver(X, data.frame[DRIVER])
             fits = {"": (Xd, y, reference == "cycle", False)}
             if reference == "cycle":
                 # fitted from the recording's start, scored on each cycle's change
                 Xr, yr, _ = load(args.data, target, "recording", 1)
-                Xrd = Xr.copy()
-                Xrd.insert(0, DRIVER, data.frame[DRIVER].to_numpy())
+                Xrd = with_driver(Xr, data.frame[DRIVER])
                 fits["rec-fit"] = (Xrd, yr, False, True)
             groups = np.asarray(test_ids(X))
             cycles = list(dict.fromkeys(groups))
@@ -735,11 +745,10 @@ def run_dynamic(args):
     timing = None
     for reference in args.reference:
         for target in args.target:
-            try:
-                X, y, data = load(args.data, target, reference, 1)
-            except FileNotFoundError:
-                print(f"CAIVIAC data not found at {where_looked(args.data)}; skipping")
+            loaded = load_or_say(args, target, reference)
+            if loaded is None:
                 return None
+            X, y, data = loaded
             rpm = data.frame[DRIVER]
             recording = None
             labels = ["ridge-16"]
