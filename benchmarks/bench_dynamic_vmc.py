@@ -62,7 +62,7 @@ def models():
                     ("select", GreyInfluenceSelector(5, cluster_on="series", random_state=0)),
                     (
                         "model",
-                        ANFISFCM(3, n_epochs=100, validation_fraction=0.15, random_state=0),
+                        ANFISFCM(3, max_iter=100, validation_fraction=0.15, random_state=0),
                     ),
                 ]
             ),

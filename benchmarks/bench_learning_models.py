@@ -164,17 +164,17 @@ PROBLEM_MAKERS = {"sinc": make_sinc_problem, "friedman1": make_friedman_problem}
 
 
 def greyml_anfis_grid(problem):
-    return greyml.ANFISGrid(n_mfs=SINC_MFS, n_epochs=SINC_EPOCHS, random_state=0)
+    return greyml.ANFISGrid(n_mfs=SINC_MFS, max_iter=SINC_EPOCHS, random_state=0)
 
 
 def greyml_anfis_fcm(problem):
     return greyml.ANFISFCM(
-        n_clusters=FRIEDMAN_RULES, m=FCM_M, n_epochs=FRIEDMAN_EPOCHS, random_state=0
+        n_clusters=FRIEDMAN_RULES, m=FCM_M, max_iter=FRIEDMAN_EPOCHS, random_state=0
     )
 
 
 def greyml_anfis_fcm_default_m(problem):
-    return greyml.ANFISFCM(n_clusters=FRIEDMAN_RULES, n_epochs=FRIEDMAN_EPOCHS, random_state=0)
+    return greyml.ANFISFCM(n_clusters=FRIEDMAN_RULES, max_iter=FRIEDMAN_EPOCHS, random_state=0)
 
 
 def greyml_mlp(problem):

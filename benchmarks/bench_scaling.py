@@ -132,9 +132,7 @@ def gnnmci(n_inputs):
     model, applied = with_budget(
         model,
         n_population=PSO_POPULATION,
-        n_population=PSO_POPULATION,
         max_iter=PSO_ITERATIONS,
-        n_epochs=EPOCHS,
     )
     budget = ", ".join(f"{k}={v}" for k, v in applied.items()) or "defaults (no budget knob)"
     return model, budget
@@ -155,13 +153,13 @@ def anfis_grid(n_inputs):
         )
     epochs = anfis_epochs(n_rules)
     note = f" (>{LARGE_RULE_BASE} rules: 1 epoch only)" if epochs != EPOCHS else ""
-    model = cls(n_mfs=2, n_epochs=epochs, random_state=0)
-    return model, f"n_mfs=2 ({n_rules} rules), n_epochs={epochs}{note}"
+    model = cls(n_mfs=2, max_iter=epochs, random_state=0)
+    return model, f"n_mfs=2 ({n_rules} rules), max_iter={epochs}{note}"
 
 
 def anfis_fcm(n_inputs):
-    model = greyml.ANFISFCM(n_clusters=3, n_epochs=EPOCHS, random_state=0)
-    return model, f"n_clusters=3, n_epochs={EPOCHS} (c-means defaults)"
+    model = greyml.ANFISFCM(n_clusters=3, max_iter=EPOCHS, random_state=0)
+    return model, f"n_clusters=3, max_iter={EPOCHS} (c-means defaults)"
 
 
 def mlp(n_inputs):

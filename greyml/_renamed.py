@@ -3,8 +3,10 @@
 An estimator declares ``_renamed_params = {"old": "new"}``, keeps ``old`` as a
 constructor parameter whose default is ``"deprecated"`` (hidden from its
 constraints' messages) and reads the value with :func:`renamed_value`, which
-says with a ``FutureWarning`` that the old name was used. :mod:`greyml.persist`
-maps a model file that still holds the old name onto the new one.
+says with a ``FutureWarning`` that the old name was used. A fitted attribute
+renamed the same way is declared in ``_renamed_attributes`` and kept readable
+under its old name by :func:`renamed_attribute`. :mod:`greyml.persist` maps a
+model file that still holds an old name onto the new one.
 """
 
 from __future__ import annotations
@@ -29,10 +31,32 @@ def renamed_value(estimator, old, new):
     return value
 
 
+def renamed_attribute(old, new):
+    """A read-only property ``old`` that gives the fitted attribute ``new`` with a FutureWarning."""
+
+    def getter(self):
+        if new not in vars(self):  # unfitted: as if neither name existed
+            raise AttributeError(f"{type(self).__name__!r} object has no attribute {old!r}")
+        warnings.warn(
+            f"The fitted attribute {old!r} of {type(self).__name__} was renamed {new!r}, "
+            f"the name scikit-learn uses; {old!r} goes away in the next release.",
+            FutureWarning,
+            stacklevel=2,
+        )
+        return vars(self)[new]
+
+    return property(getter, doc=f"Old name of ``{new}`` (deprecated).")
+
+
 def upgrade_renamed(attributes, cls):
-    """A model file's attributes with the old names of ``cls._renamed_params`` moved to the new."""
+    """A model file's attributes with the old names of ``cls._renamed_params`` and
+    ``cls._renamed_attributes`` moved to the new."""
     for old, new in getattr(cls, "_renamed_params", {}).items():
         if old in attributes and new not in attributes:
             attributes[new] = attributes[old]
             attributes[old] = DEPRECATED
+    for old, new in getattr(cls, "_renamed_attributes", {}).items():
+        if old in attributes:
+            value = attributes.pop(old)
+            attributes.setdefault(new, value)
     return attributes

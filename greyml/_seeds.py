@@ -264,7 +264,7 @@ def make_model(name, *, random_state=0, quick=False, drivers=(), max_sensors=Non
         return model, f"GNNMCI(1,N), swarm of {particles} particles x {iterations} iterations"
     if name == "anfis-grid":
         mfs, epochs = (2, 20) if quick else (GRID_MFS, ANFIS_EPOCHS)
-        model = make_anfis_grid(random_state, n_mfs=mfs, n_epochs=epochs)
+        model = make_anfis_grid(random_state, n_mfs=mfs, max_iter=epochs)
         return model, f"ANFIS, grid of {mfs} MFs per input, {epochs} epochs, {check}"
     if name == "anfis-fcm":
         epochs = 20 if quick else ANFIS_EPOCHS
@@ -288,24 +288,24 @@ def make_ridge(random_state=None):
     return make_pipeline(StandardScaler(), Ridge(alpha=RIDGE_ALPHA))
 
 
-def make_anfis_grid(random_state=RANDOM_STATE, *, n_mfs=GRID_MFS, n_epochs=ANFIS_EPOCHS):
+def make_anfis_grid(random_state=RANDOM_STATE, *, n_mfs=GRID_MFS, max_iter=ANFIS_EPOCHS):
     from greyml import ANFISGrid
 
     return ANFISGrid(
         n_mfs,
-        n_epochs=n_epochs,
+        max_iter=max_iter,
         validation_fraction=CHECKING_FRACTION,
         random_state=random_state,
     )
 
 
-def make_anfis_fcm(n_rules=FCM_RULES, n_epochs=ANFIS_EPOCHS):
+def make_anfis_fcm(n_rules=FCM_RULES, max_iter=ANFIS_EPOCHS):
     def make(random_state=RANDOM_STATE):
         from greyml import ANFISFCM
 
         return ANFISFCM(
             n_rules,
-            n_epochs=n_epochs,
+            max_iter=max_iter,
             validation_fraction=CHECKING_FRACTION,
             random_state=random_state,
         )

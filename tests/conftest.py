@@ -31,3 +31,20 @@ def gmc_tests():
         frame["dz_um"] = y
         frames.append(frame)
     return pd.concat(frames)
+
+
+def rewrite_model_file(path, out, edit):
+    """Copy a greyml.persist model file to ``out`` after ``edit(state)`` changed
+    the top object's attribute table: a file as an older greyml wrote it."""
+    import json
+    import zipfile
+
+    with zipfile.ZipFile(path) as z:
+        members = {n: z.read(n) for n in z.namelist()}
+    tree = json.loads(members["model.json"])
+    edit(tree["tree"]["state"])
+    members["model.json"] = json.dumps(tree).encode()
+    with zipfile.ZipFile(out, "w") as z:
+        for name, data in members.items():
+            z.writestr(name, data)
+    return out

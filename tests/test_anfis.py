@@ -150,7 +150,7 @@ def test_sinc_benchmark_16_rules_250_epochs():
     y = _sinc(X[:, 0]) * _sinc(X[:, 1])
     Xt = np.random.default_rng(0).uniform(-10, 10, size=(1000, 2))
     yt = _sinc(Xt[:, 0]) * _sinc(Xt[:, 1])
-    model = ANFISGrid(n_mfs=4, n_epochs=250).fit(X, y)
+    model = ANFISGrid(n_mfs=4, max_iter=250).fit(X, y)
     assert model.n_rules_ == 16
     rmse = np.sqrt(np.mean((model.predict(Xt) - yt) ** 2))
     assert rmse <= 0.035, rmse
@@ -159,7 +159,7 @@ def test_sinc_benchmark_16_rules_250_epochs():
 def test_friedman1_three_rules():
     X, y = make_friedman1(n_samples=2000, n_features=5, noise=1.0, random_state=0)
     Xtr, Xte, ytr, yte = train_test_split(X, y, test_size=0.25, random_state=0)
-    model = ANFISFCM(n_clusters=3, m=1.7, n_epochs=300, random_state=0).fit(Xtr, ytr)
+    model = ANFISFCM(n_clusters=3, m=1.7, max_iter=300, random_state=0).fit(Xtr, ytr)
     rmse = np.sqrt(np.mean((model.predict(Xte) - yte) ** 2))
     assert rmse <= 1.03, rmse
     # a linear model cannot get there: the rules matter
@@ -173,7 +173,7 @@ def test_rules_reproduce_predictions_in_user_units():
     rng = np.random.default_rng(4)
     X = pd.DataFrame({"T18": 25 + 8 * rng.random(120), "T55": 22 + 5 * rng.random(120)})
     y = pd.Series(3 * (X["T18"] - 25) + np.sin(X["T55"]), name="dz")
-    for model in (ANFISGrid(n_mfs=2, n_epochs=20), ANFISFCM(n_clusters=3, random_state=0)):
+    for model in (ANFISGrid(n_mfs=2, max_iter=20), ANFISFCM(n_clusters=3, random_state=0)):
         model.fit(X, y)
         x = X.to_numpy()
         logw = np.zeros((len(x), model.n_rules_))
@@ -214,7 +214,7 @@ def _three_tests():
 
 def test_checking_data_are_whole_tests_and_the_best_epoch_is_kept():
     X, y = _three_tests()
-    model = ANFISFCM(n_clusters=2, n_epochs=40, validation_fraction=0.34, random_state=0)
+    model = ANFISFCM(n_clusters=2, max_iter=40, validation_fraction=0.34, random_state=0)
     model.fit(X, y)
     assert model.checking_.startswith("whole tests held out: test ")
     assert model.check_error_.size == model.n_iter_
@@ -230,10 +230,10 @@ def test_checking_data_are_whole_tests_and_the_best_epoch_is_kept():
 def test_single_test_checks_on_its_last_rows_and_explicit_checking_data():
     X, y = _three_tests()
     Xi, yi = X.xs("I", level="test", drop_level=False), y.xs("I", level="test", drop_level=False)
-    model = ANFISGrid(n_mfs=2, n_epochs=10, validation_fraction=0.25).fit(Xi, yi)
+    model = ANFISGrid(n_mfs=2, max_iter=10, validation_fraction=0.25).fit(Xi, yi)
     assert model.checking_ == "last 15 of 60 rows"
     Xv, yv = X.xs("II", level="test", drop_level=False), y.xs("II", level="test")
-    model = ANFISGrid(n_mfs=2, n_epochs=10).fit(Xi, yi, X_val=Xv, y_val=yv)
+    model = ANFISGrid(n_mfs=2, max_iter=10).fit(Xi, yi, X_val=Xv, y_val=yv)
     assert model.checking_ == "explicit checking data (50 rows)"
     with pytest.raises(ValueError, match="give one of them"):
         ANFISGrid(validation_fraction=0.2).fit(Xi, yi, X_val=Xv, y_val=yv)
@@ -244,7 +244,7 @@ def test_single_test_checks_on_its_last_rows_and_explicit_checking_data():
 # -- estimators: sklearn integration, determinism, persistence -----------------
 @pytest.mark.parametrize(
     "model",
-    [ANFISGrid(n_mfs=2, n_epochs=15), ANFISFCM(n_clusters=2, n_epochs=15, random_state=0)],
+    [ANFISGrid(n_mfs=2, max_iter=15), ANFISFCM(n_clusters=2, max_iter=15, random_state=0)],
     ids=["grid", "fcm"],
 )
 def test_pipeline_gridsearch_and_leave_one_test_out(model):
@@ -269,8 +269,8 @@ def test_pipeline_gridsearch_and_leave_one_test_out(model):
 @pytest.mark.parametrize(
     "make",
     [
-        lambda s: ANFISGrid(n_mfs=2, n_epochs=20, validation_fraction=0.3, random_state=s),
-        lambda s: ANFISFCM(n_clusters=3, n_epochs=20, validation_fraction=0.3, random_state=s),
+        lambda s: ANFISGrid(n_mfs=2, max_iter=20, validation_fraction=0.3, random_state=s),
+        lambda s: ANFISFCM(n_clusters=3, max_iter=20, validation_fraction=0.3, random_state=s),
     ],
     ids=["grid", "fcm"],
 )
@@ -319,7 +319,7 @@ def test_bad_input_names_column_and_test(cls):
     y_bad.iloc[5] = np.nan
     with pytest.raises(ValueError, match="Input y contains NaN"):
         cls().fit(X, y_bad)
-    fitted = cls(n_epochs=2).fit(X, y)
+    fitted = cls(max_iter=2).fit(X, y)
     with pytest.raises(ValueError, match="feature names"):
         fitted.predict(X[["T2", "T1"]])
 
@@ -327,7 +327,7 @@ def test_bad_input_names_column_and_test(cls):
 @pytest.mark.parametrize(
     "params, match",
     [
-        ({"n_epochs": 0}, "'n_epochs' parameter"),
+        ({"max_iter": 0}, "'max_iter' parameter"),
         ({"step_size": -1.0}, "'step_size' parameter"),
         ({"alpha": -1e-3}, "'alpha' parameter"),
         ({"validation_fraction": 1.0}, "'validation_fraction' parameter"),
@@ -362,9 +362,39 @@ def test_clustering_a_subset_keeps_memberships_of_every_row():
     d1, d2 = np.linalg.norm(data[0] - centres[0]), np.linalg.norm(data[0] - centres[1])
     assert u[0, 0] == pytest.approx(1 / (1 + (d1 / d2) ** 2))
     X, y = data[:, :1], data[:, 1]
-    full = ANFISFCM(n_clusters=2, n_epochs=5, random_state=0).fit(X, y)
-    part = ANFISFCM(n_clusters=2, n_epochs=5, fcm_max_samples=40, random_state=0).fit(X, y)
+    full = ANFISFCM(n_clusters=2, max_iter=5, random_state=0).fit(X, y)
+    part = ANFISFCM(n_clusters=2, max_iter=5, fcm_max_samples=40, random_state=0).fit(X, y)
     # the two well-separated clusters are found from a third of the rows too
     np.testing.assert_allclose(
-        np.sort(part.cluster_centres_[:, 0]), np.sort(full.cluster_centres_[:, 0]), atol=0.15
+        np.sort(part.cluster_centers_[:, 0]), np.sort(full.cluster_centers_[:, 0]), atol=0.15
     )
+
+
+def test_n_epochs_and_cluster_centres_are_the_old_names(tmp_path):
+    from conftest import rewrite_model_file
+
+    from greyml.persist import load_model, save_model
+
+    X, y = make_friedman1(n_samples=80, n_features=5, random_state=0)
+    X = X[:, :3]
+    new = ANFISFCM(n_clusters=2, max_iter=4, random_state=0).fit(X, y)
+    with pytest.warns(FutureWarning, match="'n_epochs' parameter of ANFISFCM was renamed"):
+        old = ANFISFCM(n_clusters=2, n_epochs=4, random_state=0).fit(X, y)
+    assert old.n_iter_ == new.n_iter_ == 4
+    np.testing.assert_array_equal(old.predict(X), new.predict(X))
+    with pytest.warns(FutureWarning, match="'cluster_centres_' of ANFISFCM was renamed"):
+        np.testing.assert_array_equal(new.cluster_centres_, new.cluster_centers_)
+    assert new.cluster_centers_.shape == (2, 3)
+    assert not hasattr(ANFISFCM(), "cluster_centres_")  # unfitted: neither name
+    # a file written before both renames loads with the new names
+    path = save_model(new, tmp_path / "new.greyml")
+
+    def older(state):
+        state["n_epochs"] = state.pop("max_iter")
+        state["cluster_centres_"] = state.pop("cluster_centers_")
+
+    loaded = load_model(rewrite_model_file(path, tmp_path / "old.greyml", older))
+    assert loaded.max_iter == 4 and loaded.n_epochs == "deprecated"
+    np.testing.assert_array_equal(loaded.cluster_centers_, new.cluster_centers_)
+    assert "cluster_centres_" not in vars(loaded)
+    np.testing.assert_array_equal(loaded.predict(X), new.predict(X))

@@ -194,7 +194,7 @@ MAX_RULES_MESSAGE = (
 
 def _search_with_a_failing_candidate(error_score, n_jobs):
     return GridSearchCV(
-        ANFISGrid(n_epochs=3, max_rules=20),
+        ANFISGrid(max_iter=3, max_rules=20),
         {"n_mfs": [1, FAILING_MFS, 2]},
         scoring=get_scorer("neg_rmse"),
         cv=LeaveOneGroupOut(),

@@ -119,7 +119,7 @@ def test_grid_search_over_the_selector_and_all_five_models(vmc):
     candidates = [
         GMC(solver="pso", n_population=20, max_iter=20, random_state=0),
         GNNMCI(n_population=20, max_iter=20, random_state=0),
-        ANFISGrid(n_mfs=2, n_epochs=20, random_state=0),
+        ANFISGrid(n_mfs=2, max_iter=20, random_state=0),
         ANFISFCM(n_clusters=3, random_state=0),
         MLPBaseline(hidden_layer_sizes=5, random_state=0),
     ]

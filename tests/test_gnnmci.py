@@ -5,7 +5,7 @@ import pickle
 import numpy as np
 import pandas as pd
 import pytest
-from conftest import TRUE_B, TRUE_B1, TRUE_U, exciting_drivers
+from conftest import TRUE_B, TRUE_B1, TRUE_U, exciting_drivers, rewrite_model_file
 from sklearn.model_selection import GridSearchCV, LeaveOneGroupOut, cross_val_score
 from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import StandardScaler
@@ -166,9 +166,6 @@ def test_stable_default_keeps_b1_non_negative_where_unconstrained_diverges():
 
 
 def test_n_particles_is_the_old_name_of_n_population(tmp_path):
-    import json
-    import zipfile
-
     from greyml.persist import load_model, save_model
 
     X, y = _midpoint_tests()
@@ -178,16 +175,11 @@ def test_n_particles_is_the_old_name_of_n_population(tmp_path):
     np.testing.assert_array_equal(old.predict(X), new.predict(X))
     # a file written before the rename (n_particles, no n_population) loads as n_population
     path = save_model(new, tmp_path / "new.greyml")
-    with zipfile.ZipFile(path) as z:
-        members = {n: z.read(n) for n in z.namelist()}
-    tree = json.loads(members["model.json"])
-    state = tree["tree"]["state"]
-    state["n_particles"] = state.pop("n_population")
-    members["model.json"] = json.dumps(tree).encode()
-    old_file = tmp_path / "old.greyml"
-    with zipfile.ZipFile(old_file, "w") as z:
-        for name, data in members.items():
-            z.writestr(name, data)
+
+    def older(state):
+        state["n_particles"] = state.pop("n_population")
+
+    old_file = rewrite_model_file(path, tmp_path / "old.greyml", older)
     loaded = load_model(old_file)
     assert loaded.n_population == 6 and loaded.n_particles == "deprecated"
     np.testing.assert_array_equal(loaded.predict(X), new.predict(X))

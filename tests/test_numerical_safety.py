@@ -124,7 +124,7 @@ FAR = np.array([[1e3, 1e3], [-1e4, 25.0], [1e150, 25.0], [1e300, -1e300], [1.7e3
 
 @pytest.mark.parametrize(
     "model",
-    [ANFISGrid(n_mfs=3, n_epochs=30), ANFISFCM(n_clusters=3, n_epochs=30, random_state=0)],
+    [ANFISGrid(n_mfs=3, max_iter=30), ANFISFCM(n_clusters=3, max_iter=30, random_state=0)],
     ids=["grid", "fcm"],
 )
 def test_far_query_falls_back_to_the_training_mean(model):
@@ -165,8 +165,8 @@ def test_fcm_with_duplicate_rows_and_more_clusters_than_points():
     X = np.repeat(base, 30, axis=0)
     y = X[:, 0] - X[:, 1]  # -6 and 6
     for alpha in (0.0, 1e-6):
-        model = ANFISFCM(n_clusters=5, alpha=alpha, n_epochs=20, random_state=0).fit(X, y)
-        centres = np.round(model.cluster_centres_, 6)
+        model = ANFISFCM(n_clusters=5, alpha=alpha, max_iter=20, random_state=0).fit(X, y)
+        centres = np.round(model.cluster_centers_, 6)
         assert len(np.unique(centres, axis=0)) < 5  # identical cluster centres
         # exact without a penalty; the ridge penalty (alpha relative to the mean
         # diagonal of the normal equations) shrinks the consequents by O(alpha)
@@ -192,7 +192,7 @@ def test_widths_collapsing_under_large_steps_stay_at_the_floor():
     )
     assert result["mf_widths"].min() >= 1e-3
     assert np.isfinite(result["train_error"]).all() and result["train_error"].min() < 0.2
-    model = ANFISGrid(n_mfs=5, mf_overlap=1e-300, n_epochs=30).fit(X, y)  # σ → floor at start
+    model = ANFISGrid(n_mfs=5, mf_overlap=1e-300, max_iter=30).fit(X, y)  # σ → floor at start
     pred = model.predict(np.linspace(-1.0, 2.0, 61)[:, None])
     assert np.isfinite(pred).all() and pred.min() >= -1.0 and pred.max() <= 2.0
 
@@ -211,8 +211,8 @@ def _constant_in_training_test():
 @pytest.mark.parametrize(
     "make",
     [
-        lambda: ANFISGrid(n_mfs=2, n_epochs=20, validation_fraction=0.5, random_state=0),
-        lambda: ANFISFCM(n_clusters=2, n_epochs=20, validation_fraction=0.5, random_state=0),
+        lambda: ANFISGrid(n_mfs=2, max_iter=20, validation_fraction=0.5, random_state=0),
+        lambda: ANFISFCM(n_clusters=2, max_iter=20, validation_fraction=0.5, random_state=0),
     ],
     ids=["grid", "fcm"],
 )

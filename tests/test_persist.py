@@ -69,8 +69,8 @@ MODELS = {
         random_state=np.random.default_rng(3),
     ).fit(X, y),
     "GNNMCI": lambda X, y: GNNMCI(n_population=5, max_iter=3, random_state=0).fit(X, y),
-    "ANFISGrid": lambda X, y: ANFISGrid(n_mfs=2, n_epochs=3).fit(X, y),
-    "ANFISFCM": lambda X, y: ANFISFCM(n_clusters=2, n_epochs=3, random_state=0).fit(X, y),
+    "ANFISGrid": lambda X, y: ANFISGrid(n_mfs=2, max_iter=3).fit(X, y),
+    "ANFISFCM": lambda X, y: ANFISFCM(n_clusters=2, max_iter=3, random_state=0).fit(X, y),
     "MLPBaseline": lambda X, y: MLPBaseline(
         hidden_layer_sizes=3, max_iter=5, n_restarts=1, random_state=0
     ).fit(X, y),
@@ -81,7 +81,7 @@ MODELS = {
     "selector-scaler-ANFISFCM": lambda X, y: make_pipeline(
         GreyInfluenceSelector(n_clusters=2, random_state=0),
         StandardScaler().set_output(transform="pandas"),
-        ANFISFCM(n_clusters=2, n_epochs=3, random_state=0),
+        ANFISFCM(n_clusters=2, max_iter=3, random_state=0),
     ).fit(X, y),
     "selector-scaler-GMC": lambda X, y: make_pipeline(
         GreyInfluenceSelector(n_clusters=2, random_state=0),

@@ -108,7 +108,7 @@ def _order_models():
     return {
         "gmc_ls": GMC(solver="ls"),
         "ago_ridge": make_pipeline(AGO(), AccumulatedTargetRegressor(Ridge())),
-        "anfis_fcm": ANFISFCM(n_clusters=2, n_epochs=5, random_state=0),
+        "anfis_fcm": ANFISFCM(n_clusters=2, max_iter=5, random_state=0),
     }
 
 
@@ -150,8 +150,8 @@ def _all_estimators():
         "GMC_ls": GMC(solver="ls"),
         "GMC_pso": GMC(solver="pso", n_population=8, max_iter=5, random_state=0),
         "GNNMCI": GNNMCI(n_population=8, max_iter=5, random_state=0),
-        "ANFISGrid": ANFISGrid(n_mfs=2, n_epochs=5, random_state=0),
-        "ANFISFCM": ANFISFCM(n_clusters=2, n_epochs=5, random_state=0),
+        "ANFISGrid": ANFISGrid(n_mfs=2, max_iter=5, random_state=0),
+        "ANFISFCM": ANFISFCM(n_clusters=2, max_iter=5, random_state=0),
         "MLPBaseline": MLPBaseline(hidden_layer_sizes=3, max_iter=30, n_restarts=1, random_state=0),
         "GreyInfluenceSelector": GreyInfluenceSelector(n_clusters=2, n_init=2, random_state=0),
         "AccumulatedTargetRegressor": AccumulatedTargetRegressor(Ridge()),
@@ -239,8 +239,8 @@ def _fast_estimators(seed):
         "GMC_pso": GMC(solver="pso", n_population=6, max_iter=3, random_state=seed),
         "GMC_cs": GMC(solver="cs", n_population=6, max_iter=3, random_state=seed),
         "GNNMCI": GNNMCI(n_population=6, max_iter=3, random_state=seed),
-        "ANFISGrid": ANFISGrid(n_mfs=2, n_epochs=2, random_state=seed),
-        "ANFISFCM": ANFISFCM(n_clusters=2, n_epochs=2, random_state=seed),
+        "ANFISGrid": ANFISGrid(n_mfs=2, max_iter=2, random_state=seed),
+        "ANFISFCM": ANFISFCM(n_clusters=2, max_iter=2, random_state=seed),
         "MLPBaseline": MLPBaseline(
             hidden_layer_sizes=2, max_iter=5, n_restarts=1, random_state=seed
         ),

@@ -57,7 +57,7 @@ def split(gmc_tests):
 
 
 def _fast_anfis_fcm():
-    return ANFISFCM(n_clusters=2, n_epochs=3, random_state=0)
+    return ANFISFCM(n_clusters=2, max_iter=3, random_state=0)
 
 
 def _search_best(X, y):
@@ -78,7 +78,7 @@ ESTIMATORS = {
     "GMC-pso": lambda: GMC(solver="pso", n_population=6, max_iter=3, random_state=0),
     "GMC-cs": lambda: GMC(solver="cs", n_population=6, max_iter=3, random_state=0),
     "GNNMCI": lambda: GNNMCI(n_population=5, max_iter=3, random_state=0),
-    "ANFISGrid": lambda: ANFISGrid(n_mfs=2, n_epochs=3),
+    "ANFISGrid": lambda: ANFISGrid(n_mfs=2, max_iter=3),
     "ANFISFCM": _fast_anfis_fcm,
     "MLPBaseline": lambda: MLPBaseline(
         hidden_layer_sizes=3, max_iter=5, n_restarts=1, random_state=0
@@ -635,10 +635,10 @@ def test_altered_tree_is_refused(model_file, tripwire, edit, match):
 
 def test_altered_anfis_parameter_is_refused(split, tmp_path, tripwire):
     X, y, _ = split
-    path = save_model(ANFISGrid(n_mfs=2, n_epochs=2).fit(X, y), tmp_path / "anfis.greyml")
+    path = save_model(ANFISGrid(n_mfs=2, max_iter=2).fit(X, y), tmp_path / "anfis.greyml")
     for key, value, match in [
         ("n_mfs", "two", "'n_mfs' parameter of ANFISGrid"),
-        ("n_epochs", -1, "'n_epochs' parameter of ANFISGrid"),
+        ("max_iter", -1, "'max_iter' parameter of ANFISGrid"),
         ("step_increase", 0.5, "step_increase >= 1"),
     ]:
         tampered = _tamper(path, lambda h, k=key, v=value: h["tree"]["state"].update({k: v}))

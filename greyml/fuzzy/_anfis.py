@@ -10,7 +10,8 @@ from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.utils.validation import check_is_fitted
 
 from greyml._checking import checking_split
-from greyml._param_validation import Integral, Interval, Real
+from greyml._param_validation import Hidden, Integral, Interval, Real, StrOptions
+from greyml._renamed import DEPRECATED, renamed_attribute, renamed_value
 from greyml._rng import RANDOM_STATE_CONSTRAINT, make_generator
 from greyml._threads import blas_threads_for
 from greyml._validation import (
@@ -40,7 +41,8 @@ class _ANFISBase(RegressorMixin, BaseEstimator):
     initial premise (``_initial_premise``)."""
 
     _parameter_constraints: dict = {
-        "n_epochs": [Interval(Integral, 1, None, closed="left")],
+        "max_iter": [Interval(Integral, 1, None, closed="left")],
+        "n_epochs": [Interval(Integral, 1, None, closed="left"), Hidden(StrOptions({DEPRECATED}))],
         "step_size": [Interval(Real, 0, None, closed="neither")],
         "step_increase": [Interval(Real, 0, None, closed="neither")],
         "step_decrease": [Interval(Real, 0, None, closed="neither")],
@@ -49,6 +51,9 @@ class _ANFISBase(RegressorMixin, BaseEstimator):
         "error_goal": [Interval(Real, 0, None, closed="left")],
         "random_state": RANDOM_STATE_CONSTRAINT,
     }
+
+    #: old parameter names, still accepted for one release (greyml._renamed)
+    _renamed_params = {"n_epochs": "max_iter"}
 
     def _check_params(self):
         """Checks of a partition's parameters that the constraints cannot say."""
@@ -162,7 +167,7 @@ class _ANFISBase(RegressorMixin, BaseEstimator):
             c0,
             s0,
             mf_of_rule,
-            n_epochs=self.n_epochs,
+            n_epochs=renamed_value(self, "n_epochs", "max_iter"),
             alpha=self.alpha,
             step=step,
             min_width=MIN_WIDTH,
@@ -287,7 +292,7 @@ class ANFISGrid(_ANFISBase):
         Membership at which neighbouring initial MFs cross. The initial MFs of
         each input are spread evenly over its training range with this overlap
         (MATLAB's ``genfis1`` uses 0.5; see Notes).
-    n_epochs : int, default=100
+    max_iter : int, default=100
         Epochs of hybrid learning.
     step_size : float, default=0.01
         Initial step length k of the premise update, in units of the inputs'
@@ -311,6 +316,9 @@ class ANFISGrid(_ANFISBase):
         on a 2-core machine (``benchmarks/bench_scaling.py``).
     random_state : int, Generator or None, default=None
         Chooses held-out tests. The global NumPy state is never used.
+    n_epochs : int, default="deprecated"
+        The old name of ``max_iter``: still accepted in this release, with a
+        ``FutureWarning``.
 
     Attributes
     ----------
@@ -381,7 +389,7 @@ class ANFISGrid(_ANFISBase):
     >>> from greyml import ANFISGrid
     >>> X = np.linspace(0, 1, 50)[:, None]
     >>> y = np.where(X[:, 0] < 0.5, 2 * X[:, 0], 1.0)
-    >>> model = ANFISGrid(n_mfs=3, n_epochs=50).fit(X, y)
+    >>> model = ANFISGrid(n_mfs=3, max_iter=50).fit(X, y)
     >>> model.n_rules_
     3
     >>> bool(np.sqrt(np.mean((model.predict(X) - y) ** 2)) < 0.05)
@@ -393,7 +401,7 @@ class ANFISGrid(_ANFISBase):
         n_mfs=2,
         *,
         mf_overlap=0.4,
-        n_epochs=100,
+        max_iter=100,
         step_size=0.01,
         step_increase=1.1,
         step_decrease=0.9,
@@ -402,10 +410,11 @@ class ANFISGrid(_ANFISBase):
         error_goal=0.0,
         max_rules=1024,
         random_state=None,
+        n_epochs=DEPRECATED,
     ):
         self.n_mfs = n_mfs
         self.mf_overlap = mf_overlap
-        self.n_epochs = n_epochs
+        self.max_iter = max_iter
         self.step_size = step_size
         self.step_increase = step_increase
         self.step_decrease = step_decrease
@@ -414,6 +423,7 @@ class ANFISGrid(_ANFISBase):
         self.error_goal = error_goal
         self.max_rules = max_rules
         self.random_state = random_state
+        self.n_epochs = n_epochs
 
     _parameter_constraints: dict = {
         **_ANFISBase._parameter_constraints,
@@ -517,8 +527,8 @@ class ANFISFCM(_ANFISBase):
     fcm_tol : float, default=1e-5
         c-means stops when the root-mean-square change of the memberships
         between iterations falls below it (independent of the sample count).
-    n_epochs, step_size, step_increase, step_decrease, alpha, \
-validation_fraction, error_goal
+    max_iter, step_size, step_increase, step_decrease, alpha, \
+validation_fraction, error_goal, n_epochs
         As in :class:`ANFISGrid`.
     random_state : int, Generator or None, default=None
         Seeds the initial fuzzy partition (passed to scikit-fuzzy as ``init``,
@@ -527,8 +537,10 @@ validation_fraction, error_goal
 
     Attributes
     ----------
-    cluster_centres_ : ndarray of shape (n_clusters, ``n_features_in_``)
-        c-means centres in the inputs' units (before hybrid learning).
+    cluster_centers_ : ndarray of shape (n_clusters, ``n_features_in_``)
+        c-means centres in the inputs' units (before hybrid learning). The old
+        name ``cluster_centres_`` still reads in this release, with a
+        ``FutureWarning``.
     fpc_ : float
         Fuzzy partition coefficient of the clustering (1 = crisp).
     rules_, n_rules_, best_epoch_, n_iter_, train_error_, check_error_, \
@@ -565,7 +577,7 @@ feature_names_in_
     >>> rng = np.random.default_rng(0)
     >>> X = rng.uniform(20, 40, size=(200, 2))
     >>> y = np.where(X[:, 0] > 30, 3 * (X[:, 0] - 30), 0) + 0.5 * X[:, 1]
-    >>> model = ANFISFCM(n_clusters=3, n_epochs=100, random_state=0).fit(X, y)
+    >>> model = ANFISFCM(n_clusters=3, max_iter=100, random_state=0).fit(X, y)
     >>> model.n_rules_
     3
     >>> bool(np.sqrt(np.mean((model.predict(X) - y) ** 2)) < 1.0)
@@ -580,7 +592,7 @@ feature_names_in_
         fcm_max_iter=300,
         fcm_max_samples=10000,
         fcm_tol=1e-5,
-        n_epochs=100,
+        max_iter=100,
         step_size=0.01,
         step_increase=1.1,
         step_decrease=0.9,
@@ -588,13 +600,14 @@ feature_names_in_
         validation_fraction=0.0,
         error_goal=0.0,
         random_state=None,
+        n_epochs=DEPRECATED,
     ):
         self.n_clusters = n_clusters
         self.m = m
         self.fcm_max_iter = fcm_max_iter
         self.fcm_max_samples = fcm_max_samples
         self.fcm_tol = fcm_tol
-        self.n_epochs = n_epochs
+        self.max_iter = max_iter
         self.step_size = step_size
         self.step_increase = step_increase
         self.step_decrease = step_decrease
@@ -602,6 +615,7 @@ feature_names_in_
         self.validation_fraction = validation_fraction
         self.error_goal = error_goal
         self.random_state = random_state
+        self.n_epochs = n_epochs
 
     _parameter_constraints: dict = {
         **_ANFISBase._parameter_constraints,
@@ -611,6 +625,10 @@ feature_names_in_
         "fcm_max_samples": [Interval(Integral, 2, None, closed="left")],
         "fcm_tol": [Interval(Real, 0, None, closed="neither")],
     }
+
+    #: old names of fitted attributes, still readable for one release (greyml._renamed)
+    _renamed_attributes = {"cluster_centres_": "cluster_centers_"}
+    cluster_centres_ = renamed_attribute("cluster_centres_", "cluster_centers_")
 
     def _min_rows(self, n_features):
         return max(n_features + 2, self.n_clusters)
@@ -649,7 +667,7 @@ feature_names_in_
         # tenth of that input's spread, so its rule can still learn
         widths = np.where(widths > 1e-2, widths, 0.1)
         self.fpc_ = fpc
-        self.cluster_centres_ = cx * self.x_scale_ + self.x_mean_
+        self.cluster_centers_ = cx * self.x_scale_ + self.x_mean_
         mf_of_rule = np.arange(c * p, dtype=np.intp).reshape(c, p)
         mf_input = np.tile(np.arange(p), c)
         return cx.ravel().copy(), widths.ravel().copy(), mf_of_rule, mf_input

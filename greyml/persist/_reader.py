@@ -196,8 +196,13 @@ class _Reader:
         state = node.get("state")
         if type(state) is not dict:
             raise _Corrupt(f"the {name} object has no attribute table")
+        renamed = getattr(cls, "_renamed_attributes", {})  # old names, moved below
         for key in state:
-            if not key.isidentifier() or key.startswith("__") or _shadows_behaviour(cls, key):
+            if (
+                not key.isidentifier()
+                or key.startswith("__")
+                or (_shadows_behaviour(cls, key) and key not in renamed)
+            ):
                 raise _Corrupt(f"the {name} object sets the forbidden attribute {key!r}")
         if "items" in node and not issubclass(cls, dict):
             raise _Corrupt(f"the {name} object has dict items but is not a dict")
@@ -258,7 +263,7 @@ _FEATURE_SHAPES = {
     "clusters_": [("n",)],
     "support_": [("n",)],
     "membership_": [("*", "n")],
-    "cluster_centres_": [("*", "n")],
+    "cluster_centers_": [("*", "n")],
     "_mf_of_rule": [("*", "n")],
     "_consequents": [("*", "n+1")],
     "coefs_[0]": [("n", "*")],
