@@ -13,7 +13,15 @@ from __future__ import annotations
 
 import warnings
 
+from greyml._param_validation import Hidden, StrOptions
+
 DEPRECATED = "deprecated"
+
+
+def renamed_constraints(old, new, constraint):
+    """The ``_parameter_constraints`` entries of a renamed parameter: ``new``
+    takes ``constraint``; ``old`` takes it too or its hidden default."""
+    return {new: [constraint], old: [constraint, Hidden(StrOptions({DEPRECATED}))]}
 
 
 def renamed_value(estimator, old, new):

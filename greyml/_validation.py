@@ -21,6 +21,7 @@ __all__ = [
     "column_names",
     "check_unique_columns",
     "check_sampling_interval",
+    "first_flagged",
     "first_non_finite",
     "param_error",
     "real_values",
@@ -61,6 +62,18 @@ def check_unique_columns(columns, what):
 def segment_of(segments, row: int) -> Segment:
     """The test (:class:`Segment`) that row ``row`` belongs to."""
     return next(s for s in segments if s.start <= row < s.stop)
+
+
+def first_flagged(mask: np.ndarray, segments) -> tuple[int, str] | None:
+    """The first row where the 1-D ``mask`` is True and the test it is in.
+
+    ``(row, "test 'IV'")``, the test named as in messages; ``None`` when no row is.
+    """
+    rows = np.flatnonzero(mask)
+    if not rows.size:
+        return None
+    row = int(rows[0])
+    return row, segment_label(segment_of(segments, row))
 
 
 def first_non_finite(values: np.ndarray) -> tuple[int | None, int]:

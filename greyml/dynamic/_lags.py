@@ -11,7 +11,7 @@ from sklearn.utils.validation import check_is_fitted
 
 from greyml._param_validation import Integral, Interval, Real, StrOptions
 from greyml._sequences import TEST_LEVEL, TIME_LEVEL, segment_label
-from greyml._validation import segment_of, validate_sequences
+from greyml._validation import first_flagged, validate_sequences
 from greyml.dynamic._kernels import lag_filter
 
 __all__ = ["LagFeatures"]
@@ -437,13 +437,12 @@ class LagFeatures(TransformerMixin, BaseEstimator):
             fractional = [p for p in self.powers_[names[j]] if p != round(p)]
             if not fractional:
                 continue
-            negative = np.flatnonzero(Xa[:, j] < 0)
-            if negative.size:
-                k = int(negative[0])
-                seg = segment_of(segments, k)
+            negative = first_flagged(Xa[:, j] < 0, segments)
+            if negative:
+                k, test = negative
                 raise ValueError(
                     f"LagFeatures: column {names[j]!r} is negative ({Xa[k, j]:g}) in "
-                    f"{segment_label(seg)} at row {k}, so its power {fractional[0]:g} is not "
+                    f"{test} at row {k}, so its power {fractional[0]:g} is not "
                     "a real number; use whole powers or a column that is never negative."
                 )
 
@@ -509,13 +508,12 @@ class LagFeatures(TransformerMixin, BaseEstimator):
             for i, (j, p) in enumerate(layout):
                 if p == 1:
                     continue
-                bad = np.flatnonzero(~np.isfinite(rows[i]))
-                if bad.size:
-                    k = int(bad[0])
-                    seg = segment_of(segments, k)
+                overflow = first_flagged(~np.isfinite(rows[i]), segments)
+                if overflow:
+                    k, test = overflow
                     raise ValueError(
                         f"LagFeatures: column {names[j]!r} to the power {p:g} overflows to "
-                        f"infinity in {segment_label(seg)} at row {k}; scale the column "
+                        f"infinity in {test} at row {k}; scale the column "
                         "(e.g. rpm in thousands) or use a smaller power."
                     )
 

@@ -33,7 +33,7 @@ from sklearn.utils.validation import check_is_fitted
 
 from greyml._param_validation import Integral, Interval, StrOptions
 from greyml._sequences import TIME_LEVEL, segment_label
-from greyml._validation import column_names, require_y, segment_of, validate_sequences
+from greyml._validation import column_names, first_flagged, require_y, validate_sequences
 from greyml.dynamic._gram import (
     _cols_all,
     design,
@@ -527,12 +527,11 @@ class ThermalTransferFunction(_TransferReadout, RegressorMixin, BaseEstimator):
             raise ValueError(
                 f"{type(self).__name__}: sample_weight has {w.shape[0]} values for {n} rows."
             )
-        bad = np.flatnonzero(~np.isfinite(w) | (w < 0))
-        if bad.size:
-            r = int(bad[0])
-            seg = segment_of(segments, r)
+        bad = first_flagged(~np.isfinite(w) | (w < 0), segments)
+        if bad:
+            r, test = bad
             raise ValueError(
-                f"{type(self).__name__}: sample_weight of row {r} ({segment_label(seg)}) is "
+                f"{type(self).__name__}: sample_weight of row {r} ({test}) is "
                 f"{w[r]!r}; weights must be finite and >= 0."
             )
         if w.sum() <= 0:

@@ -10,8 +10,13 @@ from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.utils.validation import check_is_fitted
 
 from greyml._checking import checking_split
-from greyml._param_validation import Hidden, Integral, Interval, Real, StrOptions
-from greyml._renamed import DEPRECATED, renamed_attribute, renamed_value
+from greyml._param_validation import Integral, Interval, Real
+from greyml._renamed import (
+    DEPRECATED,
+    renamed_attribute,
+    renamed_constraints,
+    renamed_value,
+)
 from greyml._rng import RANDOM_STATE_CONSTRAINT, make_generator
 from greyml._threads import blas_threads_for
 from greyml._validation import (
@@ -41,8 +46,7 @@ class _ANFISBase(RegressorMixin, BaseEstimator):
     initial premise (``_initial_premise``)."""
 
     _parameter_constraints: dict = {
-        "max_iter": [Interval(Integral, 1, None, closed="left")],
-        "n_epochs": [Interval(Integral, 1, None, closed="left"), Hidden(StrOptions({DEPRECATED}))],
+        **renamed_constraints("n_epochs", "max_iter", Interval(Integral, 1, None, closed="left")),
         "step_size": [Interval(Real, 0, None, closed="neither")],
         "step_increase": [Interval(Real, 0, None, closed="neither")],
         "step_decrease": [Interval(Real, 0, None, closed="neither")],

@@ -93,10 +93,7 @@ class AGO(OneToOneFeatureMixin, TransformerMixin, BaseEstimator):
         -------
         X1 : ndarray or DataFrame of shape (n_samples, n_features)
         """
-        check_is_fitted(self)
-        Xa, _, segments = validate_sequences(self, X, reset=False)
-        out = ago(Xa, [(s.start, s.stop) for s in segments])
-        return keep_test_index(self, X, out)
+        return self._per_test(ago, X)
 
     def inverse_transform(self, X):
         """IAGO: first difference within each test.
@@ -110,9 +107,13 @@ class AGO(OneToOneFeatureMixin, TransformerMixin, BaseEstimator):
         -------
         X0 : ndarray or DataFrame of shape (n_samples, n_features)
         """
+        return self._per_test(iago, X)
+
+    def _per_test(self, kernel, X):
+        """``kernel`` (ago or iago) applied within each test of checked ``X``."""
         check_is_fitted(self)
         Xa, _, segments = validate_sequences(self, X, reset=False)
-        out = iago(Xa, [(s.start, s.stop) for s in segments])
+        out = kernel(Xa, [(s.start, s.stop) for s in segments])
         return keep_test_index(self, X, out)
 
 

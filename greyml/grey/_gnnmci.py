@@ -4,8 +4,8 @@ from __future__ import annotations
 
 from sklearn.utils.validation import check_is_fitted
 
-from greyml._param_validation import Hidden, Integral, Interval, Real, StrOptions
-from greyml._renamed import DEPRECATED, renamed_value
+from greyml._param_validation import Integral, Interval
+from greyml._renamed import DEPRECATED, renamed_constraints, renamed_value
 from greyml._sequences import segment_label
 from greyml._validation import validate_sequences
 from greyml.grey._gmc import _GreyConvolutionModel
@@ -119,14 +119,11 @@ class GNNMCI(_GreyConvolutionModel):
 
     _parameter_constraints: dict = {
         **_GreyConvolutionModel._parameter_constraints,
-        "n_population": [Interval(Integral, 2, None, closed="left")],
-        "n_particles": [
-            Interval(Integral, 2, None, closed="left"),
-            Hidden(StrOptions({DEPRECATED})),
-        ],
-        "c1": [Interval(Real, 0, None, closed="left")],
-        "c2": [Interval(Real, 0, None, closed="left")],
-        "inertia": ["array-like"],
+        **renamed_constraints(
+            "n_particles", "n_population", Interval(Integral, 2, None, closed="left")
+        ),
+        # the swarm's own settings, passed on unchanged
+        **{k: ParticleSwarm._parameter_constraints[k] for k in ("c1", "c2", "inertia")},
     }
 
     #: old parameter names, still accepted for one release (greyml._renamed)

@@ -6,8 +6,8 @@ import math
 
 import numpy as np
 
-from greyml._param_validation import Hidden, Integral, Interval, Real, StrOptions
-from greyml._renamed import DEPRECATED, renamed_value
+from greyml._param_validation import Integral, Interval, Real
+from greyml._renamed import DEPRECATED, renamed_constraints, renamed_value
 from greyml.optimize._base import PopulationOptimizer, _Evaluations, check_bounds
 
 __all__ = ["CuckooSearch", "mantegna_sigma", "levy_steps"]
@@ -119,11 +119,9 @@ class CuckooSearch(PopulationOptimizer):
     _renamed_params = {"n_nests": "n_population"}
 
     _parameter_constraints: dict = {
-        "n_population": [Interval(Integral, 2, None, closed="left")],
-        "n_nests": [
-            Interval(Integral, 2, None, closed="left"),
-            Hidden(StrOptions({DEPRECATED})),
-        ],
+        **renamed_constraints(
+            "n_nests", "n_population", Interval(Integral, 2, None, closed="left")
+        ),
         "max_iter": [Interval(Integral, 1, None, closed="left")],
         "pa": [Interval(Real, 0, 1, closed="both")],
         "alpha": [Interval(Real, 0, None, closed="neither")],

@@ -5,14 +5,12 @@ from __future__ import annotations
 import numpy as np
 
 from greyml._param_validation import (
-    Hidden,
     Integral,
     Interval,
     Real,
-    StrOptions,
     validate_parameter_constraints,
 )
-from greyml._renamed import DEPRECATED, renamed_value
+from greyml._renamed import DEPRECATED, renamed_constraints, renamed_value
 from greyml.optimize._base import PopulationOptimizer, _Evaluations, check_bounds
 
 __all__ = ["ParticleSwarm"]
@@ -80,11 +78,9 @@ class ParticleSwarm(PopulationOptimizer):
     _renamed_params = {"n_particles": "n_population"}
 
     _parameter_constraints: dict = {
-        "n_population": [Interval(Integral, 1, None, closed="left")],
-        "n_particles": [
-            Interval(Integral, 1, None, closed="left"),
-            Hidden(StrOptions({DEPRECATED})),
-        ],
+        **renamed_constraints(
+            "n_particles", "n_population", Interval(Integral, 1, None, closed="left")
+        ),
         "max_iter": [Interval(Integral, 1, None, closed="left")],
         "c1": [Interval(Real, 0, None, closed="left")],
         "c2": [Interval(Real, 0, None, closed="left")],
