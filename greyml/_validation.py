@@ -18,6 +18,7 @@ from greyml._sequences import TIME_LEVEL, Segment, has_test_index, segment_label
 
 __all__ = [
     "validate_sequences",
+    "validate_grey_tests",
     "column_names",
     "check_unique_columns",
     "check_sampling_interval",
@@ -321,6 +322,26 @@ def validate_sequences(
     if reject_constant:
         _check_constant(Xa, names, segments)
     return Xa, ya, segments
+
+
+def validate_grey_tests(estimator, X, y, *, extra: int, coefficients: str):
+    """:func:`validate_sequences` for a grey equation fitted on training tests.
+
+    Every test needs two rows (its first only starts the accumulation), the
+    equations must be at least the ``p + extra`` coefficients of ``p`` columns,
+    named in messages as ``"{p + extra} {coefficients}"``, and a constant
+    column (which makes the grey equation singular) is refused.
+    """
+    return validate_sequences(
+        estimator,
+        X,
+        y,
+        reset=True,
+        min_samples_per_test=2,
+        min_rows=lambda p: p + extra,
+        n_params_msg=lambda p: f"{p + extra} {coefficients}",
+        reject_constant=True,
+    )
 
 
 def require_y(estimator, y, why="give the measured target (e.g. the displacement) of every row"):

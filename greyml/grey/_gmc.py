@@ -16,7 +16,7 @@ from greyml._param_validation import Integral, Interval, StrOptions
 from greyml._rng import RANDOM_STATE_CONSTRAINT, make_generator
 from greyml._sequences import segment_label
 from greyml._threads import blas_threads_for
-from greyml._validation import column_names, require_y, validate_sequences
+from greyml._validation import column_names, require_y, validate_grey_tests, validate_sequences
 from greyml.exceptions import (
     GreyConditioningWarning,
     GreyStabilityWarning,
@@ -83,15 +83,8 @@ class _GreyConvolutionModel(RegressorMixin, BaseEstimator):
         self._validate_params()
         optimizer = self._check_params()
         require_y(self, y)
-        Xa, ya, segments = validate_sequences(
-            self,
-            X,
-            y,
-            reset=True,
-            min_samples_per_test=2,
-            min_rows=lambda p: p + 2,
-            n_params_msg=lambda p: f"{p + 2} coefficients (b1, one b per column, u)",
-            reject_constant=True,
+        Xa, ya, segments = validate_grey_tests(
+            self, X, y, extra=2, coefficients="coefficients (b1, one b per column, u)"
         )
         test_bounds = _test_bounds_of(segments)
         self.n_tests_ = len(segments)

@@ -11,7 +11,7 @@ from greyml._param_validation import Integral, Interval, Real, StrOptions
 from greyml._rng import RANDOM_STATE_CONSTRAINT, make_generator
 from greyml._sequences import keep_test_index
 from greyml._threads import blas_threads_for
-from greyml._validation import column_names, require_y, validate_sequences
+from greyml._validation import column_names, require_y, validate_grey_tests, validate_sequences
 from greyml.fuzzy._kernels import fuzzy_cmeans
 from greyml.grey._kernels import _grey_lstsq, gm1n_design
 
@@ -188,15 +188,8 @@ class GreyInfluenceSelector(SelectorMixin, BaseEstimator):
         """
         self._validate_params()
         require_y(self, y, "the influence of a sensor is measured against the target")
-        Xa, ya, segments = validate_sequences(
-            self,
-            X,
-            y,
-            reset=True,
-            min_samples_per_test=2,
-            min_rows=lambda p: p + 1,
-            n_params_msg=lambda p: f"{p + 1} GM(1,N) coefficients (a, one b per column)",
-            reject_constant=True,
+        Xa, ya, segments = validate_grey_tests(
+            self, X, y, extra=1, coefficients="GM(1,N) coefficients (a, one b per column)"
         )
         n_features = Xa.shape[1]
         if self.n_clusters > n_features:
