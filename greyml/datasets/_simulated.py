@@ -292,6 +292,12 @@ def _default_tests(m):
     raise ValueError(f"Machine {m.name!r} has no default tests; pass programmes.")
 
 
+def _load(machine, effects, return_X_y, target):
+    """The seeds' tests of ``machine``, simulated with the datasets' seed: a Bunch or ``(X, y)``."""
+    data = make_tests(machine, None, effects=effects, random_state=DATASET_SEED)
+    return _X_y(data, target) if return_X_y else data
+
+
 def load_vmc_tests(*, effects=None, return_X_y=False, target="dy_um"):
     """Abdulshahed et al.'s (2015) Tests I–VI on the small VMC, simulated (76 sensors).
 
@@ -326,8 +332,7 @@ def load_vmc_tests(*, effects=None, return_X_y=False, target="dy_um"):
     >>> data.sensor_groups["T68_C"], data.sensor_groups["T18_C"]
     ('ambient near the column', 'spindle carrier strip 1')
     """
-    data = make_tests("vmc", None, effects=effects, random_state=DATASET_SEED)
-    return _X_y(data, target) if return_X_y else data
+    return _load("vmc", effects, return_X_y, target)
 
 
 def load_probe_test(*, effects=None, return_X_y=False, target="dz_um"):
@@ -341,7 +346,9 @@ def load_probe_test(*, effects=None, return_X_y=False, target="dz_um"):
     Parameters
     ----------
     effects : Effects, optional
+        Effects to include; all by default.
     return_X_y : bool, default=False
+        Return the 9 sensor columns and one target.
     target : str, default="dz_um"
         Abdulshahed et al. (2017) model the Z error.
 
@@ -355,8 +362,7 @@ def load_probe_test(*, effects=None, return_X_y=False, target="dz_um"):
     >>> X.shape, y.name
     ((1201, 9), 'dz_um')
     """
-    data = make_tests("vmc-probe", None, effects=effects, random_state=DATASET_SEED)
-    return _X_y(data, target) if return_X_y else data
+    return _load("vmc-probe", effects, return_X_y, target)
 
 
 def load_gantry_tests(*, effects=None, return_X_y=False, target="dz_um"):
@@ -369,7 +375,9 @@ def load_gantry_tests(*, effects=None, return_X_y=False, target="dz_um"):
     Parameters
     ----------
     effects : Effects, optional
+        Effects to include; all by default.
     return_X_y : bool, default=False
+        Return the 19 sensor columns (12 temperatures, 7 FBGs) and one target.
     target : str, default="dz_um"
         Abdulshahed et al. (2016) models the Z growth of the ram.
 
@@ -383,5 +391,4 @@ def load_gantry_tests(*, effects=None, return_X_y=False, target="dz_um"):
     >>> data.tests, len(data.sensors)
     (['Z-axis', 'C-axis', 'helical'], 19)
     """
-    data = make_tests("gantry", None, effects=effects, random_state=DATASET_SEED)
-    return _X_y(data, target) if return_X_y else data
+    return _load("gantry", effects, return_X_y, target)
