@@ -7,9 +7,9 @@ import textwrap
 import time
 from dataclasses import dataclass
 
+from greyml._cli import _flags as flags
 from greyml._cli._files import OPERATING_COLUMNS, _prepare_output_folder
 from greyml._cli._fitting import _final_step, _fit_quietly, _predict_quietly, _selector
-from greyml._cli._flags import _EXIT_CODES, _end_options, _subparser
 from greyml._cli._printing import _progress, _tests_words
 from greyml._command_names import MODEL_NAMES
 
@@ -37,12 +37,12 @@ Examples:
   greyml demo
   greyml demo --out demo-results --quick
 """
-    + _EXIT_CODES
+    + flags._EXIT_CODES
 )
 
 
 def _add_demo_parser(subparsers):
-    parser = _subparser(
+    parser = flags._subparser(
         subparsers,
         "demo",
         help="fit the six models on the seeds' simulated tests, beside the papers",
@@ -69,7 +69,7 @@ def _add_demo_parser(subparsers):
     parser.add_argument(
         "--quick", action="store_true", help="smaller swarms and fewer epochs: a first look"
     )
-    _end_options(parser, _run_demo, reads_csv=False)
+    flags._end_options(parser, _run_demo, reads_csv=False)
 
 
 def _run_demo(args):

@@ -5,6 +5,7 @@ from __future__ import annotations
 import io
 import os
 
+from greyml._cli import _flags as flags
 from greyml._cli._files import (
     _check_output_file,
     _load_training,
@@ -13,20 +14,6 @@ from greyml._cli._files import (
     _test_labels,
 )
 from greyml._cli._fitting import _final_step, _fit_quietly, _predict_quietly, _selector
-from greyml._cli._flags import (
-    _CLUSTER_HELP,
-    _EXIT_CODES,
-    _SENSORS_HELP,
-    _add_names,
-    _add_old_spelling,
-    _add_random_state,
-    _add_target,
-    _count,
-    _csv_options,
-    _end_options,
-    _subparser,
-    _unique,
-)
 from greyml._cli._printing import _progress, _tests_words, _warn, printable
 from greyml._command_names import MODEL_NAMES
 
@@ -67,12 +54,12 @@ Examples:
   greyml fit vmc.csv --target dy_um --model transfer-function \\
       --drivers spindle_rpm --max-sensors 5 --out vmc-ttf.greyml
 """
-    + _EXIT_CODES
+    + flags._EXIT_CODES
 )
 
 
 def _add_fit_parser(subparsers):
-    parser = _subparser(
+    parser = flags._subparser(
         subparsers,
         "fit",
         help="train a thermal-error model on tests and save it",
@@ -83,25 +70,25 @@ def _add_fit_parser(subparsers):
         epilog=_FIT_EPILOG,
     )
     parser.add_argument("data", metavar="DATA.csv", help="training tests (CSV)")
-    _add_target(parser)
+    flags._add_target(parser)
     parser.add_argument("--model", required=True, choices=list(MODEL_NAMES), help="the model")
     parser.add_argument("--out", required=True, metavar="MODEL.file", help="model file to write")
     parser.add_argument(
         "--n-sensors",
-        type=_count,
+        type=flags._count,
         metavar="N",
         help="keep N sensors with GreyInfluenceSelector before the model; --select N is "
         "its deprecated spelling",
     )
-    _add_old_spelling(
-        parser, "--select", dest="n_sensors", new="--n-sensors", type=_count, metavar="N"
+    flags._add_old_spelling(
+        parser, "--select", dest="n_sensors", new="--n-sensors", type=flags._count, metavar="N"
     )
     parser.add_argument(
         "--cluster-on",
         choices=("series", "influence"),
-        help="the selector's grouping, with --n-sensors: " + _CLUSTER_HELP.split(": ", 1)[1],
+        help="the selector's grouping, with --n-sensors: " + flags._CLUSTER_HELP.split(": ", 1)[1],
     )
-    _add_names(
+    flags._add_names(
         parser,
         "--drivers",
         "--model transfer-function: columns the controller knows (spindle speed, "
@@ -109,16 +96,16 @@ def _add_fit_parser(subparsers):
     )
     parser.add_argument(
         "--max-sensors",
-        type=_count,
+        type=flags._count,
         metavar="N",
         help="--model transfer-function: at most N temperature sensors, chosen inside the "
         "fit on held-out whole tests",
     )
-    _add_names(
+    flags._add_names(
         parser,
         "--sensors",
         "the model's inputs, or the selector's candidates with --n-sensors, "
-        + _SENSORS_HELP.split("candidate sensor columns, ", 1)[1],
+        + flags._SENSORS_HELP.split("candidate sensor columns, ", 1)[1],
     )
     parser.add_argument(
         "--rises",
@@ -126,10 +113,10 @@ def _add_fit_parser(subparsers):
         help="inputs as rises from each test's first row (RelativeToStart, saved with the "
         "model); --drivers stay as they are",
     )
-    _add_names(parser, "--train-tests", "train on these tests only (default: all tests)")
-    _add_random_state(parser, "seed of the model's random choices (default: 0)")
+    flags._add_names(parser, "--train-tests", "train on these tests only (default: all tests)")
+    flags._add_random_state(parser, "seed of the model's random choices (default: 0)")
     parser.add_argument("--force", action="store_true", help="replace MODEL.file if it exists")
-    _end_options(parser, _run_fit)
+    flags._end_options(parser, _run_fit)
 
 
 def _run_fit(args):
@@ -140,13 +127,13 @@ def _run_fit(args):
         args.out,
         select=args.n_sensors,
         cluster_on=args.cluster_on,
-        sensors=_unique(args.sensors),
-        train_tests=_unique(args.train_tests),
+        sensors=flags._unique(args.sensors),
+        train_tests=flags._unique(args.train_tests),
         random_state=args.random_state,
         force=args.force,
-        csv_options=_csv_options(args),
+        csv_options=flags._csv_options(args),
         quiet=args.quiet,
-        drivers=_unique(args.drivers),
+        drivers=flags._unique(args.drivers),
         max_sensors=args.max_sensors,
         rises=args.rises,
     )

@@ -6,9 +6,9 @@ import os
 import warnings
 from pathlib import Path
 
+from greyml._cli import _flags as flags
 from greyml._cli._files import _check_output_file, _read, _require_values, _test_labels, _where
 from greyml._cli._fitting import _final_step, _predict_quietly
-from greyml._cli._flags import _EXIT_CODES, _csv_options, _end_options, _name_value, _subparser
 from greyml._cli._printing import _progress, _warn, printable
 
 _PREDICT_EPILOG = (
@@ -34,12 +34,12 @@ Examples:
   greyml predict vmc.greyml new-tests.csv --out compensation.csv
   greyml predict gmc.greyml tail.csv --out comp.csv --initial-displacement V=-48.5
 """
-    + _EXIT_CODES
+    + flags._EXIT_CODES
 )
 
 
 def _add_predict_parser(subparsers):
-    parser = _subparser(
+    parser = flags._subparser(
         subparsers,
         "predict",
         help="apply a saved model to tests and write the compensation",
@@ -61,7 +61,7 @@ def _add_predict_parser(subparsers):
             "every test (VALUE) or of the tests named, for tests that start mid-run"
         ),
     )
-    _end_options(parser, _run_predict)
+    flags._end_options(parser, _run_predict)
 
 
 def _run_predict(args):
@@ -71,7 +71,7 @@ def _run_predict(args):
         args.out,
         force=args.force,
         initial_displacement=args.initial_displacement,
-        csv_options=_csv_options(args),
+        csv_options=flags._csv_options(args),
         quiet=args.quiet,
     )
 
@@ -152,7 +152,7 @@ def _initial_displacement(text, tests, model):
     by_name = {str(t): t for t in tests}
     values = {}
     for item in text.split(","):
-        name, word = _name_value(
+        name, word = flags._name_value(
             item,
             by_name,
             f"--initial-displacement: {item.strip()!r} is not TEST=VALUE for a test of the "
