@@ -292,12 +292,28 @@ def _default_tests(m):
     raise ValueError(f"Machine {m.name!r} has no default tests; pass programmes.")
 
 
+#: The parameters that the loaders below share, put in their docstrings by _loader.
+_LOADER_PARAMETERS = """Parameters
+    ----------
+    effects : Effects, optional
+        Effects to include; all by default.
+    return_X_y : bool, default=False
+        Return the sensor columns and one target."""
+
+
+def _loader(function):
+    """Put :data:`_LOADER_PARAMETERS` into the docstring of the loader ``function``."""
+    function.__doc__ = function.__doc__.replace("{parameters}", _LOADER_PARAMETERS)
+    return function
+
+
 def _load(machine, effects, return_X_y, target):
     """The seeds' tests of ``machine``, simulated with the datasets' seed: a Bunch or ``(X, y)``."""
     data = make_tests(machine, None, effects=effects, random_state=DATASET_SEED)
     return _X_y(data, target) if return_X_y else data
 
 
+@_loader
 def load_vmc_tests(*, effects=None, return_X_y=False, target="dy_um"):
     """Abdulshahed et al.'s (2015) Tests I–VI on the small VMC, simulated (76 sensors).
 
@@ -308,12 +324,7 @@ def load_vmc_tests(*, effects=None, return_X_y=False, target="dy_um"):
     ``dx_um``, ``dy_um``, ``dz_um`` (test-bar displacement relative to each
     test's start). Deterministic.
 
-    Parameters
-    ----------
-    effects : Effects, optional
-        Effects to include; all by default.
-    return_X_y : bool, default=False
-        Return the 76 sensor columns and one target.
+    {parameters}
     target : str, default="dy_um"
         Target for ``return_X_y`` (Abdulshahed et al. (2015) models the Y error).
 
@@ -335,6 +346,7 @@ def load_vmc_tests(*, effects=None, return_X_y=False, target="dy_um"):
     return _load("vmc", effects, return_X_y, target)
 
 
+@_loader
 def load_probe_test(*, effects=None, return_X_y=False, target="dz_um"):
     """Abdulshahed et al.'s (2017) 200-min probing test at 9000 rpm, simulated (9 sensors).
 
@@ -343,12 +355,7 @@ def load_probe_test(*, effects=None, return_X_y=False, target="dz_um"):
     X/Y/Z ballscrew nuts, ambient) and ``dx_um``, ``dy_um``, ``dz_um``.
     Deterministic.
 
-    Parameters
-    ----------
-    effects : Effects, optional
-        Effects to include; all by default.
-    return_X_y : bool, default=False
-        Return the 9 sensor columns and one target.
+    {parameters}
     target : str, default="dz_um"
         Abdulshahed et al. (2017) model the Z error.
 
@@ -365,6 +372,7 @@ def load_probe_test(*, effects=None, return_X_y=False, target="dz_um"):
     return _load("vmc-probe", effects, return_X_y, target)
 
 
+@_loader
 def load_gantry_tests(*, effects=None, return_X_y=False, target="dz_um"):
     """Abdulshahed et al.'s (2016) Z-axis, C-axis and helical tests on the gantry, simulated.
 
@@ -372,12 +380,7 @@ def load_gantry_tests(*, effects=None, return_X_y=False, target="dz_um"):
     ``T1_C`` … ``T12_C``, ``FBG1_ue`` … ``FBG7_ue`` and ``dy_um``, ``dz_um``.
     Deterministic.
 
-    Parameters
-    ----------
-    effects : Effects, optional
-        Effects to include; all by default.
-    return_X_y : bool, default=False
-        Return the 19 sensor columns (12 temperatures, 7 FBGs) and one target.
+    {parameters}
     target : str, default="dz_um"
         Abdulshahed et al. (2016) models the Z growth of the ram.
 
