@@ -17,8 +17,7 @@ from greyml._command_names import MODEL_NAMES
 DEMO_SENSORS = 5
 
 
-_DEMO_EPILOG = (
-    """\
+_DEMO_EPILOG = """\
 What it does:
   1. simulates Abdulshahed et al.'s (2015) six VMC tests and Abdulshahed et al.'s (2016) three gantry tests
      (greyml.datasets.load_vmc_tests, load_gantry_tests);
@@ -37,23 +36,10 @@ Examples:
   greyml demo
   greyml demo --out demo-results --quick
 """
-    + flags._EXIT_CODES
-)
 
 
 def _add_demo_parser(subparsers):
-    parser = flags._subparser(
-        subparsers,
-        "demo",
-        help="fit the six models on the seeds' simulated tests, beside the papers",
-        description=(
-            "The main job on greyml's embedded data: select sensors, fit the six "
-            "thermal-error models, validate them the seeds' way (train on one test, "
-            "validate on the others) and print the results beside the numbers the "
-            "seed papers report, with plots."
-        ),
-        epilog=_DEMO_EPILOG,
-    )
+    parser = flags._subparser(subparsers, "demo", _DEMO_EPILOG)
     parser.add_argument(
         "--out",
         default="greyml-demo",

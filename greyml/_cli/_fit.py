@@ -17,8 +17,7 @@ from greyml._cli._fitting import _final_step, _fit_quietly, _predict_quietly, _s
 from greyml._cli._printing import _progress, _tests_words, _warn, printable
 from greyml._command_names import MODEL_NAMES
 
-_FIT_EPILOG = (
-    """\
+_FIT_EPILOG = """\
 Models (the seeds' settings):
   gmc         GMC(1,N) by least squares, b1 >= 0 (GMC-LS)
   gnnmci      GNNMCI(1,N), particle swarm of 90 x 100 iterations (Abdulshahed et al. (2016))
@@ -54,21 +53,10 @@ Examples:
   greyml fit vmc.csv --target dy_um --model transfer-function \\
       --drivers spindle_rpm --max-sensors 5 --out vmc-ttf.greyml
 """
-    + flags._EXIT_CODES
-)
 
 
 def _add_fit_parser(subparsers):
-    parser = flags._subparser(
-        subparsers,
-        "fit",
-        help="train a thermal-error model on tests and save it",
-        description=(
-            "Train one of greyml's thermal-error models (optionally after sensor "
-            "selection) on the tests of a CSV file and save it to a model file."
-        ),
-        epilog=_FIT_EPILOG,
-    )
+    parser = flags._subparser(subparsers, "fit", _FIT_EPILOG)
     parser.add_argument("data", metavar="DATA.csv", help="training tests (CSV)")
     flags._add_target(parser)
     parser.add_argument("--model", required=True, choices=list(MODEL_NAMES), help="the model")

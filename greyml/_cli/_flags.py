@@ -187,13 +187,18 @@ def _count(text):
     return value
 
 
-def _subparser(subparsers, name, *, help, description, epilog):
-    """A subcommand whose usage errors are one line, with a readable help text."""
+def _subparser(subparsers, name, epilog, *, exit_codes=True):
+    """The subcommand ``name`` of :data:`_COMMANDS`: one-line usage errors, a readable help.
+
+    ``epilog`` ends its help, followed by :data:`_EXIT_CODES` unless
+    ``exit_codes=False`` (an epilog that lists its own).
+    """
+    help, description = _COMMANDS[name]
     return subparsers.add_parser(
         name,
         help=help,
         description=textwrap.fill(description, width=79),
-        epilog=epilog,
+        epilog=epilog + _EXIT_CODES if exit_codes else epilog,
         formatter_class=argparse.RawDescriptionHelpFormatter,
         one_line=True,
     )
@@ -217,3 +222,43 @@ _CLUSTER_HELP = (
     "Abdulshahed et al. (2015): sensors of similar influence weight) or series "
     "(sensors that move together)"
 )
+
+#: The subcommands: the one-line help that ``greyml --help`` lists, and the
+#: description that starts ``greyml <command> --help`` (filled to 79 columns).
+_COMMANDS = {
+    "demo": (
+        "fit the six models on the seeds' simulated tests, beside the papers",
+        "The main job on greyml's embedded data: select sensors, fit the six "
+        "thermal-error models, validate them the seeds' way (train on one test, "
+        "validate on the others) and print the results beside the numbers the "
+        "seed papers report, with plots.",
+    ),
+    "simulate": (
+        "write simulated heating/cooling tests of a machine to a CSV file",
+        "Simulate heating/cooling tests of one of greyml's machines (the seeds' tests, "
+        "or programmes of your own) and write them as a CSV file of tests "
+        "(greyml.datasets.make_tests, greyml.io.write_tests_csv).",
+    ),
+    "select": (
+        "choose a few sensors by grey influence and fuzzy c-means",
+        "Choose the few sensors that matter for a target: print the sensors "
+        "GreyInfluenceSelector keeps, with their group and influence weight.",
+    ),
+    "fit": (
+        "train a thermal-error model on tests and save it",
+        "Train one of greyml's thermal-error models (optionally after sensor "
+        "selection) on the tests of a CSV file and save it to a model file.",
+    ),
+    "predict": (
+        "apply a saved model to tests and write the compensation",
+        "Apply a model saved by greyml fit to new tests and write the predicted "
+        "thermal error and the compensation value of every row to a CSV file.",
+    ),
+    "gap": (
+        "diagnose the gap between measured tests and a simulation",
+        "Locate the gap between measured tests and a simulation of them (by test, "
+        "phase, time and frequency band) and name the unmodelled effect that "
+        "explains it, scored on held-out tests against random placebos "
+        "(greyml.gap.diagnose_gap).",
+    ),
+}

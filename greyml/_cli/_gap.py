@@ -44,18 +44,7 @@ def _gap_epilog():
 
 def _add_gap_parser(subparsers):
     """The ``gap`` subcommand: its arguments and its handler."""
-    parser = flags._subparser(
-        subparsers,
-        "gap",
-        help="diagnose the gap between measured tests and a simulation",
-        description=(
-            "Locate the gap between measured tests and a simulation of them (by test, "
-            "phase, time and frequency band) and name the unmodelled effect that "
-            "explains it, scored on held-out tests against random placebos "
-            "(greyml.gap.diagnose_gap)."
-        ),
-        epilog=_gap_epilog,
-    )
+    parser = flags._subparser(subparsers, "gap", _gap_epilog, exit_codes=False)
     _add_gap_arguments(parser)
     return parser
 

@@ -11,8 +11,7 @@ from greyml._cli._files import _check_output_file, _read, _require_values, _test
 from greyml._cli._fitting import _final_step, _predict_quietly
 from greyml._cli._printing import _progress, _warn, printable
 
-_PREDICT_EPILOG = (
-    """\
+_PREDICT_EPILOG = """\
 DATA.csv needs the sensor columns the model reads (a model fitted with --select
 reads only the sensors it kept). PRED.csv has the columns test, time_s,
 predicted_<target> (the thermal error the model predicts, in the target's
@@ -34,21 +33,10 @@ Examples:
   greyml predict vmc.greyml new-tests.csv --out compensation.csv
   greyml predict gmc.greyml tail.csv --out comp.csv --initial-displacement V=-48.5
 """
-    + flags._EXIT_CODES
-)
 
 
 def _add_predict_parser(subparsers):
-    parser = flags._subparser(
-        subparsers,
-        "predict",
-        help="apply a saved model to tests and write the compensation",
-        description=(
-            "Apply a model saved by greyml fit to new tests and write the predicted "
-            "thermal error and the compensation value of every row to a CSV file."
-        ),
-        epilog=_PREDICT_EPILOG,
-    )
+    parser = flags._subparser(subparsers, "predict", _PREDICT_EPILOG)
     parser.add_argument("model", metavar="MODEL.file", help="model file from greyml fit")
     parser.add_argument("data", metavar="DATA.csv", help="tests (CSV) with the model's sensors")
     parser.add_argument("--out", required=True, metavar="PRED.csv", help="CSV file to write")

@@ -9,8 +9,7 @@ from greyml._cli._files import _load_training, _test_labels
 from greyml._cli._fitting import _fit_quietly, _selector
 from greyml._cli._printing import _progress, _tests_words, _warn, printable
 
-_SELECT_EPILOG = (
-    """\
+_SELECT_EPILOG = """\
 DATA.csv has the columns test and time_s, then the data columns (as greyml
 simulate writes them). For every candidate sensor, GM(1,N) of the target
 gives an influence weight; fuzzy c-means sorts the sensors into --n-sensors
@@ -23,21 +22,10 @@ Examples:
   greyml select vmc.csv --target dy_um --cluster-on series --sensors T1_C,T2_C,T3_C
   greyml select spreadsheet.csv --target dz_um --time-unit min --sep ';' --decimal ,
 """
-    + flags._EXIT_CODES
-)
 
 
 def _add_select_parser(subparsers):
-    parser = flags._subparser(
-        subparsers,
-        "select",
-        help="choose a few sensors by grey influence and fuzzy c-means",
-        description=(
-            "Choose the few sensors that matter for a target: print the sensors "
-            "GreyInfluenceSelector keeps, with their group and influence weight."
-        ),
-        epilog=_SELECT_EPILOG,
-    )
+    parser = flags._subparser(subparsers, "select", _SELECT_EPILOG)
     parser.add_argument("data", metavar="DATA.csv", help="tests (CSV)")
     flags._add_target(parser)
     parser.add_argument(

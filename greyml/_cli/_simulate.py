@@ -9,8 +9,7 @@ from greyml._cli._files import _check_output_file, _test_labels
 from greyml._cli._printing import _progress
 from greyml._command_names import MACHINES
 
-_SIMULATE_EPILOG = (
-    """\
+_SIMULATE_EPILOG = """\
 The CSV has the columns test and time_s, then the operating inputs, the sensors
 (T<k>_C, FBG<k>_ue) and the displacements (dx_um, dy_um, dz_um); read it with
 greyml.io.read_tests_csv.
@@ -35,22 +34,10 @@ Examples:
       --programme 120:spindle_rpm=4000,60 --programme 60:spindle_rpm=8000,60
   greyml simulate --machine gantry --out c.csv --programme 120:c_rpm=2500,120
 """
-    + flags._EXIT_CODES
-)
 
 
 def _add_simulate_parser(subparsers):
-    parser = flags._subparser(
-        subparsers,
-        "simulate",
-        help="write simulated heating/cooling tests of a machine to a CSV file",
-        description=(
-            "Simulate heating/cooling tests of one of greyml's machines (the seeds' tests, "
-            "or programmes of your own) and write them as a CSV file of tests "
-            "(greyml.datasets.make_tests, greyml.io.write_tests_csv)."
-        ),
-        epilog=_SIMULATE_EPILOG,
-    )
+    parser = flags._subparser(subparsers, "simulate", _SIMULATE_EPILOG)
     parser.add_argument(
         "--machine", required=True, choices=MACHINES, help="the machine to simulate"
     )
