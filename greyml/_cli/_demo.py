@@ -55,11 +55,7 @@ def _add_demo_parser(subparsers):
     parser.add_argument(
         "--quick", action="store_true", help="smaller swarms and fewer epochs: a first look"
     )
-    flags._end_options(parser, _run_demo, reads_csv=False)
-
-
-def _run_demo(args):
-    return run_demo(args.out, force=args.force, quick=args.quick, quiet=args.quiet)
+    flags._end_options(parser, flags._calls(run_demo), reads_csv=False)
 
 
 @dataclass(frozen=True)

@@ -65,11 +65,12 @@ def _add_fit_parser(subparsers):
         "--n-sensors",
         type=flags._count,
         metavar="N",
+        dest="select",
         help="keep N sensors with GreyInfluenceSelector before the model; --select N is "
         "its deprecated spelling",
     )
     flags._add_old_spelling(
-        parser, "--select", dest="n_sensors", new="--n-sensors", type=flags._count, metavar="N"
+        parser, "--select", dest="select", new="--n-sensors", type=flags._count, metavar="N"
     )
     parser.add_argument(
         "--cluster-on",
@@ -104,27 +105,7 @@ def _add_fit_parser(subparsers):
     flags._add_names(parser, "--train-tests", "train on these tests only (default: all tests)")
     flags._add_random_state(parser, "seed of the model's random choices (default: 0)")
     parser.add_argument("--force", action="store_true", help="replace MODEL.file if it exists")
-    flags._end_options(parser, _run_fit)
-
-
-def _run_fit(args):
-    return run_fit(
-        args.data,
-        args.target,
-        args.model,
-        args.out,
-        select=args.n_sensors,
-        cluster_on=args.cluster_on,
-        sensors=flags._unique(args.sensors),
-        train_tests=flags._unique(args.train_tests),
-        random_state=args.random_state,
-        force=args.force,
-        csv_options=flags._csv_options(args),
-        quiet=args.quiet,
-        drivers=flags._unique(args.drivers),
-        max_sensors=args.max_sensors,
-        rises=args.rises,
-    )
+    flags._end_options(parser, flags._calls(run_fit))
 
 
 def run_fit(

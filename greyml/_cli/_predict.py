@@ -49,19 +49,7 @@ def _add_predict_parser(subparsers):
             "every test (VALUE) or of the tests named, for tests that start mid-run"
         ),
     )
-    flags._end_options(parser, _run_predict)
-
-
-def _run_predict(args):
-    return run_predict(
-        args.model,
-        args.data,
-        args.out,
-        force=args.force,
-        initial_displacement=args.initial_displacement,
-        csv_options=flags._csv_options(args),
-        quiet=args.quiet,
-    )
+    flags._end_options(parser, flags._calls(run_predict))
 
 
 def _load(model_path):

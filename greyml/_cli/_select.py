@@ -33,10 +33,11 @@ def _add_select_parser(subparsers):
         type=flags._count,
         default=5,
         metavar="N",
+        dest="n",
         help="sensors to keep (default: 5); --n N is its deprecated spelling",
     )
     flags._add_old_spelling(
-        parser, "--n", dest="n_sensors", new="--n-sensors", type=flags._count, metavar="N"
+        parser, "--n", dest="n", new="--n-sensors", type=flags._count, metavar="N"
     )
     parser.add_argument("--cluster-on", choices=("series", "influence"), help=flags._CLUSTER_HELP)
     flags._add_names(
@@ -56,21 +57,7 @@ def _add_select_parser(subparsers):
     )
     flags._add_names(parser, "--sensors", flags._SENSORS_HELP)
     flags._add_random_state(parser, "seed of the c-means starts (default: 0)")
-    flags._end_options(parser, _run_select)
-
-
-def _run_select(args):
-    return run_select(
-        args.data,
-        args.target,
-        n=args.n_sensors,
-        cluster_on=args.cluster_on,
-        train_tests=flags._unique(args.train_tests),
-        sensors=flags._unique(args.sensors),
-        random_state=args.random_state,
-        csv_options=flags._csv_options(args),
-        quiet=args.quiet,
-    )
+    flags._end_options(parser, flags._calls(run_select))
 
 
 def run_select(

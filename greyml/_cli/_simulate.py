@@ -46,6 +46,7 @@ def _add_simulate_parser(subparsers):
         "--programme",
         action="append",
         metavar="SPEC",
+        dest="programmes",
         help="a test of your own, e.g. 120:spindle_rpm=4000,60 (may be repeated)",
     )
     parser.add_argument(
@@ -64,9 +65,10 @@ def _add_simulate_parser(subparsers):
         parser,
         "seed of the measurement noise (default: 0, the data of greyml.datasets); "
         "--seed N is its deprecated spelling",
+        dest="seed",
     )
     flags._add_old_spelling(
-        parser, "--seed", dest="random_state", new="--random-state", type=int, metavar="N"
+        parser, "--seed", dest="seed", new="--random-state", type=int, metavar="N"
     )
     parser.add_argument("--force", action="store_true", help="replace FILE.csv if it exists")
     flags._end_options(parser, _run_simulate, reads_csv=False)
@@ -78,16 +80,7 @@ def _run_simulate(args):
         tests = flags._unique(flags._names(args.tests))
         if not tests:
             raise ValueError("--tests names no test; write seeds or labels like IV,V.")
-    return run_simulate(
-        args.machine,
-        args.out,
-        programmes=args.programme,
-        tests=tests,
-        ambient=args.ambient,
-        seed=args.random_state,
-        force=args.force,
-        quiet=args.quiet,
-    )
+    return flags._call(run_simulate, args, tests=tests)
 
 
 def parse_programme(spec, inputs):
