@@ -184,6 +184,12 @@ def _scaled_deviations(y):
 # Text that several of the docstrings below share, written once: each
 # ``{key}`` in a docstring decorated with :func:`_shared_doc` becomes its text.
 _SHARED_DOC = {
+    "y_true_not_constant": (
+        "y_true : array-like of shape (n_samples,)\n"
+        "        Measured values; must not be constant. A single column of shape\n"
+        "        ``(n_samples, 1)`` is accepted and flattened; pandas objects are\n"
+        "        compared by position."
+    ),
     "raises": (
         "Raises\n    ------\n    ValueError\n"
         "        If the inputs differ in length, are empty, are not 1-D real numbers"
@@ -327,10 +333,7 @@ def correlation(y_true, y_pred):
 
     Parameters
     ----------
-    y_true : array-like of shape (n_samples,)
-        Measured values; must not be constant. A single column of shape
-        ``(n_samples, 1)`` is accepted and flattened; pandas objects are
-        compared by position.
+    {y_true_not_constant}
     y_pred : array-like of shape (n_samples,)
         Predicted values, in the same order; must not be constant.
 
@@ -394,10 +397,7 @@ def nash_sutcliffe(y_true, y_pred):
 
     Parameters
     ----------
-    y_true : array-like of shape (n_samples,)
-        Measured values; must not be constant. A single column of shape
-        ``(n_samples, 1)`` is accepted and flattened; pandas objects are
-        compared by position.
+    {y_true_not_constant}
     y_pred : array-like of shape (n_samples,)
         Predicted values, in the same unit and order.
 
