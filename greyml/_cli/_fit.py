@@ -16,6 +16,7 @@ from greyml._cli._files import (
 from greyml._cli._fitting import _final_step, _fit_quietly, _predict_quietly, _selector
 from greyml._cli._printing import _progress, _tests_words, _warn, printable
 from greyml._command_names import MODEL_NAMES
+from greyml._docstrings import shared_doc
 
 _FIT_EPILOG = """\
 Models (the seeds' settings):
@@ -108,6 +109,7 @@ def _add_fit_parser(subparsers):
     flags._end_options(parser, flags._calls(run_fit))
 
 
+@shared_doc(csv_and_quiet=flags._CSV_AND_QUIET_DOC)
 def run_fit(
     data,
     target,
@@ -149,10 +151,7 @@ def run_fit(
     random_state : int, default=0
     force : bool, default=False
         Replace ``out`` if it exists.
-    csv_options : dict, optional
-        ``time_unit``, ``sep`` and ``decimal`` of :func:`greyml.io.read_tests_csv`.
-    quiet : bool, default=False
-        No progress on standard error.
+    {csv_and_quiet}
     drivers : list of str, optional
         ``"transfer-function"`` only: columns the controller knows (spindle
         speed, feed), always inputs, not counted as sensors.

@@ -297,3 +297,11 @@ _COMMANDS = {
         "(greyml.gap.diagnose_gap).",
     ),
 }
+
+
+#: The parameters that several ``run_<command>`` functions share, for their
+#: docstrings (:func:`greyml._docstrings.shared_doc`).
+_CSV_AND_QUIET_DOC = """csv_options : dict, optional
+        ``time_unit``, ``sep`` and ``decimal`` of :func:`greyml.io.read_tests_csv`.
+    quiet : bool, default=False
+        No progress on standard error."""

@@ -10,6 +10,7 @@ from greyml._cli import _flags as flags
 from greyml._cli._files import _check_output_file, _read, _require_values, _test_labels, _where
 from greyml._cli._fitting import _final_step, _predict_quietly
 from greyml._cli._printing import _progress, _warn, printable
+from greyml._docstrings import shared_doc
 
 _PREDICT_EPILOG = """\
 DATA.csv needs the sensor columns the model reads (a model fitted with --select
@@ -153,6 +154,7 @@ def _require_finite_predictions(pred, frame, model, data):
         )
 
 
+@shared_doc(csv_and_quiet=flags._CSV_AND_QUIET_DOC)
 def run_predict(
     model, data, out, *, force=False, csv_options=None, quiet=False, initial_displacement=None
 ):
@@ -170,10 +172,7 @@ def run_predict(
         add to the axis position).
     force : bool, default=False
         Replace ``out`` if it exists.
-    csv_options : dict, optional
-        ``time_unit``, ``sep`` and ``decimal`` of :func:`greyml.io.read_tests_csv`.
-    quiet : bool, default=False
-        No progress on standard error.
+    {csv_and_quiet}
     initial_displacement : str or None, default=None
         Grey models only: ``"VALUE"`` (every test) or ``"TEST=VALUE,..."``, the
         measured target at the first row of tests that start mid-run (passed to

@@ -8,6 +8,7 @@ from greyml._cli import _flags as flags
 from greyml._cli._files import _load_training, _test_labels
 from greyml._cli._fitting import _fit_quietly, _selector
 from greyml._cli._printing import _progress, _tests_words, _warn, printable
+from greyml._docstrings import shared_doc
 
 _SELECT_EPILOG = """\
 DATA.csv has the columns test and time_s, then the data columns (as greyml
@@ -60,6 +61,7 @@ def _add_select_parser(subparsers):
     flags._end_options(parser, flags._calls(run_select))
 
 
+@shared_doc(csv_and_quiet=flags._CSV_AND_QUIET_DOC)
 def run_select(
     data,
     target,
@@ -90,10 +92,7 @@ def run_select(
         Candidate sensors; by default every column except the target, the
         displacements (``*_um``) and the operating inputs.
     random_state : int, default=0
-    csv_options : dict, optional
-        ``time_unit``, ``sep`` and ``decimal`` of :func:`greyml.io.read_tests_csv`.
-    quiet : bool, default=False
-        No progress on standard error.
+    {csv_and_quiet}
 
     Returns
     -------

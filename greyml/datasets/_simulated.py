@@ -7,6 +7,7 @@ from collections.abc import Mapping
 import pandas as pd
 from sklearn.utils import Bunch
 
+from greyml._docstrings import shared_doc
 from greyml._rng import make_generator
 from greyml.io import check_test_frame
 from greyml.simulation._ambient import AmbientProfile, as_profile
@@ -301,10 +302,7 @@ _LOADER_PARAMETERS = """Parameters
         Return the sensor columns and one target."""
 
 
-def _loader(function):
-    """Put :data:`_LOADER_PARAMETERS` into the docstring of the loader ``function``."""
-    function.__doc__ = function.__doc__.replace("{parameters}", _LOADER_PARAMETERS)
-    return function
+_loader = shared_doc(parameters=_LOADER_PARAMETERS)
 
 
 def _load(machine, effects, return_X_y, target):

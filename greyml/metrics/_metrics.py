@@ -25,6 +25,8 @@ import math
 import numpy as np
 import pandas as pd
 
+from greyml._docstrings import shared_doc
+
 __all__ = [
     "rmse",
     "correlation",
@@ -182,7 +184,7 @@ def _scaled_deviations(y):
 # --------------------------------------------------------------------------
 
 # Text that several of the docstrings below share, written once: each
-# ``{key}`` in a docstring decorated with :func:`_shared_doc` becomes its text.
+# ``{key}`` in a docstring decorated with ``_shared_doc`` becomes its text.
 _SHARED_DOC = {
     "y_true_not_constant": (
         "y_true : array-like of shape (n_samples,)\n"
@@ -206,13 +208,7 @@ _SHARED_DOC = {
         "       pp. 130-142, 2016."
     ),
 }
-
-
-def _shared_doc(function):
-    """Put the shared texts of :data:`_SHARED_DOC` into ``function``'s docstring."""
-    for key, text in _SHARED_DOC.items():
-        function.__doc__ = function.__doc__.replace("{" + key + "}", text)
-    return function
+_shared_doc = shared_doc(**_SHARED_DOC)
 
 
 # --------------------------------------------------------------------------
