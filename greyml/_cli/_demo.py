@@ -7,9 +7,9 @@ import textwrap
 import time
 from dataclasses import dataclass
 
+from greyml._cli import _flags as flags
 from greyml._cli._files import OPERATING_COLUMNS, _prepare_output_folder
 from greyml._cli._fitting import _final_step, _fit_quietly, _predict_quietly, _selector
-from greyml._cli._flags import _EXIT_CODES, _end_options, _subparser
 from greyml._cli._printing import _progress, _tests_words
 from greyml._command_names import MODEL_NAMES
 
@@ -17,8 +17,7 @@ from greyml._command_names import MODEL_NAMES
 DEMO_SENSORS = 5
 
 
-_DEMO_EPILOG = (
-    """\
+_DEMO_EPILOG = """\
 What it does:
   1. simulates Abdulshahed et al.'s (2015) six VMC tests and Abdulshahed et al.'s (2016) three gantry tests
      (greyml.datasets.load_vmc_tests, load_gantry_tests);
@@ -37,23 +36,10 @@ Examples:
   greyml demo
   greyml demo --out demo-results --quick
 """
-    + _EXIT_CODES
-)
 
 
 def _add_demo_parser(subparsers):
-    parser = _subparser(
-        subparsers,
-        "demo",
-        help="fit the six models on the seeds' simulated tests, beside the papers",
-        description=(
-            "The main job on greyml's embedded data: select sensors, fit the six "
-            "thermal-error models, validate them the seeds' way (train on one test, "
-            "validate on the others) and print the results beside the numbers the "
-            "seed papers report, with plots."
-        ),
-        epilog=_DEMO_EPILOG,
-    )
+    parser = flags._subparser(subparsers, "demo", _DEMO_EPILOG)
     parser.add_argument(
         "--out",
         default="greyml-demo",
@@ -69,11 +55,7 @@ def _add_demo_parser(subparsers):
     parser.add_argument(
         "--quick", action="store_true", help="smaller swarms and fewer epochs: a first look"
     )
-    _end_options(parser, _run_demo, reads_csv=False)
-
-
-def _run_demo(args):
-    return run_demo(args.out, force=args.force, quick=args.quick, quiet=args.quiet)
+    flags._end_options(parser, flags._calls(run_demo), reads_csv=False)
 
 
 @dataclass(frozen=True)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import io
 import os
 
+from greyml._cli import _flags as flags
 from greyml._cli._files import (
     _check_output_file,
     _load_training,
@@ -13,25 +14,11 @@ from greyml._cli._files import (
     _test_labels,
 )
 from greyml._cli._fitting import _final_step, _fit_quietly, _predict_quietly, _selector
-from greyml._cli._flags import (
-    _CLUSTER_HELP,
-    _EXIT_CODES,
-    _SENSORS_HELP,
-    _add_names,
-    _add_old_spelling,
-    _add_random_state,
-    _add_target,
-    _count,
-    _csv_options,
-    _end_options,
-    _subparser,
-    _unique,
-)
 from greyml._cli._printing import _progress, _tests_words, _warn, printable
 from greyml._command_names import MODEL_NAMES
+from greyml._docstrings import shared_doc
 
-_FIT_EPILOG = (
-    """\
+_FIT_EPILOG = """\
 Models (the seeds' settings):
   gmc         GMC(1,N) by least squares, b1 >= 0 (GMC-LS)
   gnnmci      GNNMCI(1,N), particle swarm of 90 x 100 iterations (Abdulshahed et al. (2016))
@@ -67,41 +54,31 @@ Examples:
   greyml fit vmc.csv --target dy_um --model transfer-function \\
       --drivers spindle_rpm --max-sensors 5 --out vmc-ttf.greyml
 """
-    + _EXIT_CODES
-)
 
 
 def _add_fit_parser(subparsers):
-    parser = _subparser(
-        subparsers,
-        "fit",
-        help="train a thermal-error model on tests and save it",
-        description=(
-            "Train one of greyml's thermal-error models (optionally after sensor "
-            "selection) on the tests of a CSV file and save it to a model file."
-        ),
-        epilog=_FIT_EPILOG,
-    )
+    parser = flags._subparser(subparsers, "fit", _FIT_EPILOG)
     parser.add_argument("data", metavar="DATA.csv", help="training tests (CSV)")
-    _add_target(parser)
+    flags._add_target(parser)
     parser.add_argument("--model", required=True, choices=list(MODEL_NAMES), help="the model")
     parser.add_argument("--out", required=True, metavar="MODEL.file", help="model file to write")
     parser.add_argument(
         "--n-sensors",
-        type=_count,
+        type=flags._count,
         metavar="N",
+        dest="select",
         help="keep N sensors with GreyInfluenceSelector before the model; --select N is "
         "its deprecated spelling",
     )
-    _add_old_spelling(
-        parser, "--select", dest="n_sensors", new="--n-sensors", type=_count, metavar="N"
+    flags._add_old_spelling(
+        parser, "--select", dest="select", new="--n-sensors", type=flags._count, metavar="N"
     )
     parser.add_argument(
         "--cluster-on",
         choices=("series", "influence"),
-        help="the selector's grouping, with --n-sensors: " + _CLUSTER_HELP.split(": ", 1)[1],
+        help="the selector's grouping, with --n-sensors: " + flags._CLUSTER_HELP.split(": ", 1)[1],
     )
-    _add_names(
+    flags._add_names(
         parser,
         "--drivers",
         "--model transfer-function: columns the controller knows (spindle speed, "
@@ -109,16 +86,16 @@ def _add_fit_parser(subparsers):
     )
     parser.add_argument(
         "--max-sensors",
-        type=_count,
+        type=flags._count,
         metavar="N",
         help="--model transfer-function: at most N temperature sensors, chosen inside the "
         "fit on held-out whole tests",
     )
-    _add_names(
+    flags._add_names(
         parser,
         "--sensors",
         "the model's inputs, or the selector's candidates with --n-sensors, "
-        + _SENSORS_HELP.split("candidate sensor columns, ", 1)[1],
+        + flags._SENSORS_HELP.split("candidate sensor columns, ", 1)[1],
     )
     parser.add_argument(
         "--rises",
@@ -126,32 +103,13 @@ def _add_fit_parser(subparsers):
         help="inputs as rises from each test's first row (RelativeToStart, saved with the "
         "model); --drivers stay as they are",
     )
-    _add_names(parser, "--train-tests", "train on these tests only (default: all tests)")
-    _add_random_state(parser, "seed of the model's random choices (default: 0)")
+    flags._add_names(parser, "--train-tests", "train on these tests only (default: all tests)")
+    flags._add_random_state(parser, "seed of the model's random choices (default: 0)")
     parser.add_argument("--force", action="store_true", help="replace MODEL.file if it exists")
-    _end_options(parser, _run_fit)
+    flags._end_options(parser, flags._calls(run_fit))
 
 
-def _run_fit(args):
-    return run_fit(
-        args.data,
-        args.target,
-        args.model,
-        args.out,
-        select=args.n_sensors,
-        cluster_on=args.cluster_on,
-        sensors=_unique(args.sensors),
-        train_tests=_unique(args.train_tests),
-        random_state=args.random_state,
-        force=args.force,
-        csv_options=_csv_options(args),
-        quiet=args.quiet,
-        drivers=_unique(args.drivers),
-        max_sensors=args.max_sensors,
-        rises=args.rises,
-    )
-
-
+@shared_doc(csv_and_quiet=flags._CSV_AND_QUIET_DOC)
 def run_fit(
     data,
     target,
@@ -193,10 +151,7 @@ def run_fit(
     random_state : int, default=0
     force : bool, default=False
         Replace ``out`` if it exists.
-    csv_options : dict, optional
-        ``time_unit``, ``sep`` and ``decimal`` of :func:`greyml.io.read_tests_csv`.
-    quiet : bool, default=False
-        No progress on standard error.
+    {csv_and_quiet}
     drivers : list of str, optional
         ``"transfer-function"`` only: columns the controller knows (spindle
         speed, feed), always inputs, not counted as sensors.

@@ -7,6 +7,8 @@ these without importing NumPy, pandas or scikit-learn.
 from __future__ import annotations
 
 import argparse
+import functools
+import inspect
 import sys
 import textwrap
 
@@ -60,7 +62,8 @@ class _Deprecated(argparse.Action):
     """An old spelling of an option: works, with a one-line message on standard error.
 
     ``new`` is the option to use instead; ``extend=True`` adds the value to a
-    list (as ``action="extend"``), ``as_list=True`` adds one value.
+    list (as ``action="extend"``), ``as_list=True`` adds one value; a list
+    keeps each value once.
     """
 
     def __init__(self, option_strings, dest, *, new, extend=False, as_list=False, **kwargs):
@@ -78,8 +81,15 @@ class _Deprecated(argparse.Action):
         if self.extend or self.as_list:
             items = list(getattr(namespace, self.dest, None) or [])
             items += values if self.extend else [values]
-            values = items
+            values = _unique(items)
         setattr(namespace, self.dest, values)
+
+
+class _Names(argparse.Action):
+    """``action="extend"`` that keeps each name once, in its first order."""
+
+    def __call__(self, parser, namespace, values, option_string=None):
+        setattr(namespace, self.dest, _unique([*(getattr(namespace, self.dest) or []), *values]))
 
 
 def _add_old_spelling(parser, flag, *, new, **kwargs):
@@ -91,9 +101,13 @@ def _add_old_spelling(parser, flag, *, new, **kwargs):
     parser.add_argument(flag, action=_Deprecated, new=new, help=argparse.SUPPRESS, **kwargs)
 
 
-def _add_names(parser, flag, help, *, metavar="A,B"):
-    """``flag A,B``: a comma-separated list of names; repeating the flag adds to it."""
-    parser.add_argument(flag, type=_names, action="extend", metavar=metavar, help=help)
+def _add_names(parser, flag, help, *, metavar="A,B", dest=None):
+    """``flag A,B``: a comma-separated list of names; repeating the flag adds to it.
+
+    The list keeps each name once, in its first order; None when the flag is not given.
+    """
+    dest = dest or flag.lstrip("-").replace("-", "_")
+    parser.add_argument(flag, type=_names, action=_Names, metavar=metavar, dest=dest, help=help)
 
 
 def _add_target(parser, help="target column, e.g. dy_um"):
@@ -101,9 +115,11 @@ def _add_target(parser, help="target column, e.g. dy_um"):
     parser.add_argument("--target", required=True, type=_name, metavar="COL", help=help)
 
 
-def _add_random_state(parser, help, default=0):
+def _add_random_state(parser, help, default=0, dest="random_state"):
     """``--random-state N``, the seed of the command's random choices."""
-    parser.add_argument("--random-state", type=int, default=default, metavar="N", help=help)
+    parser.add_argument(
+        "--random-state", type=int, default=default, metavar="N", dest=dest, help=help
+    )
 
 
 def _name_value(text, names, error):
@@ -164,11 +180,30 @@ def _csv_options(args):
     return {"time_unit": args.time_unit, "sep": args.sep, "decimal": args.decimal}
 
 
+def _call(run, args, **values):
+    """``run(...)``, a ``run_<command>`` function, on the parsed arguments ``args``.
+
+    Every parameter of ``run`` takes ``values[name]`` if given, else the parsed
+    argument of its name (``csv_options``: :func:`_csv_options`); a parameter
+    that is neither is a KeyError.
+    """
+    parsed = dict(vars(args))
+    if "time_unit" in parsed:
+        parsed["csv_options"] = _csv_options(args)
+    parsed.update(values)
+    return run(**{name: parsed[name] for name in inspect.signature(run).parameters})
+
+
+def _calls(run):
+    """The handler that calls ``run`` on the parsed arguments (see :func:`_call`)."""
+    return functools.partial(_call, run)
+
+
 def _end_options(parser, handler, *, reads_csv=True):
     """What every subcommand ends with: the CSV options if it reads CSV files, ``--quiet``.
 
     Also sets ``handler`` (a function of the parsed arguments returning the
-    exit code) and ``parser`` on the parsed arguments.
+    exit code, such as :func:`_calls`'s) and ``parser`` on the parsed arguments.
     """
     if reads_csv:
         _add_csv_options(parser)
@@ -187,13 +222,18 @@ def _count(text):
     return value
 
 
-def _subparser(subparsers, name, *, help, description, epilog):
-    """A subcommand whose usage errors are one line, with a readable help text."""
+def _subparser(subparsers, name, epilog, *, exit_codes=True):
+    """The subcommand ``name`` of :data:`_COMMANDS`: one-line usage errors, a readable help.
+
+    ``epilog`` ends its help, followed by :data:`_EXIT_CODES` unless
+    ``exit_codes=False`` (an epilog that lists its own).
+    """
+    help, description = _COMMANDS[name]
     return subparsers.add_parser(
         name,
         help=help,
         description=textwrap.fill(description, width=79),
-        epilog=epilog,
+        epilog=epilog + _EXIT_CODES if exit_codes else epilog,
         formatter_class=argparse.RawDescriptionHelpFormatter,
         one_line=True,
     )
@@ -217,3 +257,51 @@ _CLUSTER_HELP = (
     "Abdulshahed et al. (2015): sensors of similar influence weight) or series "
     "(sensors that move together)"
 )
+
+#: The subcommands: the one-line help that ``greyml --help`` lists, and the
+#: description that starts ``greyml <command> --help`` (filled to 79 columns).
+_COMMANDS = {
+    "demo": (
+        "fit the six models on the seeds' simulated tests, beside the papers",
+        "The main job on greyml's embedded data: select sensors, fit the six "
+        "thermal-error models, validate them the seeds' way (train on one test, "
+        "validate on the others) and print the results beside the numbers the "
+        "seed papers report, with plots.",
+    ),
+    "simulate": (
+        "write simulated heating/cooling tests of a machine to a CSV file",
+        "Simulate heating/cooling tests of one of greyml's machines (the seeds' tests, "
+        "or programmes of your own) and write them as a CSV file of tests "
+        "(greyml.datasets.make_tests, greyml.io.write_tests_csv).",
+    ),
+    "select": (
+        "choose a few sensors by grey influence and fuzzy c-means",
+        "Choose the few sensors that matter for a target: print the sensors "
+        "GreyInfluenceSelector keeps, with their group and influence weight.",
+    ),
+    "fit": (
+        "train a thermal-error model on tests and save it",
+        "Train one of greyml's thermal-error models (optionally after sensor "
+        "selection) on the tests of a CSV file and save it to a model file.",
+    ),
+    "predict": (
+        "apply a saved model to tests and write the compensation",
+        "Apply a model saved by greyml fit to new tests and write the predicted "
+        "thermal error and the compensation value of every row to a CSV file.",
+    ),
+    "gap": (
+        "diagnose the gap between measured tests and a simulation",
+        "Locate the gap between measured tests and a simulation of them (by test, "
+        "phase, time and frequency band) and name the unmodelled effect that "
+        "explains it, scored on held-out tests against random placebos "
+        "(greyml.gap.diagnose_gap).",
+    ),
+}
+
+
+#: The parameters that several ``run_<command>`` functions share, for their
+#: docstrings (:func:`greyml._docstrings.shared_doc`).
+_CSV_AND_QUIET_DOC = """csv_options : dict, optional
+        ``time_unit``, ``sep`` and ``decimal`` of :func:`greyml.io.read_tests_csv`.
+    quiet : bool, default=False
+        No progress on standard error."""

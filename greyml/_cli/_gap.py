@@ -7,19 +7,8 @@ import json
 import sys
 import textwrap
 
+from greyml._cli import _flags as flags
 from greyml._cli._files import _check_output_file, _read, _write_text
-from greyml._cli._flags import (
-    EXIT_ERROR,
-    EXIT_OK,
-    _add_names,
-    _add_random_state,
-    _add_target,
-    _csv_options,
-    _end_options,
-    _name,
-    _subparser,
-    _unique,
-)
 from greyml._cli._printing import _progress
 
 _GAP_EPILOG = """\
@@ -50,23 +39,12 @@ def _gap_epilog():
     from greyml.gap import EFFECTS
 
     effects = textwrap.fill("Effects (--effects): " + ", ".join(EFFECTS) + ".", width=79)
-    return _GAP_EPILOG.format(effects=effects, ok=EXIT_OK, error=EXIT_ERROR)
+    return _GAP_EPILOG.format(effects=effects, ok=flags.EXIT_OK, error=flags.EXIT_ERROR)
 
 
 def _add_gap_parser(subparsers):
     """The ``gap`` subcommand: its arguments and its handler."""
-    parser = _subparser(
-        subparsers,
-        "gap",
-        help="diagnose the gap between measured tests and a simulation",
-        description=(
-            "Locate the gap between measured tests and a simulation of them (by test, "
-            "phase, time and frequency band) and name the unmodelled effect that "
-            "explains it, scored on held-out tests against random placebos "
-            "(greyml.gap.diagnose_gap)."
-        ),
-        epilog=_gap_epilog,
-    )
+    parser = flags._subparser(subparsers, "gap", _gap_epilog, exit_codes=False)
     _add_gap_arguments(parser)
     return parser
 
@@ -75,22 +53,24 @@ def _add_gap_arguments(parser):
     """The arguments of ``greyml gap``."""
     parser.add_argument("real", metavar="REAL.csv", help="measured tests (CSV)")
     parser.add_argument("sim", metavar="SIM.csv", help="simulation of the same tests (CSV)")
-    _add_target(parser, "measured target column")
-    parser.add_argument("--ambient", type=_name, metavar="COL", help="ambient temperature column")
+    flags._add_target(parser, "measured target column")
+    parser.add_argument(
+        "--ambient", type=flags._name, metavar="COL", help="ambient temperature column"
+    )
     lists = {
         "--drivers": "operating drivers, e.g. spindle_rpm,feed_mm_min (zero when off)",
         "--sensors": "temperature sensor columns",
         "--fbgs": "FBG columns (fbg_temperature is tried when the target is one)",
     }
     for flag, help_text in lists.items():
-        _add_names(parser, flag, f"{help_text}; comma-separated, may be repeated")
-    _add_names(
+        flags._add_names(parser, flag, f"{help_text}; comma-separated, may be repeated")
+    flags._add_names(
         parser,
         "--effects",
         "effects to try (default: all); comma-separated, may be repeated",
         metavar="a,b",
     )
-    _add_random_state(
+    flags._add_random_state(
         parser,
         "seed of the placebos, for a repeatable diagnosis (default: unseeded)",
         default=None,
@@ -123,7 +103,7 @@ def _add_gap_arguments(parser):
         help="write the report as JSON to FILE, or only JSON to standard output with -",
     )
     parser.add_argument("--force", action="store_true", help="replace the --json FILE if it exists")
-    _end_options(parser, _run_gap)
+    flags._end_options(parser, _run_gap)
 
 
 def _custom_effect(text):
@@ -143,7 +123,7 @@ def _run_gap(args):
         raise ValueError("--effects names no effect; leave it out to try them all.")
     if args.json not in (None, "-"):
         _check_output_file(args.json, args.force, what="--json")
-    options = _csv_options(args)
+    options = flags._csv_options(args)
     with _progress(3, args.quiet) as progress:
         progress.step(f"reading {args.real!r} and {args.sim!r}")
         real = _read(args.real, options)
@@ -157,10 +137,10 @@ def _run_gap(args):
             sim,
             target=args.target,
             ambient=args.ambient,
-            drivers=_unique(args.drivers),
-            sensors=_unique(args.sensors),
-            fbgs=_unique(args.fbgs),
-            effects=None if args.effects is None else _unique(args.effects),
+            drivers=flags._unique(args.drivers),
+            sensors=flags._unique(args.sensors),
+            fbgs=flags._unique(args.fbgs),
+            effects=None if args.effects is None else flags._unique(args.effects),
             random_state=args.random_state,
             sensitivities=sensitivities,
             tolerance=args.tolerance,
@@ -174,6 +154,6 @@ def _run_gap(args):
     if args.json == "-":
         # ASCII-only JSON reads back the same through any stdout encoding.
         sys.stdout.write(json.dumps(data, indent=2, allow_nan=False, ensure_ascii=True) + "\n")
-        return EXIT_OK
+        return flags.EXIT_OK
     print(report)
-    return EXIT_OK
+    return flags.EXIT_OK

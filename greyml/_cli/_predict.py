@@ -6,13 +6,13 @@ import os
 import warnings
 from pathlib import Path
 
+from greyml._cli import _flags as flags
 from greyml._cli._files import _check_output_file, _read, _require_values, _test_labels, _where
 from greyml._cli._fitting import _final_step, _predict_quietly
-from greyml._cli._flags import _EXIT_CODES, _csv_options, _end_options, _name_value, _subparser
 from greyml._cli._printing import _progress, _warn, printable
+from greyml._docstrings import shared_doc
 
-_PREDICT_EPILOG = (
-    """\
+_PREDICT_EPILOG = """\
 DATA.csv needs the sensor columns the model reads (a model fitted with --select
 reads only the sensors it kept). PRED.csv has the columns test, time_s,
 predicted_<target> (the thermal error the model predicts, in the target's
@@ -34,21 +34,10 @@ Examples:
   greyml predict vmc.greyml new-tests.csv --out compensation.csv
   greyml predict gmc.greyml tail.csv --out comp.csv --initial-displacement V=-48.5
 """
-    + _EXIT_CODES
-)
 
 
 def _add_predict_parser(subparsers):
-    parser = _subparser(
-        subparsers,
-        "predict",
-        help="apply a saved model to tests and write the compensation",
-        description=(
-            "Apply a model saved by greyml fit to new tests and write the predicted "
-            "thermal error and the compensation value of every row to a CSV file."
-        ),
-        epilog=_PREDICT_EPILOG,
-    )
+    parser = flags._subparser(subparsers, "predict", _PREDICT_EPILOG)
     parser.add_argument("model", metavar="MODEL.file", help="model file from greyml fit")
     parser.add_argument("data", metavar="DATA.csv", help="tests (CSV) with the model's sensors")
     parser.add_argument("--out", required=True, metavar="PRED.csv", help="CSV file to write")
@@ -61,19 +50,7 @@ def _add_predict_parser(subparsers):
             "every test (VALUE) or of the tests named, for tests that start mid-run"
         ),
     )
-    _end_options(parser, _run_predict)
-
-
-def _run_predict(args):
-    return run_predict(
-        args.model,
-        args.data,
-        args.out,
-        force=args.force,
-        initial_displacement=args.initial_displacement,
-        csv_options=_csv_options(args),
-        quiet=args.quiet,
-    )
+    flags._end_options(parser, flags._calls(run_predict))
 
 
 def _load(model_path):
@@ -152,7 +129,7 @@ def _initial_displacement(text, tests, model):
     by_name = {str(t): t for t in tests}
     values = {}
     for item in text.split(","):
-        name, word = _name_value(
+        name, word = flags._name_value(
             item,
             by_name,
             f"--initial-displacement: {item.strip()!r} is not TEST=VALUE for a test of the "
@@ -177,6 +154,7 @@ def _require_finite_predictions(pred, frame, model, data):
         )
 
 
+@shared_doc(csv_and_quiet=flags._CSV_AND_QUIET_DOC)
 def run_predict(
     model, data, out, *, force=False, csv_options=None, quiet=False, initial_displacement=None
 ):
@@ -194,10 +172,7 @@ def run_predict(
         add to the axis position).
     force : bool, default=False
         Replace ``out`` if it exists.
-    csv_options : dict, optional
-        ``time_unit``, ``sep`` and ``decimal`` of :func:`greyml.io.read_tests_csv`.
-    quiet : bool, default=False
-        No progress on standard error.
+    {csv_and_quiet}
     initial_displacement : str or None, default=None
         Grey models only: ``"VALUE"`` (every test) or ``"TEST=VALUE,..."``, the
         measured target at the first row of tests that start mid-run (passed to

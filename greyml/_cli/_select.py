@@ -4,27 +4,13 @@ from __future__ import annotations
 
 import os
 
+from greyml._cli import _flags as flags
 from greyml._cli._files import _load_training, _test_labels
 from greyml._cli._fitting import _fit_quietly, _selector
-from greyml._cli._flags import (
-    _CLUSTER_HELP,
-    _EXIT_CODES,
-    _SENSORS_HELP,
-    _add_names,
-    _add_old_spelling,
-    _add_random_state,
-    _add_target,
-    _count,
-    _csv_options,
-    _end_options,
-    _name,
-    _subparser,
-    _unique,
-)
 from greyml._cli._printing import _progress, _tests_words, _warn, printable
+from greyml._docstrings import shared_doc
 
-_SELECT_EPILOG = (
-    """\
+_SELECT_EPILOG = """\
 DATA.csv has the columns test and time_s, then the data columns (as greyml
 simulate writes them). For every candidate sensor, GM(1,N) of the target
 gives an influence weight; fuzzy c-means sorts the sensors into --n-sensors
@@ -37,66 +23,45 @@ Examples:
   greyml select vmc.csv --target dy_um --cluster-on series --sensors T1_C,T2_C,T3_C
   greyml select spreadsheet.csv --target dz_um --time-unit min --sep ';' --decimal ,
 """
-    + _EXIT_CODES
-)
 
 
 def _add_select_parser(subparsers):
-    parser = _subparser(
-        subparsers,
-        "select",
-        help="choose a few sensors by grey influence and fuzzy c-means",
-        description=(
-            "Choose the few sensors that matter for a target: print the sensors "
-            "GreyInfluenceSelector keeps, with their group and influence weight."
-        ),
-        epilog=_SELECT_EPILOG,
-    )
+    parser = flags._subparser(subparsers, "select", _SELECT_EPILOG)
     parser.add_argument("data", metavar="DATA.csv", help="tests (CSV)")
-    _add_target(parser)
+    flags._add_target(parser)
     parser.add_argument(
         "--n-sensors",
-        type=_count,
+        type=flags._count,
         default=5,
         metavar="N",
+        dest="n",
         help="sensors to keep (default: 5); --n N is its deprecated spelling",
     )
-    _add_old_spelling(parser, "--n", dest="n_sensors", new="--n-sensors", type=_count, metavar="N")
-    parser.add_argument("--cluster-on", choices=("series", "influence"), help=_CLUSTER_HELP)
-    _add_names(
+    flags._add_old_spelling(
+        parser, "--n", dest="n", new="--n-sensors", type=flags._count, metavar="N"
+    )
+    parser.add_argument("--cluster-on", choices=("series", "influence"), help=flags._CLUSTER_HELP)
+    flags._add_names(
         parser,
         "--train-tests",
         "select on these tests only (default: all tests); --train-test LABEL is its "
         "deprecated spelling",
     )
-    _add_old_spelling(
+    flags._add_old_spelling(
         parser,
         "--train-test",
         dest="train_tests",
         new="--train-tests",
-        type=_name,
+        type=flags._name,
         metavar="LABEL",
         as_list=True,
     )
-    _add_names(parser, "--sensors", _SENSORS_HELP)
-    _add_random_state(parser, "seed of the c-means starts (default: 0)")
-    _end_options(parser, _run_select)
+    flags._add_names(parser, "--sensors", flags._SENSORS_HELP)
+    flags._add_random_state(parser, "seed of the c-means starts (default: 0)")
+    flags._end_options(parser, flags._calls(run_select))
 
 
-def _run_select(args):
-    return run_select(
-        args.data,
-        args.target,
-        n=args.n_sensors,
-        cluster_on=args.cluster_on,
-        train_tests=_unique(args.train_tests),
-        sensors=_unique(args.sensors),
-        random_state=args.random_state,
-        csv_options=_csv_options(args),
-        quiet=args.quiet,
-    )
-
-
+@shared_doc(csv_and_quiet=flags._CSV_AND_QUIET_DOC)
 def run_select(
     data,
     target,
@@ -127,10 +92,7 @@ def run_select(
         Candidate sensors; by default every column except the target, the
         displacements (``*_um``) and the operating inputs.
     random_state : int, default=0
-    csv_options : dict, optional
-        ``time_unit``, ``sep`` and ``decimal`` of :func:`greyml.io.read_tests_csv`.
-    quiet : bool, default=False
-        No progress on standard error.
+    {csv_and_quiet}
 
     Returns
     -------

@@ -4,22 +4,12 @@ from __future__ import annotations
 
 import os
 
+from greyml._cli import _flags as flags
 from greyml._cli._files import _check_output_file, _test_labels
-from greyml._cli._flags import (
-    _EXIT_CODES,
-    _add_old_spelling,
-    _add_random_state,
-    _end_options,
-    _name_value,
-    _names,
-    _subparser,
-    _unique,
-)
 from greyml._cli._printing import _progress
 from greyml._command_names import MACHINES
 
-_SIMULATE_EPILOG = (
-    """\
+_SIMULATE_EPILOG = """\
 The CSV has the columns test and time_s, then the operating inputs, the sensors
 (T<k>_C, FBG<k>_ue) and the displacements (dx_um, dy_um, dz_um); read it with
 greyml.io.read_tests_csv.
@@ -44,22 +34,10 @@ Examples:
       --programme 120:spindle_rpm=4000,60 --programme 60:spindle_rpm=8000,60
   greyml simulate --machine gantry --out c.csv --programme 120:c_rpm=2500,120
 """
-    + _EXIT_CODES
-)
 
 
 def _add_simulate_parser(subparsers):
-    parser = _subparser(
-        subparsers,
-        "simulate",
-        help="write simulated heating/cooling tests of a machine to a CSV file",
-        description=(
-            "Simulate heating/cooling tests of one of greyml's machines (the seeds' tests, "
-            "or programmes of your own) and write them as a CSV file of tests "
-            "(greyml.datasets.make_tests, greyml.io.write_tests_csv)."
-        ),
-        epilog=_SIMULATE_EPILOG,
-    )
+    parser = flags._subparser(subparsers, "simulate", _SIMULATE_EPILOG)
     parser.add_argument(
         "--machine", required=True, choices=MACHINES, help="the machine to simulate"
     )
@@ -68,6 +46,7 @@ def _add_simulate_parser(subparsers):
         "--programme",
         action="append",
         metavar="SPEC",
+        dest="programmes",
         help="a test of your own, e.g. 120:spindle_rpm=4000,60 (may be repeated)",
     )
     parser.add_argument(
@@ -82,34 +61,26 @@ def _add_simulate_parser(subparsers):
         metavar="C",
         help="air temperature in degrees C of --programme tests (default: 20)",
     )
-    _add_random_state(
+    flags._add_random_state(
         parser,
         "seed of the measurement noise (default: 0, the data of greyml.datasets); "
         "--seed N is its deprecated spelling",
+        dest="seed",
     )
-    _add_old_spelling(
-        parser, "--seed", dest="random_state", new="--random-state", type=int, metavar="N"
+    flags._add_old_spelling(
+        parser, "--seed", dest="seed", new="--random-state", type=int, metavar="N"
     )
     parser.add_argument("--force", action="store_true", help="replace FILE.csv if it exists")
-    _end_options(parser, _run_simulate, reads_csv=False)
+    flags._end_options(parser, _run_simulate, reads_csv=False)
 
 
 def _run_simulate(args):
     tests = None
     if args.tests is not None and args.tests.strip() != "seeds":
-        tests = _unique(_names(args.tests))
+        tests = flags._unique(flags._names(args.tests))
         if not tests:
             raise ValueError("--tests names no test; write seeds or labels like IV,V.")
-    return run_simulate(
-        args.machine,
-        args.out,
-        programmes=args.programme,
-        tests=tests,
-        ambient=args.ambient,
-        seed=args.random_state,
-        force=args.force,
-        quiet=args.quiet,
-    )
+    return flags._call(run_simulate, args, tests=tests)
 
 
 def parse_programme(spec, inputs):
@@ -149,7 +120,7 @@ def parse_programme(spec, inputs):
             ) from None
         values = {}
         for level in levels:
-            name, value = _name_value(
+            name, value = flags._name_value(
                 level,
                 inputs,
                 f"segment {segment!r} of --programme: {level!r} must be NAME=VALUE with "

@@ -7,6 +7,7 @@ from collections.abc import Mapping
 import pandas as pd
 from sklearn.utils import Bunch
 
+from greyml._docstrings import shared_doc
 from greyml._rng import make_generator
 from greyml.io import check_test_frame
 from greyml.simulation._ambient import AmbientProfile, as_profile
@@ -292,6 +293,25 @@ def _default_tests(m):
     raise ValueError(f"Machine {m.name!r} has no default tests; pass programmes.")
 
 
+#: The parameters that the loaders below share, put in their docstrings by _loader.
+_LOADER_PARAMETERS = """Parameters
+    ----------
+    effects : Effects, optional
+        Effects to include; all by default.
+    return_X_y : bool, default=False
+        Return the sensor columns and one target."""
+
+
+_loader = shared_doc(parameters=_LOADER_PARAMETERS)
+
+
+def _load(machine, effects, return_X_y, target):
+    """The seeds' tests of ``machine``, simulated with the datasets' seed: a Bunch or ``(X, y)``."""
+    data = make_tests(machine, None, effects=effects, random_state=DATASET_SEED)
+    return _X_y(data, target) if return_X_y else data
+
+
+@_loader
 def load_vmc_tests(*, effects=None, return_X_y=False, target="dy_um"):
     """Abdulshahed et al.'s (2015) Tests I–VI on the small VMC, simulated (76 sensors).
 
@@ -302,12 +322,7 @@ def load_vmc_tests(*, effects=None, return_X_y=False, target="dy_um"):
     ``dx_um``, ``dy_um``, ``dz_um`` (test-bar displacement relative to each
     test's start). Deterministic.
 
-    Parameters
-    ----------
-    effects : Effects, optional
-        Effects to include; all by default.
-    return_X_y : bool, default=False
-        Return the 76 sensor columns and one target.
+    {parameters}
     target : str, default="dy_um"
         Target for ``return_X_y`` (Abdulshahed et al. (2015) models the Y error).
 
@@ -326,10 +341,10 @@ def load_vmc_tests(*, effects=None, return_X_y=False, target="dy_um"):
     >>> data.sensor_groups["T68_C"], data.sensor_groups["T18_C"]
     ('ambient near the column', 'spindle carrier strip 1')
     """
-    data = make_tests("vmc", None, effects=effects, random_state=DATASET_SEED)
-    return _X_y(data, target) if return_X_y else data
+    return _load("vmc", effects, return_X_y, target)
 
 
+@_loader
 def load_probe_test(*, effects=None, return_X_y=False, target="dz_um"):
     """Abdulshahed et al.'s (2017) 200-min probing test at 9000 rpm, simulated (9 sensors).
 
@@ -338,10 +353,7 @@ def load_probe_test(*, effects=None, return_X_y=False, target="dz_um"):
     X/Y/Z ballscrew nuts, ambient) and ``dx_um``, ``dy_um``, ``dz_um``.
     Deterministic.
 
-    Parameters
-    ----------
-    effects : Effects, optional
-    return_X_y : bool, default=False
+    {parameters}
     target : str, default="dz_um"
         Abdulshahed et al. (2017) model the Z error.
 
@@ -355,10 +367,10 @@ def load_probe_test(*, effects=None, return_X_y=False, target="dz_um"):
     >>> X.shape, y.name
     ((1201, 9), 'dz_um')
     """
-    data = make_tests("vmc-probe", None, effects=effects, random_state=DATASET_SEED)
-    return _X_y(data, target) if return_X_y else data
+    return _load("vmc-probe", effects, return_X_y, target)
 
 
+@_loader
 def load_gantry_tests(*, effects=None, return_X_y=False, target="dz_um"):
     """Abdulshahed et al.'s (2016) Z-axis, C-axis and helical tests on the gantry, simulated.
 
@@ -366,10 +378,7 @@ def load_gantry_tests(*, effects=None, return_X_y=False, target="dz_um"):
     ``T1_C`` … ``T12_C``, ``FBG1_ue`` … ``FBG7_ue`` and ``dy_um``, ``dz_um``.
     Deterministic.
 
-    Parameters
-    ----------
-    effects : Effects, optional
-    return_X_y : bool, default=False
+    {parameters}
     target : str, default="dz_um"
         Abdulshahed et al. (2016) models the Z growth of the ram.
 
@@ -383,5 +392,4 @@ def load_gantry_tests(*, effects=None, return_X_y=False, target="dz_um"):
     >>> data.tests, len(data.sensors)
     (['Z-axis', 'C-axis', 'helical'], 19)
     """
-    data = make_tests("gantry", None, effects=effects, random_state=DATASET_SEED)
-    return _X_y(data, target) if return_X_y else data
+    return _load("gantry", effects, return_X_y, target)

@@ -15,22 +15,8 @@ into scikit-learn's model selection; :func:`get_scorer` and :func:`scoring`
 look them up by name.
 """
 
-from greyml.metrics._metrics import (
-    correlation,
-    improvement,
-    nash_sutcliffe,
-    residual_band,
-    rmse,
-)
-from greyml.metrics._scorers import SCORERS, get_scorer, scoring
+from greyml.metrics import _metrics, _scorers
+from greyml.metrics._metrics import *  # noqa: F403 (the names of _metrics.__all__)
+from greyml.metrics._scorers import *  # noqa: F403 (the names of _scorers.__all__)
 
-__all__ = [
-    "rmse",
-    "correlation",
-    "nash_sutcliffe",
-    "residual_band",
-    "improvement",
-    "SCORERS",
-    "get_scorer",
-    "scoring",
-]
+__all__ = [*_metrics.__all__, *_scorers.__all__]

@@ -25,6 +25,8 @@ import math
 import numpy as np
 import pandas as pd
 
+from greyml._docstrings import shared_doc
+
 __all__ = [
     "rmse",
     "correlation",
@@ -178,10 +180,43 @@ def _scaled_deviations(y):
 
 
 # --------------------------------------------------------------------------
+# docstrings
+# --------------------------------------------------------------------------
+
+# Text that several of the docstrings below share, written once: each
+# ``{key}`` in a docstring decorated with ``_shared_doc`` becomes its text.
+_SHARED_DOC = {
+    "y_true_not_constant": (
+        "y_true : array-like of shape (n_samples,)\n"
+        "        Measured values; must not be constant. A single column of shape\n"
+        "        ``(n_samples, 1)`` is accepted and flattened; pandas objects are\n"
+        "        compared by position."
+    ),
+    "raises": (
+        "Raises\n    ------\n    ValueError\n"
+        "        If the inputs differ in length, are empty, are not 1-D real numbers"
+    ),
+    "anfis_2015": (
+        'A. M. Abdulshahed, A. P. Longstaff and S. Fletcher, "The application\n'
+        "       of ANFIS prediction models for thermal error compensation on CNC machine\n"
+        '       tools", *Applied Soft Computing* 27, pp. 158-168, 2015.'
+    ),
+    "gnn_2016": (
+        "A. M. Abdulshahed, A. P. Longstaff, S. Fletcher and A. Potdar,\n"
+        '       "Thermal error modelling of a gantry-type 5-axis machine tool using a\n'
+        '       Grey Neural Network Model", *Journal of Manufacturing Systems* 41,\n'
+        "       pp. 130-142, 2016."
+    ),
+}
+_shared_doc = shared_doc(**_SHARED_DOC)
+
+
+# --------------------------------------------------------------------------
 # metrics
 # --------------------------------------------------------------------------
 
 
+@_shared_doc
 def rmse(y_true, y_pred):
     r"""Root mean squared error between the measured and predicted error.
 
@@ -200,10 +235,7 @@ def rmse(y_true, y_pred):
         :math:`\sqrt{\frac{1}{n}\sum_i (y_i - \hat y_i)^2}`, in the unit of
         ``y``; 0 for a perfect prediction.
 
-    Raises
-    ------
-    ValueError
-        If the inputs differ in length, are empty, are not 1-D real numbers
+    {raises}
         or contain NaN or inf.
 
     See Also
@@ -241,6 +273,7 @@ def rmse(y_true, y_pred):
     return _times_pow2(math.sqrt(float(np.mean(np.square(d)))), e)
 
 
+@_shared_doc
 def residual_band(y_true, y_pred):
     r"""Half-width of the band that holds every residual: :math:`\max|y-\hat y|`.
 
@@ -258,10 +291,7 @@ def residual_band(y_true, y_pred):
         :math:`\max_i |y_i - \hat y_i|`, in the unit of ``y``. A model
         reported as "residual within ±4 µm" has a band of 4.
 
-    Raises
-    ------
-    ValueError
-        If the inputs differ in length, are empty, are not 1-D real numbers
+    {raises}
         or contain NaN or inf.
 
     See Also
@@ -278,9 +308,7 @@ def residual_band(y_true, y_pred):
 
     References
     ----------
-    .. [1] A. M. Abdulshahed, A. P. Longstaff and S. Fletcher, "The application
-       of ANFIS prediction models for thermal error compensation on CNC machine
-       tools", *Applied Soft Computing* 27, pp. 158-168, 2015.
+    .. [1] {anfis_2015}
 
     Examples
     --------
@@ -295,15 +323,13 @@ def residual_band(y_true, y_pred):
     return _times_pow2(float(np.max(np.abs(d))), e)
 
 
+@_shared_doc
 def correlation(y_true, y_pred):
     r"""Pearson correlation coefficient R between measured and predicted values.
 
     Parameters
     ----------
-    y_true : array-like of shape (n_samples,)
-        Measured values; must not be constant. A single column of shape
-        ``(n_samples, 1)`` is accepted and flattened; pandas objects are
-        compared by position.
+    {y_true_not_constant}
     y_pred : array-like of shape (n_samples,)
         Predicted values, in the same order; must not be constant.
 
@@ -316,10 +342,7 @@ def correlation(y_true, y_pred):
         in [-1, 1]; 1 when the prediction is any increasing affine function
         of the measurement. Square it for the R² that some seeds quote.
 
-    Raises
-    ------
-    ValueError
-        If the inputs differ in length, are empty, are not 1-D real numbers,
+    {raises},
         contain NaN or inf, or if either of them is constant (the correlation
         of a constant is 0/0: undefined). One sample is a constant.
 
@@ -339,10 +362,7 @@ def correlation(y_true, y_pred):
 
     References
     ----------
-    .. [1] A. M. Abdulshahed, A. P. Longstaff, S. Fletcher and A. Potdar,
-       "Thermal error modelling of a gantry-type 5-axis machine tool using a
-       Grey Neural Network Model", *Journal of Manufacturing Systems* 41,
-       pp. 130-142, 2016.
+    .. [1] {gnn_2016}
 
     Examples
     --------
@@ -367,15 +387,13 @@ def correlation(y_true, y_pred):
     return min(1.0, max(-1.0, r))
 
 
+@_shared_doc
 def nash_sutcliffe(y_true, y_pred):
     r"""Nash–Sutcliffe efficiency E of the prediction.
 
     Parameters
     ----------
-    y_true : array-like of shape (n_samples,)
-        Measured values; must not be constant. A single column of shape
-        ``(n_samples, 1)`` is accepted and flattened; pandas objects are
-        compared by position.
+    {y_true_not_constant}
     y_pred : array-like of shape (n_samples,)
         Predicted values, in the same unit and order.
 
@@ -388,10 +406,7 @@ def nash_sutcliffe(y_true, y_pred):
         the constant mean of the measurement; negative when it does worse.
         Not symmetric in its arguments.
 
-    Raises
-    ------
-    ValueError
-        If the inputs differ in length, are empty, are not 1-D real numbers,
+    {raises},
         contain NaN or inf, or if ``y_true`` is constant (the denominator is 0:
         E is undefined). One sample is a constant.
 
@@ -415,10 +430,7 @@ def nash_sutcliffe(y_true, y_pred):
     .. [1] J. E. Nash and J. V. Sutcliffe, "River flow forecasting through
        conceptual models part I - A discussion of principles", *Journal of
        Hydrology* 10(3), pp. 282-290, 1970.
-    .. [2] A. M. Abdulshahed, A. P. Longstaff, S. Fletcher and A. Potdar,
-       "Thermal error modelling of a gantry-type 5-axis machine tool using a
-       Grey Neural Network Model", *Journal of Manufacturing Systems* 41,
-       pp. 130-142, 2016.
+    .. [2] {gnn_2016}
 
     Examples
     --------
@@ -444,6 +456,7 @@ def nash_sutcliffe(y_true, y_pred):
     return 1.0 - _times_pow2(ratio, 2 * (e_res - e_dev))
 
 
+@_shared_doc
 def improvement(y_true, y_pred):
     r"""Fraction of the peak error that compensation removes.
 
@@ -465,10 +478,7 @@ def improvement(y_true, y_pred):
         perfect model, 0 when the residual peak equals the uncompensated peak,
         negative when compensating would make the machine worse.
 
-    Raises
-    ------
-    ValueError
-        If the inputs differ in length, are empty, are not 1-D real numbers,
+    {raises},
         contain NaN or inf, or if ``y_true`` is all zero (there is no error
         to improve on: the ratio is undefined).
 
@@ -486,9 +496,7 @@ def improvement(y_true, y_pred):
 
     References
     ----------
-    .. [1] A. M. Abdulshahed, A. P. Longstaff and S. Fletcher, "The application
-       of ANFIS prediction models for thermal error compensation on CNC machine
-       tools", *Applied Soft Computing* 27, pp. 158-168, 2015.
+    .. [1] {anfis_2015}
 
     Examples
     --------

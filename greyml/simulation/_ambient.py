@@ -11,6 +11,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from greyml.simulation._numbers import as_float
+
 __all__ = [
     "AmbientProfile",
     "constant",
@@ -60,31 +62,43 @@ class AmbientProfile:
     __radd__ = __add__
 
 
-@dataclass(frozen=True)
-class _Constant(AmbientProfile):
+class _Shown(AmbientProfile):
+    """A profile of greyml's, shown as its ``_text`` with its fields filled in."""
+
+    _text = ""
+
+    def _fields(self):
+        return vars(self)
+
+    def __repr__(self):
+        return self._text.format(**self._fields())
+
+
+@dataclass(frozen=True, repr=False)
+class _Constant(_Shown):
+    _text = "constant({temperature_C:g} °C)"
     temperature_C: float
 
     def __call__(self, t):
         return np.full(np.shape(t), float(self.temperature_C))
 
-    def __repr__(self):
-        return f"constant({self.temperature_C:g} °C)"
 
-
-@dataclass(frozen=True)
-class _Linear(AmbientProfile):
+@dataclass(frozen=True, repr=False)
+class _Linear(_Shown):
+    _text = "linear drift from {start_C:g} °C at {rate_C_per_h:+g} °C/h"
     start_C: float
     rate_C_per_h: float
 
     def __call__(self, t):
         return self.start_C + self.rate_C_per_h * np.asarray(t, dtype=float) / 3600.0
 
-    def __repr__(self):
-        return f"linear drift from {self.start_C:g} °C at {self.rate_C_per_h:+g} °C/h"
 
-
-@dataclass(frozen=True)
-class _Diurnal(AmbientProfile):
+@dataclass(frozen=True, repr=False)
+class _Diurnal(_Shown):
+    _text = (
+        "diurnal {mean_C:g} ± {amplitude_C:g} °C, peak at {peak_hour:g} h, "
+        "test starting at {start_hour:g} h"
+    )
     mean_C: float
     amplitude_C: float
     peak_hour: float
@@ -96,15 +110,10 @@ class _Diurnal(AmbientProfile):
         phase = 2.0 * np.pi * (hour - self.peak_hour) / self.period_h
         return self.mean_C + self.amplitude_C * np.cos(phase)
 
-    def __repr__(self):
-        return (
-            f"diurnal {self.mean_C:g} ± {self.amplitude_C:g} °C, peak at "
-            f"{self.peak_hour:g} h, test starting at {self.start_hour:g} h"
-        )
 
-
-@dataclass(frozen=True)
-class _Doors(AmbientProfile):
+@dataclass(frozen=True, repr=False)
+class _Doors(_Shown):
+    _text = "{base!r} with {n} door opening(s) of -{drop_C:g} °C for {minutes:g} min"
     base: AmbientProfile
     at_s: tuple
     drop_C: float
@@ -121,15 +130,13 @@ class _Doors(AmbientProfile):
         own = [t for t0 in self.at_s for t in (t0, t0 + self.duration_s)]
         return np.unique(np.concatenate([self.base.breakpoints(), own]))
 
-    def __repr__(self):
-        return (
-            f"{self.base!r} with {len(self.at_s)} door opening(s) of "
-            f"-{self.drop_C:g} °C for {self.duration_s / 60:g} min"
-        )
+    def _fields(self):
+        return {**vars(self), "n": len(self.at_s), "minutes": self.duration_s / 60}
 
 
-@dataclass(frozen=True)
-class _Sum(AmbientProfile):
+@dataclass(frozen=True, repr=False)
+class _Sum(_Shown):
+    _text = "{a!r} + {b!r}"
     a: AmbientProfile
     b: AmbientProfile
 
@@ -139,9 +146,6 @@ class _Sum(AmbientProfile):
     def breakpoints(self):
         return np.unique(np.concatenate([self.a.breakpoints(), self.b.breakpoints()]))
 
-    def __repr__(self):
-        return f"{self.a!r} + {self.b!r}"
-
 
 def as_profile(ambient, what="ambient") -> AmbientProfile:
     """A profile from a profile or a number (a constant temperature).
@@ -150,27 +154,19 @@ def as_profile(ambient, what="ambient") -> AmbientProfile:
     """
     if isinstance(ambient, AmbientProfile):
         return ambient
-    try:
-        value = float(ambient)
-    except (TypeError, ValueError):
-        raise ValueError(
-            f"{what} must be an AmbientProfile (constant, linear_drift, diurnal, "
-            f"door_openings) or a temperature in °C; got {ambient!r}."
-        ) from None
-    if not np.isfinite(value):
-        raise ValueError(f"The {what} temperature must be finite; got {value!r}.")
+    value = as_float(
+        ambient,
+        f"{what} must be an AmbientProfile (constant, linear_drift, diurnal, "
+        "door_openings) or a temperature in °C",
+        f"The {what} temperature must be finite",
+    )
     return _Constant(value)
 
 
 def _finite(value, name, function):
     """A finite float, or a ValueError naming the parameter and the function."""
-    try:
-        value = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(f"{name!r} of {function} must be a number; got {value!r}.") from None
-    if not np.isfinite(value):
-        raise ValueError(f"{name!r} of {function} must be finite; got {value!r}.")
-    return value
+    what = f"{name!r} of {function}"
+    return as_float(value, f"{what} must be a number", f"{what} must be finite")
 
 
 def constant(temperature_C=20.0) -> AmbientProfile:

@@ -75,7 +75,10 @@ def vmc_tests():
             note="air cooling; machine warm from a 2 h run that ended 30 min before",
         ),
         HeatingTest(
-            "VI", fast, linear_drift(19.0, 0.3), note="Abdulshahed et al. (2015) Fig. 5: X 3, Y 79, Z 22 µm"
+            "VI",
+            fast,
+            linear_drift(19.0, 0.3),
+            note="Abdulshahed et al. (2015) Fig. 5: X 3, Y 79, Z 22 µm",
         ),
     ]
 
@@ -108,7 +111,10 @@ def probe_test():
         .run(**probe)
     )
     return HeatingTest(
-        "probe", programme, linear_drift(20.0, 0.2), note="Abdulshahed et al. (2017): X 20, Y 18, Z 58 µm"
+        "probe",
+        programme,
+        linear_drift(20.0, 0.2),
+        note="Abdulshahed et al. (2017): X 20, Y 18, Z 58 µm",
     )
 
 
@@ -130,23 +136,24 @@ def gantry_tests():
 
     Examples
     --------
-    >>> [t.label for t in gantry_tests()]
-    ['Z-axis', 'C-axis', 'helical']
+    Each test lasts 4 h:
+
+    >>> [(t.label, t.programme.duration_s / 3600) for t in gantry_tests()]
+    [('Z-axis', 4.0), ('C-axis', 4.0), ('helical', 4.0)]
     """
-    z = (
-        Programme(name="Z reciprocating at 70 m/min, 2 h, then 2 h cooling")
-        .cycle(10, 10, 120, feed_mm_min=70000.0)
-        .dwell(120)
+
+    def two_hours_then_cooling(name, **speeds):
+        """``speeds`` 10 s on, 10 s off for 2 h, then 2 h stopped."""
+        return Programme(name=name).cycle(10, 10, 120, **speeds).dwell(120)
+
+    z = two_hours_then_cooling(
+        "Z reciprocating at 70 m/min, 2 h, then 2 h cooling", feed_mm_min=70000.0
     )
-    c = (
-        Programme(name="C axis at 2500 rpm, 2 h, then 2 h cooling")
-        .cycle(10, 10, 120, c_rpm=2500.0)
-        .dwell(120)
-    )
-    helical = (
-        Programme(name="helical: C 2500 rpm with Z 5 m/min, 2 h, then 2 h cooling")
-        .cycle(10, 10, 120, c_rpm=2500.0, feed_mm_min=5000.0)
-        .dwell(120)
+    c = two_hours_then_cooling("C axis at 2500 rpm, 2 h, then 2 h cooling", c_rpm=2500.0)
+    helical = two_hours_then_cooling(
+        "helical: C 2500 rpm with Z 5 m/min, 2 h, then 2 h cooling",
+        c_rpm=2500.0,
+        feed_mm_min=5000.0,
     )
     air_z = door_openings(
         diurnal(18.0, 2.0, peak_hour=15.0, start_hour=9.0),
@@ -155,7 +162,9 @@ def gantry_tests():
         duration_s=900.0,
     )
     return [
-        HeatingTest("Z-axis", z, air_z, note="Abdulshahed et al. (2016) Sec. 4.1: Z error > 100 µm"),
+        HeatingTest(
+            "Z-axis", z, air_z, note="Abdulshahed et al. (2016) Sec. 4.1: Z error > 100 µm"
+        ),
         HeatingTest(
             "C-axis",
             c,

@@ -8,6 +8,7 @@ import numpy as np
 
 from greyml.simulation import _check
 from greyml.simulation._machine import OPERATING_INPUTS
+from greyml.simulation._numbers import as_float
 
 __all__ = ["Segment", "Programme"]
 
@@ -61,15 +62,8 @@ def _duration(minutes, seconds, hours, what):
 
 
 def _level(name, value, what):
-    try:
-        value = float(value)
-    except (TypeError, ValueError):
-        raise ValueError(
-            f"'{name}' of {what} must be a finite non-negative number; got {value!r}."
-        ) from None
-    if not np.isfinite(value) or value < 0:
-        raise ValueError(f"'{name}' of {what} must be a finite non-negative number; got {value!r}.")
-    return value
+    message = f"'{name}' of {what} must be a finite non-negative number"
+    return as_float(value, message, message, low=0.0)
 
 
 @dataclass(frozen=True)
