@@ -392,22 +392,13 @@ def _rms(x):
     return float(np.sqrt(np.mean(np.square(x))))
 
 
-def _run_case(spec, machine, target, kind, n_tests, n_sensors, use_sensitivities, kwargs):
+def _run_case(spec, setting, use_sensitivities, kwargs):
+    """One case of ``spec``; ``setting``: the keywords of withheld_case every case shares."""
     from greyml.gap._diagnose import diagnose_gap
 
     withheld, size, param_error, seed = spec
     extra = withheld in (("event",), ("custom",))
-    case = withheld_case(
-        withheld,
-        size,
-        seed,
-        machine=machine,
-        target=target,
-        param_error=param_error,
-        kind=kind,
-        n_tests=n_tests,
-        n_sensors=n_sensors,
-    )
+    case = withheld_case(withheld, size, seed, param_error=param_error, **setting)
     start = time.perf_counter()
     with warnings.catch_warnings(record=True) as caught:
         # a time constant at its search bound is counted, not raised
@@ -680,10 +671,8 @@ def validate_withheld(
         for _ in range(n_custom):
             specs.append((("custom",), custom_size, param_error, counter))
             counter += 1
+    setting = dict(machine=machine, target=target, kind=kind, n_tests=n_tests, n_sensors=n_sensors)
     rows = Parallel(n_jobs=n_jobs, verbose=verbose)(
-        delayed(_run_case)(
-            spec, machine, target, kind, n_tests, n_sensors, sensitivities, diagnose_kwargs
-        )
-        for spec in specs
+        delayed(_run_case)(spec, setting, sensitivities, diagnose_kwargs) for spec in specs
     )
     return WithheldValidation(pd.DataFrame(rows))
