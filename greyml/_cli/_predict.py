@@ -21,10 +21,10 @@ the axis). When DATA.csv also holds the measured target, the accuracy is
 printed. A grey model predicts the change since each test's first row: for a
 test that starts mid-run, give the measured target there with
 --initial-displacement (a warning names a test whose sensors start away from
-where the training tests started).
-printed. A model that predicts NaN or an infinite value for any row is an
-error (exit 2), and no PRED.csv is written; the file is written to a
-temporary name and renamed, so a failure never leaves a partial PRED.csv.
+where the training tests started). A model that predicts NaN or an infinite
+value for any row is an error (exit 2), and no PRED.csv is written; the file
+is written to a temporary name and renamed, so a failure never leaves a
+partial PRED.csv.
 Test labels a spreadsheet would run as formulas (=, +, -, @) get a leading '.
 
 Examples:
