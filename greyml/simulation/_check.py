@@ -6,7 +6,7 @@ import numbers
 
 import numpy as np
 
-__all__ = ["real", "weights", "label"]
+__all__ = ["real", "weights", "label", "member"]
 
 
 def real(value, what, *, low=None, strict=False):
@@ -42,3 +42,9 @@ def label(value, what):
     if not isinstance(value, str) or not value.strip():
         raise ValueError(f"{what} must be a non-empty string; got {value!r}.")
     return value
+
+
+def member(value, allowed, message):
+    """Raise ``ValueError(message)`` unless ``value`` is one of ``allowed``."""
+    if value not in allowed:
+        raise ValueError(message)

@@ -334,38 +334,39 @@ class ThermalMachine:
                 raise ValueError(f"{m}: link {k} must be (node, node, conductance); got {link!r}.")
             a, b, g = link
             for end in (a, b):
-                if end not in nodes:
-                    raise ValueError(f"{m}: link {k} names node {end!r}, {known}.")
+                _check.member(end, nodes, f"{m}: link {k} names node {end!r}, {known}.")
             if a == b:
                 raise ValueError(f"{m}: link {k} joins node {a!r} to itself.")
             _check.real(g, f"{m}: the conductance between {a!r} and {b!r}", low=0.0)
         for node, h in dict(self.convection).items():
-            if node not in nodes:
-                raise ValueError(f"{m}: convection names node {node!r}, {known}.")
+            _check.member(node, nodes, f"{m}: convection names node {node!r}, {known}.")
             _check.real(h, f"{m}: the convection of node {node!r}", low=0.0)
         inputs = list(self.inputs)
         for name in inputs:
-            if name not in OPERATING_INPUTS:
-                raise ValueError(
-                    f"{m}: inputs names {name!r}, not an operating input "
-                    f"({list(OPERATING_INPUTS)})."
-                )
+            _check.member(
+                name,
+                OPERATING_INPUTS,
+                f"{m}: inputs names {name!r}, not an operating input ({list(OPERATING_INPUTS)}).",
+            )
         for name, limit in dict(self.max_input).items():
-            if name not in OPERATING_INPUTS:
-                raise ValueError(f"{m}: max_input names {name!r}, not an operating input.")
+            _check.member(
+                name, OPERATING_INPUTS, f"{m}: max_input names {name!r}, not an operating input."
+            )
             _check.real(limit, f"{m}: max_input of {name!r}", low=0.0, strict=True)
         allowed = {*nodes, AMBIENT}
         for src in self.sources:
             if not isinstance(src, HeatSource):
                 raise ValueError(f"{m}: sources must be HeatSource objects; got {src!r}.")
             for node in src.nodes:
-                if node not in nodes:
-                    raise ValueError(f"{m}: heat source {src.name!r} heats node {node!r}, {known}.")
-            if src.input not in inputs:
-                raise ValueError(
-                    f"{m}: heat source {src.name!r} is driven by {src.input!r}, which is not "
-                    f"one of the machine's inputs {inputs}."
+                _check.member(
+                    node, nodes, f"{m}: heat source {src.name!r} heats node {node!r}, {known}."
                 )
+            _check.member(
+                src.input,
+                inputs,
+                f"{m}: heat source {src.name!r} is driven by {src.input!r}, which is not "
+                f"one of the machine's inputs {inputs}.",
+            )
         seen = set()
         sensors = [*self.temperature_sensors, *self.fbg_sensors]
         for sensor in sensors:
@@ -379,16 +380,18 @@ class ThermalMachine:
             maps = [sensor.nodes] + ([sensor.strain] if isinstance(sensor, FBGSensor) else [])
             for weights in maps:
                 for node in weights:
-                    if node not in allowed:
-                        raise ValueError(
-                            f"{m}: sensor {sensor.name!r} reads node {node!r}, {known} "
-                            f"(or {AMBIENT!r})."
-                        )
+                    _check.member(
+                        node,
+                        allowed,
+                        f"{m}: sensor {sensor.name!r} reads node {node!r}, {known} "
+                        f"(or {AMBIENT!r}).",
+                    )
         for target, per_node in dict(self.displacement).items():
             _check.label(target, f"{m}: a displacement target name")
             for node, value in dict(per_node).items():
-                if node not in allowed:
-                    raise ValueError(f"{m}: displacement {target!r} names node {node!r}, {known}.")
+                _check.member(
+                    node, allowed, f"{m}: displacement {target!r} names node {node!r}, {known}."
+                )
                 _check.real(value, f"{m}: the displacement {target!r} per kelvin of node {node!r}")
         targets = list(self.displacement)
         for field_name in ("probe_noise_um", "probe_drift_um_per_h"):
