@@ -8,11 +8,14 @@ def shared_doc(**texts):
 
     Only these names are replaced, so other braces (LaTeX, set displays) stay as
     they are; a docstring need not use them all. A text that continues over
-    several lines carries the indentation of its place in the docstring.
+    several lines carries the indentation of its place in the docstring. Under
+    ``python -OO`` there are no docstrings, and the function is left as it is.
     """
 
     def decorate(function):
         doc = function.__doc__
+        if doc is None:
+            return function
         for name, text in texts.items():
             doc = doc.replace("{" + name + "}", text)
         function.__doc__ = doc

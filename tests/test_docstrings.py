@@ -80,3 +80,25 @@ def test_has_examples_section(obj):
     match = _EXAMPLES.search(doc)
     assert match, f"{obj.__qualname__}'s docstring has no numpydoc 'Examples' section"
     assert ">>>" in doc[match.end() :], f"{obj.__qualname__}'s Examples section has no '>>>'"
+
+
+def test_every_public_module_imports_without_docstrings():
+    # python -OO strips docstrings; text shared between docstrings must not need them
+    import subprocess
+    import sys
+
+    modules = [
+        "greyml",
+        "greyml.cli",
+        "greyml.datasets",
+        "greyml.dynamic",
+        "greyml.gap",
+        "greyml.metrics",
+        "greyml.persist",
+        "greyml.simulation",
+        "greyml.utils.discovery",
+    ]
+    code = f"import importlib\nfor m in {modules!r}:\n    importlib.import_module(m)\nprint('ok')"
+    done = subprocess.run([sys.executable, "-OO", "-c", code], capture_output=True, text=True)
+    assert done.returncode == 0, done.stderr[-2000:]
+    assert done.stdout.strip() == "ok"
