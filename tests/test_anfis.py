@@ -6,6 +6,7 @@ import pickle
 import numpy as np
 import pandas as pd
 import pytest
+from conftest import rewrite_model_file
 from sklearn.datasets import make_friedman1
 from sklearn.model_selection import (
     GridSearchCV,
@@ -371,8 +372,6 @@ def test_clustering_a_subset_keeps_memberships_of_every_row():
 
 
 def test_n_epochs_and_cluster_centres_are_the_old_names(tmp_path):
-    from conftest import rewrite_model_file
-
     from greyml.persist import load_model, save_model
 
     X, y = make_friedman1(n_samples=80, n_features=5, random_state=0)
