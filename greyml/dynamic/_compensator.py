@@ -16,7 +16,7 @@ from sklearn.utils.validation import check_is_fitted
 
 from greyml._param_validation import Interval, Real
 from greyml._sequences import TIME_LEVEL
-from greyml.dynamic._lags import LagFeatures, _power_name, format_seconds
+from greyml.dynamic._lags import LagFeatures, _power_name, _tau_label
 
 __all__ = ["Compensator"]
 
@@ -201,7 +201,7 @@ class Compensator(BaseEstimator):
             "tau": np.array([k[2] for k in lag_keys], dtype=float),
             "weight": np.array([lagged[k] for k in lag_keys] + [raw[k] for k in raw_keys]),
             "labels": [
-                f"{_power_name(inputs[k[0]], k[1])}|lag {format_seconds(k[2])}" for k in lag_keys
+                f"{_power_name(inputs[k[0]], k[1])}|lag {_tau_label(k[2])}" for k in lag_keys
             ],
             "names": inputs,
             "shape": (len(inputs) + 1,),

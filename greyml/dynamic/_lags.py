@@ -11,6 +11,7 @@ from sklearn.utils.validation import check_is_fitted
 
 from greyml._param_validation import Integral, Interval, Real, StrOptions
 from greyml._sequences import TEST_LEVEL, TIME_LEVEL, segment_label
+from greyml._time import format_duration
 from greyml._validation import first_flagged, validate_sequences
 from greyml.dynamic._kernels import lag_filter
 
@@ -19,33 +20,9 @@ __all__ = ["LagFeatures"]
 _STATES = ("restart", "carry")
 
 
-def format_seconds(seconds):
-    """A time constant as feature names show it: ``"30 s"``, ``"15 min"``, ``"2 h"``.
-
-    Whole hours are written in hours, whole minutes in minutes, anything else
-    in seconds (12 significant digits, so distinct time constants keep
-    distinct names).
-
-    Parameters
-    ----------
-    seconds : float
-
-    Returns
-    -------
-    str
-
-    Examples
-    --------
-    >>> from greyml.dynamic._lags import format_seconds
-    >>> [format_seconds(s) for s in (30, 900, 8100, 7200, 90)]
-    ['30 s', '15 min', '135 min', '2 h', '90 s']
-    """
-    seconds = float(seconds)
-    if seconds % 3600 == 0:
-        return f"{seconds / 3600:.12g} h"
-    if seconds % 60 == 0:
-        return f"{seconds / 60:.12g} min"
-    return f"{seconds:.12g} s"
+def _tau_label(seconds):
+    """A time constant in a feature name: exact enough that distinct ones differ."""
+    return format_duration(seconds, digits=12)
 
 
 def _power_name(name, power):
@@ -238,11 +215,11 @@ class LagFeatures(TransformerMixin, BaseEstimator):
                     f"The 'time_constants' parameter of {name} must hold finite numbers of "
                     f"seconds > 0; entry {k} is {tau!r}."
                 )
-        labels = [format_seconds(t) for t in taus]
+        labels = [_tau_label(t) for t in taus]
         if len(set(labels)) != len(labels):
             dup = next(t for t, lab in zip(taus, labels) if labels.count(lab) > 1)
             raise ValueError(
-                f"The 'time_constants' parameter of {name} holds {format_seconds(dup)} "
+                f"The 'time_constants' parameter of {name} holds {_tau_label(dup)} "
                 "more than once; give each time constant once."
             )
         powers = self.powers
@@ -378,7 +355,7 @@ class LagFeatures(TransformerMixin, BaseEstimator):
                 raise ValueError(
                     f"LagFeatures: {segment_label(seg)} has a sampling gap of {dt[k]:g} s "
                     f"before '{TIME_LEVEL}' = {time[k]:g} s (row {k}), longer than the "
-                    f"largest time constant ({format_seconds(tau_max)}); split the test "
+                    f"largest time constant ({_tau_label(tau_max)}); split the test "
                     "there or add a longer time constant."
                 )
             if nominal is None:
@@ -534,7 +511,7 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         names = self._input_names(input_features)
         raw, sources = self._layout(names)
         out = [_power_name(names[j], p) for j, p in raw]
-        labels = [format_seconds(t) for t in self.time_constants_]
+        labels = [_tau_label(t) for t in self.time_constants_]
         for j, p in sources:
             base = _power_name(names[j], p)
             out.extend(f"{base}|lag {label}" for label in labels)

@@ -11,17 +11,9 @@ import pandas as pd
 from sklearn.utils.validation import check_is_fitted
 
 from greyml._sequences import TIME_LEVEL
+from greyml._time import format_duration
 
 __all__ = []
-
-
-def _fmt_tau(tau):
-    minutes = tau / 60.0
-    if minutes >= 1 and abs(minutes - round(minutes)) < 1e-9:
-        return f"{int(round(minutes))} min"
-    if minutes >= 1:
-        return f"{minutes:.3g} min"
-    return f"{tau:.3g} s"
 
 
 def _round_step(peak):
@@ -60,13 +52,13 @@ class _TransferReadout:
     def _gain_table(self):
         rows, index = [], []
         all_taus = sorted({t for _, _, taus in self._spec_ for t in taus})
-        columns = ["static"] + [f"lag {_fmt_tau(t)}" for t in all_taus]
+        columns = ["static"] + [f"lag {format_duration(t)}" for t in all_taus]
         c = 0
         for (_col, power, taus), (name, _) in zip(self._spec_, self._labels_):
             row = dict.fromkeys(columns, np.nan)
             row["static"] = self.feature_coef_[c]
             for j, tau in enumerate(taus):
-                row[f"lag {_fmt_tau(tau)}"] = self.feature_coef_[c + 1 + j]
+                row[f"lag {format_duration(tau)}"] = self.feature_coef_[c + 1 + j]
             c += 1 + len(taus)
             group_in = name in self.drivers_ or name in self.selected_sensors_
             if group_in:

@@ -22,6 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from greyml._time import format_duration
 from greyml.dynamic._kernels import lag_filter
 
 __all__ = [
@@ -247,8 +248,8 @@ def _per_test_start(values, bounds):
 
 
 def fmt_tau(tau):
-    """A time constant in words: minutes below 1.5 h, hours above."""
-    return f"{tau / 60:.0f} min" if tau < 5400 else f"{tau / 3600:.1f} h"
+    """A time constant in words (:func:`greyml._time.format_duration`)."""
+    return format_duration(tau)
 
 
 def _taus(setting):

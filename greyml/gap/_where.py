@@ -37,6 +37,7 @@ from scipy.stats import chi2
 
 from greyml._param_validation import Integral, Interval, Real, validate_params
 from greyml._sequences import segment_label
+from greyml._time import format_duration
 from greyml.gap._where_checks import (
     _check_band_edges,
     _check_frame,
@@ -92,8 +93,7 @@ def _unit_for(values) -> tuple[str, float]:
 
 
 def _duration(value: float) -> str:
-    unit, scale = _unit_for([value])
-    return f"{value / scale:g} {unit}"
+    return format_duration(value)
 
 
 def _time_bin_labels(edges: np.ndarray) -> list[str]:
