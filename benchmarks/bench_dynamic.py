@@ -229,7 +229,8 @@ class NumpyLoop:
         if self.state is None:
             self.state = steady_state(inputs, self.taus.size)
         else:
-            self.state = lag_step(self.state, inputs, np.exp(-(row[0] - self.time) / self.taus))
+            a = np.exp(-(row[0] - self.time) / self.taus)
+            self.state = lag_step(self.state, inputs[:, None], a)
         self.time = row[0]
         raw = np.array([x[j] ** p for j, p in self.raw])
         return float(self.intercept + np.sum(self.w_lag * self.state) + self.w_raw @ raw)

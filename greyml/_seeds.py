@@ -22,6 +22,7 @@ import numpy as np
 import pandas as pd
 
 from greyml._command_names import MODEL_NAMES
+from greyml._time import format_duration
 
 __all__ = [
     "ANFIS_EPOCHS",
@@ -220,7 +221,7 @@ def gantry_rises(frame):
 # ------------------------------------------------------------------------------
 
 
-def make_model(name, *, random_state=0, quick=False, drivers=(), max_sensors=None):
+def make_model(name, *, random_state=0, quick=False, drivers=(), max_sensors=None, **transfer):
     """A greyml model by its command-line name, with the seeds' settings.
 
     Parameters
@@ -235,6 +236,10 @@ def make_model(name, *, random_state=0, quick=False, drivers=(), max_sensors=Non
         (spindle speed, feed), always inputs and not counted as sensors.
     max_sensors : int, optional
         ``"transfer-function"`` only: the budget of temperature sensors.
+    **transfer
+        ``"transfer-function"`` only: its other parameters (``state``,
+        ``reference``, ``selection``, ``time_constants``,
+        ``driver_time_constants``); those given as None keep their defaults.
 
     Returns
     -------
@@ -246,13 +251,22 @@ def make_model(name, *, random_state=0, quick=False, drivers=(), max_sensors=Non
     from greyml import GMC, GNNMCI, MLPBaseline, ThermalTransferFunction
 
     if name == "transfer-function":
+        given = {k: v for k, v in transfer.items() if v is not None}
         model = ThermalTransferFunction(
-            drivers=tuple(drivers), max_sensors=max_sensors, random_state=random_state
+            drivers=tuple(drivers), max_sensors=max_sensors, random_state=random_state, **given
         )
         budget = "all sensors" if max_sensors is None else f"at most {max_sensors} sensors"
         driven = ", ".join(drivers) if drivers else "no drivers"
+        taus = model.time_constants
+        if taus is None:
+            bank = "lags of 5, 15, 45, 135 min"
+        elif isinstance(taus, str):
+            bank = "time constants fitted from 5, 15, 45, 135 min"
+        else:
+            bank = "lags of " + ", ".join(format_duration(t) for t in taus)
         return model, (
-            f"thermal transfer function: lags of 5, 15, 45, 135 min, {budget}, {driven} "
+            f"thermal transfer function: {bank}, {budget}, {driven}, state {model.state}, "
+            f"reference {model.reference}, {model.selection} selection "
             "(ThermalTransferFunction; Mares, Horejs et al. (2020))"
         )
     check = f"{100 * CHECKING_FRACTION:.0f} % checking data"

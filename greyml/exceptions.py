@@ -17,6 +17,7 @@ __all__ = [
     "GreyWarmStartWarning",
     "UnderdeterminedWarning",
     "UnsafeModelError",
+    "WarmStartWarning",
 ]
 
 
@@ -73,7 +74,41 @@ class GreyStabilityWarning(UserWarning):
     """
 
 
-class GreyWarmStartWarning(UserWarning):
+class WarmStartWarning(UserWarning):
+    """A model predicts a test that starts without the history that made its state.
+
+    A dynamic model (:class:`greyml.ThermalTransferFunction`) carries its lags
+    over from the test before on the same clock. A test that begins later on
+    its clock but is given alone starts from an assumed state (temperatures at
+    rest, drivers idle), and this warning names it: give the rows before it,
+    or the displacement measured at its first row
+    (``predict(X, initial_displacement=...)``).
+    :class:`GreyWarmStartWarning` is its grey models' kind.
+
+    Examples
+    --------
+    A model fitted on two tests of one clock, asked for the second alone:
+
+    >>> import warnings
+    >>> import numpy as np
+    >>> import pandas as pd
+    >>> from greyml import ThermalTransferFunction, WarmStartWarning, make_test_index
+    >>> t = np.arange(0.0, 8 * 3600, 60.0)
+    >>> rpm = np.where(t % (4 * 3600) < 2 * 3600, 3000.0, 0.0)
+    >>> X = pd.DataFrame({"spindle_rpm": rpm},
+    ...                  index=make_test_index(np.where(t < 4 * 3600, "a", "b"), t))
+    >>> model = ThermalTransferFunction(drivers=["spindle_rpm"]).fit(X, 1e-3 * rpm)
+    >>> with warnings.catch_warnings(record=True) as caught:
+    ...     warnings.simplefilter("always")
+    ...     _ = model.predict(X.loc[["b"]])
+    >>> [w.category.__name__ for w in caught], "test 'b'" in str(caught[0].message)
+    (['WarmStartWarning'], True)
+    >>> model.predict(X.loc[["b"]], initial_displacement=2.5)[0]
+    np.float64(2.5)
+    """
+
+
+class GreyWarmStartWarning(WarmStartWarning):
     """A grey model predicts a test that does not start where the training tests did.
 
     A grey model predicts the change since each test's first row, where its

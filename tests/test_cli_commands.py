@@ -371,7 +371,8 @@ def test_simulate_select_fit_predict_round_trip(capsys, tmp_path):
     # a starting displacement is for grey models only
     argv = ["predict", model, new_csv, "--out", tmp_path / "p3.csv", "--initial-displacement", "3"]
     err = _error(capsys, argv)
-    assert "--initial-displacement is for grey models (gmc, gnnmci); this model is ANFISFCM" in err
+    assert "--initial-displacement is for models with a state (gmc, gnnmci, " in err
+    assert "this model is ANFISFCM" in err
 
 
 def test_predict_a_test_that_starts_mid_run(capsys, tiny, tmp_path):
@@ -388,13 +389,16 @@ def test_predict_a_test_that_starts_mid_run(capsys, tiny, tmp_path):
     head = "greyml predict: warning: GreyWarmStartWarning: GMC predicts test 'B-tail'"
     assert err.startswith(head), err
     assert "column 'T1_C' starts at 25" in err and "--initial-displacement" in err
-    cold = read_tests_csv(tmp_path / "cold.csv")["predicted_dz_um"].to_numpy()
+    # a grey model predicts the change since the test's first row, and says so
+    assert "displacement as its change since each test's first row" in out
+    cold = read_tests_csv(tmp_path / "cold.csv")["predicted_dz_um_since_start"].to_numpy()
 
     argv += ["--initial-displacement", f"B-tail={start!r}"]
     argv[4] = tmp_path / "warm.csv"
     assert main([str(a) for a in argv]) == 0
     out, err = capsys.readouterr()
     assert err == ""
+    assert "from the measured value given at each test's first row" in out
     warm = read_tests_csv(tmp_path / "warm.csv")["predicted_dz_um"].to_numpy()
     measured = frame["dz_um"].to_numpy()
     assert warm[0] == pytest.approx(start, rel=1e-12)

@@ -35,6 +35,7 @@ def _machine(seed=0, n_tests=4, n=240, step=30.0, jitter=False):
 def _stream(comp, X, kind="array"):
     time = X.index.get_level_values("time_s").to_numpy()
     if kind == "array":
+        comp.set_params(row_columns=["time_s", *X.columns])  # (resets the state)
         rows = np.column_stack([time, X.to_numpy()])
         return np.array([comp.update(r) for r in rows])
     if kind == "dict":
@@ -51,6 +52,7 @@ def test_hand_computed_terms():
         ["T1_C", "rpm"],
         [("T1_C", 1, 900.0, 10.0), ("rpm", 2, None, 0.5), ("rpm", 1, 60.0 / math.log(2), 2.0)],
         intercept=1.0,
+        row_columns=["time_s", "T1_C", "rpm"],
     )
     assert comp.update({"time_s": 0.0, "T1_C": 20.0, "rpm": 2.0}) == pytest.approx(
         1.0 + 200.0 + 0.5 * 4 + 2.0 * 2.0, abs=1e-12
@@ -70,7 +72,11 @@ def test_hand_computed_terms():
 def test_relative_to_start_and_shared_lags():
     # two terms on the same lag share one state; the sum is taken from the start
     comp = Compensator(
-        ["T1_C"], [("T1_C", 1, 600.0, 1.0), ("T1_C", 1, 600.0, 2.0)], 5.0, relative_to_start=True
+        ["T1_C"],
+        [("T1_C", 1, 600.0, 1.0), ("T1_C", 1, 600.0, 2.0)],
+        5.0,
+        relative_to_start=True,
+        row_columns=["time_s", "T1_C"],
     )
     assert comp.update([0.0, 30.0]) == 5.0
     assert comp.update([600.0, 31.0]) == pytest.approx(5.0 + 3.0 * (1 - math.exp(-1)), abs=1e-12)
@@ -128,18 +134,19 @@ def test_saved_mid_stream_and_resumed_equals_uninterrupted(tmp_path):
         LagFeatures([300.0, 900.0], powers={"rpm": (1, 2)}), StandardScaler(), RidgeCV()
     ).fit(X, y)
     rows = np.column_stack([X.index.get_level_values("time_s"), X.to_numpy()])[:240]
-    whole = Compensator.from_pipeline(model)
+    order = ["time_s", *X.columns]
+    whole = Compensator.from_pipeline(model, row_columns=order)
     uninterrupted = np.array([whole.update(r) for r in rows])
 
-    first = Compensator.from_pipeline(model)
+    first = Compensator.from_pipeline(model, row_columns=order)
     head = [first.update(r) for r in rows[:100]]
     again = load_model(save_model(first, tmp_path / "comp.greyml"))
     tail = [again.update(r) for r in rows[100:]]
     np.testing.assert_array_equal(np.array(head + tail), uninterrupted)
 
     # the same through get_state / set_state on a new compensator
-    other = Compensator.from_pipeline(model)
-    state = Compensator.from_pipeline(model)
+    other = Compensator.from_pipeline(model, row_columns=order)
+    state = Compensator.from_pipeline(model, row_columns=order)
     for r in rows[:150]:
         state.update(r)
     other.set_state(state.get_state())
@@ -175,7 +182,11 @@ def _one_line(call, match):
 
 
 def test_bad_rows():
-    comp = Compensator(["T1_C", "rpm"], [("T1_C", 1, 900.0, 1.0), ("rpm", 1, None, 1.0)])
+    comp = Compensator(
+        ["T1_C", "rpm"],
+        [("T1_C", 1, 900.0, 1.0), ("rpm", 1, None, 1.0)],
+        row_columns=["time_s", "T1_C", "rpm"],
+    )
     comp.update({"time_s": 0.0, "T1_C": 20.0, "rpm": 1.0})
     before = comp.get_state()
     _one_line(lambda: comp.update({"time_s": 10.0, "T1_C": 20.0}), "the row has no 'rpm'")
@@ -188,7 +199,8 @@ def test_bad_rows():
     _one_line(lambda: comp.update([np.nan, 20.0, 1.0]), "time_s is nan")
     _one_line(lambda: comp.update([0.0, 20.0, 1.0]), "time_s repeats from 0 to 0 s")
     _one_line(lambda: comp.update([-5.0, 20.0, 1.0]), "time_s goes back from 0 to -5 s")
-    _one_line(lambda: comp.update([5.0, 20.0]), r"must hold time_s and the 2 inputs \(3 values\)")
+    _one_line(lambda: comp.update([5.0, 20.0]), r"must hold the 3 values of row_columns")
+    _one_line(lambda: comp.update([5000.0, 20.0, 1.0]), r"sampling gap of 5000 s .* \(15 min\)")
     _one_line(lambda: comp.update({"time_s": 5.0, "T1_C": "hot", "rpm": 1}), "not a number")
     _one_line(lambda: comp.update(pd.Series({"time_s": 5.0, "T1_C": 20.0})), "the row has no 'rpm'")
     assert comp.get_state() == before  # a refused row changes nothing
@@ -209,7 +221,7 @@ def test_bad_rows():
     ],
 )
 def test_bad_parameters(inputs, terms, match):
-    _one_line(lambda: Compensator(inputs, terms).update([0.0, 1.0]), match)
+    _one_line(lambda: Compensator(inputs, terms).update({"time_s": 0.0, "T1_C": 1.0}), match)
 
 
 def test_from_pipeline_needs_lags_and_a_linear_model():
@@ -223,3 +235,33 @@ def test_from_pipeline_needs_lags_and_a_linear_model():
     )
     with pytest.raises(TypeError, match="takes a fitted scikit-learn Pipeline"):
         Compensator.from_pipeline(LagFeatures([300.0]))
+
+
+def test_array_rows_need_a_declared_order():
+    terms = [("T1_C", 1, 900.0, 10.0), ("rpm", 1, None, 1.0)]
+    bare = Compensator(["T1_C", "rpm"], terms)
+    _one_line(lambda: bare.update(np.array([0.0, 20.0, 3.0])), "an array row has no names")
+    assert bare.get_state()["time_s"] is None  # refused before anything changed
+    # declared in another order (and with a column the model does not read): read by name
+    comp = Compensator(["T1_C", "rpm"], terms, row_columns=["rpm", "time_s", "spare", "T1_C"])
+    by_name = Compensator(["T1_C", "rpm"], terms)
+    for t, temp, rpm in [(0.0, 20.0, 3.0), (60.0, 20.5, 4.0), (120.0, 21.0, 4.0)]:
+        assert comp.update(np.array([rpm, t, -1.0, temp])) == by_name.update(
+            {"time_s": t, "T1_C": temp, "rpm": rpm}
+        )
+    with pytest.raises(ValueError, match="lacks 'T1_C'"):
+        Compensator(["T1_C"], terms[:1], row_columns=["time_s", "rpm"]).update([0.0, 1.0])
+
+
+def test_idle_inputs_start_at_zero_and_reset_takes_a_displacement():
+    # a driver idle before the first row: its lag starts at 0, not at its value
+    comp = Compensator(["rpm"], [("rpm", 1, 600.0, 1.0)], idle_inputs=["rpm"])
+    assert comp.update({"time_s": 0.0, "rpm": 3.0}) == 0.0
+    assert comp.update({"time_s": 600.0, "rpm": 3.0}) == pytest.approx(3.0 * (1 - math.exp(-1)))
+    # a measured displacement at the first row moves every correction after it
+    comp.reset(initial_displacement=7.0)
+    assert comp.update({"time_s": 0.0, "rpm": 3.0}) == 7.0
+    assert comp.update({"time_s": 600.0, "rpm": 3.0}) == pytest.approx(
+        7.0 + 3.0 * (1 - math.exp(-1))
+    )
+    _one_line(lambda: comp.reset(initial_displacement=float("nan")), "must be a finite number")

@@ -15,7 +15,7 @@ def _loop(x, dt, taus, bounds, carry, initial=None):
             if k == start and (state is None or not carry):
                 state = steady_state(x[k], len(taus))
             else:
-                state = lag_step(state, x[k], np.exp(-dt[k] / np.asarray(taus)))
+                state = lag_step(state, x[k][:, None], np.exp(-dt[k] / np.asarray(taus)))
             out[k] = state
     return out
 

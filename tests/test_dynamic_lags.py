@@ -214,7 +214,7 @@ def test_bad_data_names_column_test_and_time():
     gap.index = make_test_index(groups_of(X), [0, 60, 120, 4000, 0, 60])
     message = _one_line(
         lambda: LagFeatures([600.0, 900.0]).fit(gap),
-        r"test 'I' has a sampling gap of 3880 s before 'time_s' = 4000 s \(row 3\), longer "
+        r"test 'I' has a sampling gap of 3880 s before time_s = 4000 s \(row 3\), longer "
         r"than the largest time constant \(15 min\)",
     )
     assert "split the test" in message

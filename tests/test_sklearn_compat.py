@@ -60,7 +60,8 @@ ESTIMATORS = [
     # one lag (2 gains per column; rows are 1 s apart without a time_s level)
     # fits them
     ThermalTransferFunction(time_constants=[30.0]),
-    ThermalTransferFunction(time_constants=[30.0], max_sensors=1, relative_to_start=False),
+    ThermalTransferFunction(time_constants=[30.0], max_sensors=1, reference="recording"),
+    ThermalTransferFunction(time_constants=[30.0], reference="start", state="restart"),
     # each row minus its test's first row: a subset that drops the first row changes
     # every other row (a sequence transformation, though it learns nothing)
     RelativeToStart(),
@@ -89,11 +90,11 @@ TRANSFER_WEIGHT_REASON = (
     "sequence model: a repeated or removed row changes the lags of every later row, "
     "so weighting a row 2 or 0 is not the same as repeating or removing it"
 )
-# relative_to_start=True predicts the change since each test's first row, as
+# reference="start" predicts the change since each test's first row, as
 # greyml's tests start at 0; scikit-learn's regression data do not, so R² of
 # those changes against absolute targets is poor by design
 TRANSFER_RELATIVE_REASON = (
-    "relative_to_start=True predicts the change since the test's first row; "
+    "reference='start' predicts the change since the test's first row; "
     "scikit-learn's regression targets are not zero there, so R² against them is poor"
 )
 
@@ -104,7 +105,7 @@ def _expected_failures(estimator):
     out = dict(SEQUENCE_CHECKS)
     if isinstance(estimator, ThermalTransferFunction):
         out["check_sample_weight_equivalence_on_dense_data"] = TRANSFER_WEIGHT_REASON
-        if estimator.relative_to_start:
+        if estimator.reference == "start":
             out["check_regressors_train"] = TRANSFER_RELATIVE_REASON
     return out
 

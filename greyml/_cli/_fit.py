@@ -13,7 +13,15 @@ from greyml._cli._files import (
     _require_values,
     _test_labels,
 )
-from greyml._cli._fitting import _final_step, _fit_quietly, _predict_quietly, _selector
+from greyml._cli._fitting import (
+    _REFERENCE_WORDS,
+    _final_step,
+    _fit_quietly,
+    _measured,
+    _predict_quietly,
+    _reference,
+    _selector,
+)
 from greyml._cli._printing import _progress, _tests_words, _warn, printable
 from greyml._command_names import MODEL_NAMES
 from greyml._docstrings import shared_doc
@@ -29,7 +37,10 @@ Models (the seeds' settings):
   transfer-function
               thermal transfer functions: each input through first-order lags of
               5, 15, 45 and 135 min (Mares, Horejs et al. (2020)); --drivers for
-              what the controller knows, --max-sensors for a sensor budget
+              what the controller knows, --max-sensors for a sensor budget. Tests
+              on one clock (a recording cut into cycles, --test-column cycle)
+              carry their lags from one into the next, and the displacement is
+              taken from the recording's zero (--state, --reference to choose)
 
 --n-sensors N puts GreyInfluenceSelector before the model in one Pipeline, so the
 saved model chooses its own sensors. The model is saved with
@@ -53,6 +64,9 @@ Examples:
       --out vmc-mlp.greyml
   greyml fit vmc.csv --target dy_um --model transfer-function \\
       --drivers spindle_rpm --max-sensors 5 --out vmc-ttf.greyml
+  greyml fit cycles.csv --test-column cycle --target ch1_um \\
+      --model transfer-function --drivers spindle_rpm --max-sensors 5 \\
+      --train-tests 1,2,3,4 --out ch1.greyml
 """
 
 
@@ -91,6 +105,36 @@ def _add_fit_parser(subparsers):
         help="--model transfer-function: at most N temperature sensors, chosen inside the "
         "fit on held-out whole tests",
     )
+    dynamic = parser.add_argument_group("--model transfer-function")
+    dynamic.add_argument(
+        "--state",
+        choices=("auto", "carry", "restart"),
+        help="lags at a test's start: auto (default) carries them from the test before on "
+        "the same clock, carry from every test before, restart starts each test anew",
+    )
+    dynamic.add_argument(
+        "--reference",
+        choices=("auto", "start", "recording"),
+        help="displacement from each test's start or from the recording's zero; auto "
+        "(default): the recording's when the tests are one recording",
+    )
+    dynamic.add_argument(
+        "--selection",
+        choices=("forward", "stable"),
+        help="how --max-sensors sensors are chosen (default: forward)",
+    )
+    dynamic.add_argument(
+        "--time-constants",
+        type=flags._seconds_list,
+        metavar="S,S|fit",
+        help="the sensors' lags in seconds (default: 300,900,2700,8100), or fit",
+    )
+    dynamic.add_argument(
+        "--driver-time-constants",
+        type=flags._seconds_list,
+        metavar="S,S",
+        help="the drivers' lags in seconds (default: the sensors' and one 3 times slower)",
+    )
     flags._add_names(
         parser,
         "--sensors",
@@ -127,6 +171,11 @@ def run_fit(
     drivers=None,
     max_sensors=None,
     rises=False,
+    state=None,
+    reference=None,
+    selection=None,
+    time_constants=None,
+    driver_time_constants=None,
 ):
     """``greyml fit``: train a named model and save it with :func:`greyml.persist.save_model`.
 
@@ -161,6 +210,10 @@ def run_fit(
     rises : bool, default=False
         Put :class:`greyml.RelativeToStart` first in the saved Pipeline: every
         input but the drivers as its rise from each test's first row.
+    state, reference, selection, time_constants, driver_time_constants : optional
+        ``"transfer-function"`` only: the parameters of
+        :class:`greyml.ThermalTransferFunction` of these names (None: its
+        default).
 
     Returns
     -------
@@ -177,9 +230,18 @@ def run_fit(
         raise ValueError(f"unknown model {model!r}; choose one of {', '.join(MODEL_NAMES)}.")
     dynamic = model == "transfer-function"
     drivers = list(drivers or [])
-    if not dynamic and (drivers or max_sensors is not None):
+    transfer = {
+        "state": state,
+        "reference": reference,
+        "selection": selection,
+        "time_constants": time_constants,
+        "driver_time_constants": driver_time_constants,
+    }
+    given = [f"--{k.replace('_', '-')}" for k, v in transfer.items() if v is not None]
+    if not dynamic and (drivers or max_sensors is not None or given):
+        flag = ", ".join(given) or "--drivers and --max-sensors"
         raise ValueError(
-            "--drivers and --max-sensors are for --model transfer-function; "
+            f"{flag} {'is' if len(given) == 1 else 'are'} for --model transfer-function; "
             f"{model} takes its inputs from --sensors or --n-sensors."
         )
     if dynamic and select is not None:
@@ -203,7 +265,11 @@ def run_fit(
                     "sensor column(s) besides the drivers."
                 )
         estimator, settings = make_model(
-            model, random_state=random_state, drivers=drivers, max_sensors=max_sensors
+            model,
+            random_state=random_state,
+            drivers=drivers,
+            max_sensors=max_sensors,
+            **(transfer if dynamic else {}),
         )
         n_inputs = select if select is not None else len(columns)
         if select is not None and select > len(columns):
@@ -228,7 +294,9 @@ def run_fit(
         seconds, fit_messages = _fit_quietly(estimator, X, y)
         progress.step("predicting the training rows")
         pred, messages = _predict_quietly(estimator, X)
-        fit_scores = scores(y.to_numpy(), pred)
+        reference = _reference(estimator)
+        measured = _measured(y, reference)
+        fit_scores = scores(measured, pred)
         final = _final_step(estimator)
         # predict names its columns after the target: remember it in the model
         final.target_name_ = str(target)
@@ -264,6 +332,7 @@ def run_fit(
         print(f"  inputs ({len(inputs)}): {shown}")
     if rises:
         print("  inputs enter as rises from each test's first row (RelativeToStart)")
+    print(f"  displacement {_REFERENCE_WORDS[reference]}")
     print(
         f"  on the training rows: RMSE {fit_scores['RMSE']:.3g}, ±res {fit_scores['band']:.3g}, "
         f"R {fit_scores['R']:.3f} (validate on other tests with greyml predict)"

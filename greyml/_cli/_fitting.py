@@ -47,3 +47,40 @@ def _predict_quietly(estimator, X, **params):
 def _final_step(estimator):
     steps = getattr(estimator, "steps", None)
     return steps[-1][1] if steps else estimator
+
+
+#: How the command line names each reference of a model's displacement.
+_REFERENCE_WORDS = {
+    "start": "as its change since each test's first row (the reference of this model)",
+    "recording": "from the recording's zero, as the target in the file (the reference of "
+    "this model)",
+    "target": "as the target in the file (the model learns its values as they are)",
+}
+
+
+def _reference(estimator):
+    """Where a model's predictions are measured from: ``"start"``, ``"recording"`` or
+    ``"target"`` (a model that predicts the target's values as it was given them)."""
+    from greyml.grey._gmc import _GreyConvolutionModel
+
+    final = _final_step(estimator)
+    reference = getattr(final, "reference_", None)
+    if reference is not None:
+        return reference
+    if isinstance(final, _GreyConvolutionModel):
+        return "start"
+    return "target"
+
+
+def _measured(y, reference, given=()):
+    """The measured target in ``reference``: its change since each test's first row for
+    ``"start"`` (except in the tests in ``given``, started at a measured value), else
+    as it is."""
+    import numpy as np
+
+    values = np.asarray(y, dtype=float).copy()
+    if reference != "start":
+        return values
+    first = y.groupby(level="test", sort=False).transform("first").to_numpy(dtype=float)
+    keep = np.isin(np.asarray(y.index.get_level_values("test"), dtype=object), list(given))
+    return np.where(keep, values, values - first)

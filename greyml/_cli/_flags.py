@@ -173,11 +173,23 @@ def _add_csv_options(parser):
         help="decimal mark (default: '.', or ',' when a ;- or tab-separated file "
         "has numbers like 20,5)",
     )
+    group.add_argument(
+        "--test-column",
+        type=_name,
+        metavar="NAME",
+        help="the column that labels the tests, e.g. cycle (default: test); a file whose "
+        "time_s runs on across its tests is one recording cut into consecutive pieces",
+    )
 
 
 def _csv_options(args):
     """The keyword arguments of ``read_tests_csv`` from the parsed options."""
-    return {"time_unit": args.time_unit, "sep": args.sep, "decimal": args.decimal}
+    return {
+        "time_unit": args.time_unit,
+        "sep": args.sep,
+        "decimal": args.decimal,
+        "test_column": args.test_column,
+    }
 
 
 def _call(run, args, **values):
@@ -209,6 +221,26 @@ def _end_options(parser, handler, *, reads_csv=True):
         _add_csv_options(parser)
     _add_quiet(parser)
     parser.set_defaults(handler=handler, parser=parser)
+
+
+def _seconds_list(text):
+    """``--time-constants``: comma-separated seconds (each finite and > 0), or ``fit``."""
+    if text.strip().lower() == "fit":
+        return "fit"
+    values = []
+    for item in _names(text):
+        try:
+            value = float(item)
+        except ValueError:
+            value = float("nan")
+        if not (value > 0 and value != float("inf")):
+            raise argparse.ArgumentTypeError(
+                f"must be seconds > 0 separated by commas, or fit; got {item!r}"
+            )
+        values.append(value)
+    if not values:
+        raise argparse.ArgumentTypeError(f"must name at least one time constant; got {text!r}")
+    return values
 
 
 def _count(text):
@@ -302,6 +334,7 @@ _COMMANDS = {
 #: The parameters that several ``run_<command>`` functions share, for their
 #: docstrings (:func:`greyml._docstrings.shared_doc`).
 _CSV_AND_QUIET_DOC = """csv_options : dict, optional
-        ``time_unit``, ``sep`` and ``decimal`` of :func:`greyml.io.read_tests_csv`.
+        ``time_unit``, ``sep``, ``decimal`` and ``test_column`` of
+        :func:`greyml.io.read_tests_csv`.
     quiet : bool, default=False
         No progress on standard error."""

@@ -8,7 +8,13 @@ from pathlib import Path
 
 from greyml._cli import _flags as flags
 from greyml._cli._files import _check_output_file, _read, _require_values, _test_labels, _where
-from greyml._cli._fitting import _final_step, _predict_quietly
+from greyml._cli._fitting import (
+    _REFERENCE_WORDS,
+    _final_step,
+    _measured,
+    _predict_quietly,
+    _reference,
+)
 from greyml._cli._printing import _progress, _warn, printable
 from greyml._docstrings import shared_doc
 
@@ -17,11 +23,15 @@ DATA.csv needs the sensor columns the model reads (a model fitted with --select
 reads only the sensors it kept). PRED.csv has the columns test, time_s,
 predicted_<target> (the thermal error the model predicts, in the target's
 unit) and compensation_<target> = -predicted_<target> (the correction to add to
-the axis). When DATA.csv also holds the measured target, the accuracy is
-printed. A grey model predicts the change since each test's first row: for a
-test that starts mid-run, give the measured target there with
---initial-displacement (a warning names a test whose sensors start away from
-where the training tests started). A model that predicts NaN or an infinite
+the axis); a model that predicts the change since each test's first row names
+them predicted_<target>_since_start and compensation_<target>_since_start. When
+DATA.csv also holds the measured target, the accuracy is printed, measured in
+the same reference (a line names it). Grey models and transfer functions fitted
+on separate tests predict the change since each test's first row; a transfer
+function fitted on one recording predicts from the recording's zero, and carries
+its lags along the file's clock. For a test that starts mid-run without the rows
+before it, give the measured target at its first row with
+--initial-displacement (a warning names such a test). A model that predicts NaN or an infinite
 value for any row is an error (exit 2), and no PRED.csv is written; the file
 is written to a temporary name and renamed, so a failure never leaves a
 partial PRED.csv.
@@ -46,7 +56,7 @@ def _add_predict_parser(subparsers):
         "--initial-displacement",
         metavar="VALUE|TEST=VALUE[,TEST=VALUE]",
         help=(
-            "grey models (gmc, gnnmci) only: the measured target at the first row of "
+            "grey models and transfer functions: the measured target at the first row of "
             "every test (VALUE) or of the tests named, for tests that start mid-run"
         ),
     )
@@ -107,10 +117,13 @@ def _initial_displacement(text, tests, model):
 
     if text is None:
         return {}
-    if not isinstance(_final_step(model), _GreyConvolutionModel):
+    from greyml.dynamic import ThermalTransferFunction
+
+    if not isinstance(_final_step(model), (_GreyConvolutionModel, ThermalTransferFunction)):
         raise ValueError(
-            "--initial-displacement is for grey models (gmc, gnnmci); this model is "
-            f"{type(_final_step(model)).__name__}, which predicts each row on its own."
+            "--initial-displacement is for models with a state (gmc, gnnmci, "
+            f"transfer-function); this model is {type(_final_step(model)).__name__}, which "
+            "maps each row to its prediction without a state to start."
         )
 
     def number(word, what):
@@ -174,9 +187,9 @@ def run_predict(
         Replace ``out`` if it exists.
     {csv_and_quiet}
     initial_displacement : str or None, default=None
-        Grey models only: ``"VALUE"`` (every test) or ``"TEST=VALUE,..."``, the
-        measured target at the first row of tests that start mid-run (passed to
-        the model's ``predict``).
+        Grey models and transfer functions: ``"VALUE"`` (every test) or
+        ``"TEST=VALUE,..."``, the measured target at the first row of tests
+        that start mid-run (passed to the model's ``predict``).
 
     Returns
     -------
@@ -222,21 +235,29 @@ def run_predict(
         _require_finite_predictions(pred, frame, model, data)
         measured = getattr(_final_step(estimator), "target_name_", None) or "target"
         target = printable(measured)
-        result = pd.DataFrame(
-            {f"predicted_{target}": pred, f"compensation_{target}": -pred}, index=frame.index
-        )
+        reference = _reference(estimator)
+        given = params.get("initial_displacement", {})
+        given = given if isinstance(given, dict) else dict.fromkeys(tests)
+        # every test started at its measured value: the file's own reference
+        suffix = "_since_start" if reference == "start" and len(given) < len(tests) else ""
+        predicted, compensation = f"predicted_{target}{suffix}", f"compensation_{target}{suffix}"
+        result = pd.DataFrame({predicted: pred, compensation: -pred}, index=frame.index)
         progress.step(f"writing {os.fspath(path)!r}")
         write_tests_csv(result, path, overwrite=force)
     _warn("predict", load_messages)
     _warn("predict", messages)
     print(
         f"wrote {len(result)} rows of {len(tests)} test(s) to {os.fspath(path)!r}: "
-        f"predicted_{target} and compensation_{target} = -predicted_{target}."
+        f"{predicted} and {compensation} = -{predicted}."
     )
+    words = _REFERENCE_WORDS[reference]
+    if suffix == "" and reference == "start":
+        words = "from the measured value given at each test's first row"
+    print(f"  displacement {words}")
     if measured in frame.columns and not frame[measured].isna().any():
-        s = scores(frame[measured].to_numpy(), pred)
+        s = scores(_measured(frame[measured], reference, given), pred)
         print(
-            f"  against the measured {target} in {os.fspath(data)!r}: RMSE {s['RMSE']:.3g}, "
-            f"±res {s['band']:.3g}, R {s['R']:.3f}, E {s['E']:.3f}"
+            f"  against the measured {target} in {os.fspath(data)!r}, in the same reference: "
+            f"RMSE {s['RMSE']:.3g}, ±res {s['band']:.3g}, R {s['R']:.3f}, E {s['E']:.3f}"
         )
     return 0

@@ -16,7 +16,9 @@ from sklearn.utils.validation import check_is_fitted
 
 from greyml._param_validation import Interval, Real
 from greyml._sequences import TIME_LEVEL
+from greyml.dynamic._kernels import lag_step
 from greyml.dynamic._lags import LagFeatures, _power_name, _tau_label
+from greyml.dynamic._time import gap_message
 
 __all__ = ["Compensator"]
 
@@ -71,6 +73,21 @@ class Compensator(BaseEstimator):
         seconds: the row starts the next piece of the same recording, whose
         clock starts anew (``LagFeatures(state="carry")``), and the lags
         step into it by this much.
+    idle_inputs : list of str, default=()
+        Inputs whose lags start at 0 at the first row (a driver whose heat
+        source was off before), instead of at that row's value; as
+        :class:`greyml.ThermalTransferFunction` starts its drivers in a test
+        without history.
+    max_step_s : float, optional
+        The longest step between rows that the lags bridge; a longer one is
+        refused with the message batch ``predict`` gives for it (call
+        :meth:`reset` to start anew after a pause). By default the largest
+        time constant of the terms.
+    row_columns : list of str, optional
+        The order of the values of an array row: ``"time_s"`` and every input,
+        in any order (other names are skipped). Without it an array row is
+        refused, since nothing could tell a wrong order; a mapping or a
+        Series is always read by name.
 
     Attributes
     ----------
@@ -115,16 +132,31 @@ class Compensator(BaseEstimator):
         "intercept": [Interval(Real, None, None, closed="neither")],
         "relative_to_start": ["boolean"],
         "nominal_step_s": [Interval(Real, 0, None, closed="neither"), None],
+        "idle_inputs": [list, tuple, np.ndarray],
+        "max_step_s": [Interval(Real, 0, None, closed="neither"), None],
+        "row_columns": [list, tuple, np.ndarray, None],
     }
 
     def __init__(
-        self, inputs, terms, intercept=0.0, *, relative_to_start=False, nominal_step_s=None
+        self,
+        inputs,
+        terms,
+        intercept=0.0,
+        *,
+        relative_to_start=False,
+        nominal_step_s=None,
+        idle_inputs=(),
+        max_step_s=None,
+        row_columns=None,
     ):
         self.inputs = inputs
         self.terms = terms
         self.intercept = intercept
         self.relative_to_start = relative_to_start
         self.nominal_step_s = nominal_step_s
+        self.idle_inputs = idle_inputs
+        self.max_step_s = max_step_s
+        self.row_columns = row_columns
 
     # -- parameters and the plan -------------------------------------------
 
@@ -193,9 +225,18 @@ class Compensator(BaseEstimator):
         keys = lag_keys + raw_keys
         powered = [i for i, k in enumerate(keys) if k[1] != 1.0]
         start, stop = (powered[0], powered[-1] + 1) if powered else (0, 0)
+        idle = self._names_in(self.idle_inputs, "idle_inputs", inputs)
+        taus = [k[2] for k in lag_keys]
+        max_step = self.max_step_s
+        if max_step is None:
+            max_step = max(taus) if taus else math.inf
         return {
             # positions in a row ("time_s", *inputs)
             "index": np.array([k[0] + 1 for k in keys], dtype=np.intp),
+            # only lags start idle: an input without lag is the input itself
+            "idle": np.array([inputs[k[0]] in idle for k in lag_keys], dtype=bool),
+            "max_step": float(max_step),
+            "row": self._row_positions(inputs),
             "span": (start, stop),
             "power": np.array([k[1] for k in keys[start:stop]], dtype=float),
             "tau": np.array([k[2] for k in lag_keys], dtype=float),
@@ -206,6 +247,40 @@ class Compensator(BaseEstimator):
             "names": inputs,
             "shape": (len(inputs) + 1,),
             "check_all": len(used) < len(inputs),
+        }
+
+    def _names_in(self, names, what, inputs):
+        if isinstance(names, str):
+            names = [names]
+        names = [str(v) for v in names]
+        for v in names:
+            if v not in inputs:
+                raise ValueError(
+                    f"The {what!r} parameter of {type(self).__name__} names {v!r}, which is "
+                    f"not in inputs ({', '.join(inputs)})."
+                )
+        return set(names)
+
+    def _row_positions(self, inputs):
+        """Positions of ``time_s`` and each input in an array row, or None (no order declared)."""
+        if self.row_columns is None:
+            return None
+        columns = [str(v) for v in self.row_columns]
+        if len(set(columns)) != len(columns):
+            twice = next(v for v in columns if columns.count(v) > 1)
+            raise ValueError(
+                f"The 'row_columns' parameter of {type(self).__name__} names {twice!r} "
+                "more than once."
+            )
+        missing = [v for v in (TIME_LEVEL, *inputs) if v not in columns]
+        if missing:
+            raise ValueError(
+                f"The 'row_columns' parameter of {type(self).__name__} lacks "
+                f"{', '.join(map(repr, missing))}; an array row must hold time_s and every input."
+            )
+        return {
+            "take": np.array([columns.index(v) for v in (TIME_LEVEL, *inputs)], dtype=np.intp),
+            "size": len(columns),
         }
 
     def _build(self):
@@ -255,27 +330,43 @@ class Compensator(BaseEstimator):
 
     # -- state --------------------------------------------------------------
 
-    def reset(self):
-        """Forget the state: the next update starts the lags at rest.
+    def reset(self, initial_displacement=None):
+        """Forget the state: the next update starts a test without history.
+
+        Its lags start at rest at that row's values (at 0 for
+        ``idle_inputs``), as batch ``predict`` starts a test without the rows
+        before it.
+
+        Parameters
+        ----------
+        initial_displacement : float, optional
+            The displacement measured at the next row: the correction there is
+            made to equal it, and every later one moves with it (as
+            ``predict(X, initial_displacement=...)``).
 
         Returns
         -------
         self : Compensator
         """
+        if initial_displacement is not None and not _real(initial_displacement):
+            raise ValueError(
+                "Compensator.reset: initial_displacement must be a finite number; got "
+                f"{initial_displacement!r}."
+            )
         self._time = None
         self._lags = None
         self._start = None
         self._dt = None
         self._a = None
-        self._b = None
+        self._initial = None if initial_displacement is None else float(initial_displacement)
         return self
 
     def _coefficients(self, dt, plan):
-        """``a`` and ``1 − a`` of every term for a step ``dt`` (cached while dt repeats)."""
+        """``a`` of every term for a step ``dt`` (cached while dt repeats)."""
         n_lags = plan["tau"].size
         a = np.zeros(plan["weight"].size)
         a[:n_lags] = np.exp(-dt / plan["tau"])
-        self._a, self._b, self._dt = a, 1.0 - a, dt
+        self._a, self._dt = a, dt
 
     def get_state(self):
         """The running state, as plain numbers.
@@ -285,9 +376,10 @@ class Compensator(BaseEstimator):
         state : dict
             ``"time_s"`` of the last row (``None`` before the first update),
             ``"lags"`` a dict from each lag's name (e.g.
-            ``"T4_C|lag 15 min"``) to its value, and ``"start"`` the sum of
-            the terms at the first row (``relative_to_start=True``; else
-            ``None``).
+            ``"T4_C|lag 15 min"``) to its value, and ``"start"`` what is
+            subtracted from the sum of the terms: their sum at the first row
+            with ``relative_to_start=True``, moved by an initial displacement
+            given to :meth:`reset` (``None`` when nothing is subtracted).
         """
         plan = self._plan_or_build()
         lags = None
@@ -334,12 +426,13 @@ class Compensator(BaseEstimator):
             not _real(state["time_s"])
             or not np.isfinite(values).all()
             or (self.relative_to_start and not _real(start))
+            or not (start is None or _real(start))
         ):
             raise ValueError("Compensator.set_state: the state holds a value that is not finite.")
         self.reset()
         self._time = float(state["time_s"])
         self._lags = values
-        self._start = float(start) if self.relative_to_start else None
+        self._start = None if start is None else float(start)
         return self
 
     def _plan_or_build(self):
@@ -353,8 +446,6 @@ class Compensator(BaseEstimator):
     def _read(self, row, plan):
         """The row as an array ``(time_s, *inputs)`` from a mapping, a Series or an array."""
         names = plan["names"]
-        if type(row) is np.ndarray and row.dtype == np.float64 and row.shape == plan["shape"]:
-            return row  # the fast path of a controller
         if isinstance(row, pd.Series):
             index = row.index
             seen, positions = _SERIES_POSITIONS.get(self, (None, None))
@@ -373,18 +464,27 @@ class Compensator(BaseEstimator):
                 values = [row[TIME_LEVEL], *(row[v] for v in names)]
             except KeyError as exc:
                 raise ValueError(f"{_PREFIX} the row has no {exc.args[0]!r}.") from None
-        else:
-            values = row
+            try:
+                return np.asarray(values, dtype=float)
+            except (TypeError, ValueError):
+                raise ValueError(f"{_PREFIX} the row holds a value that is not a number.") from None
+        order = plan["row"]
+        if order is None:
+            raise ValueError(
+                f"{_PREFIX} an array row has no names, so a wrong order cannot be told; pass "
+                "a mapping or a Series by name, or declare the order of array rows with "
+                f"row_columns= (e.g. {[TIME_LEVEL, *names][:4]})."
+            )
         try:
-            values = np.asarray(values, dtype=float)
+            values = np.asarray(row, dtype=float)
         except (TypeError, ValueError):
             raise ValueError(f"{_PREFIX} the row holds a value that is not a number.") from None
-        if values.shape != (len(names) + 1,):
+        if values.shape != (order["size"],):
             raise ValueError(
-                f"{_PREFIX} an array row must hold time_s and the {len(names)} inputs "
-                f"({len(names) + 1} values); got shape {values.shape}."
+                f"{_PREFIX} an array row must hold the {order['size']} values of row_columns; "
+                f"got shape {values.shape}."
             )
-        return values
+        return values[order["take"]]
 
     def update(self, row):
         """Take one row and return the correction.
@@ -392,8 +492,8 @@ class Compensator(BaseEstimator):
         Parameters
         ----------
         row : dict, pandas Series or 1-D array
-            A mapping (or Series) holding ``"time_s"`` and every input, or
-            an array ordered ``("time_s", *inputs)``.
+            A mapping (or Series) holding ``"time_s"`` and every input, or an
+            array ordered as ``row_columns``.
 
         Returns
         -------
@@ -403,7 +503,15 @@ class Compensator(BaseEstimator):
             plan = self._plan
         except AttributeError:
             plan = self._build()
-        if not (type(row) is np.ndarray and row.dtype == np.float64 and row.shape == plan["shape"]):
+        order = plan["row"]
+        if (
+            order is not None
+            and type(row) is np.ndarray
+            and row.dtype == np.float64
+            and row.shape == (order["size"],)
+        ):
+            row = row[order["take"]]  # the fast path of a controller
+        else:
             row = self._read(row, plan)
         time = float(row[0])
         if plan["check_all"] and not np.isfinite(row).all():
@@ -415,26 +523,37 @@ class Compensator(BaseEstimator):
         previous = self._time
         if previous is None:
             lags = v
+            lags[: plan["idle"].size][plan["idle"]] = 0.0
         else:
             dt = time - previous
             if not dt > 0:
                 if self.nominal_step_s is None or not math.isfinite(time):
                     self._bad_time(time, previous)
                 dt = self.nominal_step_s
+            elif dt > plan["max_step"]:
+                raise ValueError(
+                    gap_message(_PREFIX[:-1], "the stream", dt, time, plan["max_step"])
+                    + " Call reset() to start anew after a pause."
+                )
             if dt != self._dt:
                 self._coefficients(dt, plan)
-            # as greyml.dynamic._kernels.lag_step computes it
-            lags = self._b * v + self._a * self._lags
+            lags = lag_step(self._lags, v, self._a)
         total = float(plan["weight"] @ lags)
         if not math.isfinite(total) or not math.isfinite(time):
             self._bad_value(time, row, plan)
-        if previous is None and self.relative_to_start:
-            self._start = total
+        if previous is None:
+            self._start = self._first_start(total)
         self._time = time
         self._lags = lags
         if self._start is not None:
             total -= self._start
         return self.intercept + total
+
+    def _first_start(self, total):
+        """What is subtracted from the sum of the terms from the first row on."""
+        if self._initial is not None:
+            return self.intercept + total - self._initial
+        return total if self.relative_to_start else None
 
     def _bad_time(self, time, previous):
         if not math.isfinite(time):
@@ -464,7 +583,7 @@ class Compensator(BaseEstimator):
     # -- from a fitted pipeline ---------------------------------------------
 
     @classmethod
-    def from_pipeline(cls, pipeline):
+    def from_pipeline(cls, pipeline, *, row_columns=None):
         """The compensator of a fitted ``Pipeline(LagFeatures, [StandardScaler], linear model)``.
 
         The scaler and the model's coefficients are folded into the terms'
@@ -482,6 +601,8 @@ class Compensator(BaseEstimator):
             regressor with ``coef_`` and ``intercept_`` (``Ridge``,
             ``RidgeCV``, ``ElasticNet``, ``LinearRegression``, …) with one
             target. ``"passthrough"`` steps are skipped.
+        row_columns : list of str, optional
+            The order of the values of an array row (see the class).
 
         Returns
         -------
@@ -520,11 +641,10 @@ class Compensator(BaseEstimator):
                 "compensator gives one correction."
             )
         intercept = float(intercept.reshape(-1)[0])
-        names = lags._input_names()
-        raw, sources = lags._layout(names)
-        taus = [float(t) for t in lags.time_constants_]
-        features = [(names[j], p, None) for j, p in raw]
-        features += [(names[j], p, tau) for j, p in sources for tau in taus]
+        names = [str(c) for c in getattr(lags, "feature_names_in_", [])] or [
+            f"x{j}" for j in range(lags.n_features_in_)
+        ]
+        features = list(lags.terms_)
         if coef.size != len(features):
             raise ValueError(
                 f"Compensator.from_pipeline: {type(model).__name__} has {coef.size} "
@@ -542,4 +662,4 @@ class Compensator(BaseEstimator):
         step = lags.nominal_step_s_ if lags.state == "carry" else None
         if step is not None and not np.isfinite(step):
             step = None
-        return cls(list(names), terms, intercept, nominal_step_s=step)
+        return cls(list(names), terms, intercept, nominal_step_s=step, row_columns=row_columns)

@@ -27,12 +27,14 @@ __all__ = [
 _RESOLUTION = 1e-6
 
 
-def design(x, dt, bounds, spec, carry):
+def design(x, dt, bounds, spec, carry, idle=()):
     """Design columns for inputs ``x`` (n, q) given ``spec``.
 
     ``spec`` is a list of (column, power, taus) blocks; each block contributes a
     static column ``x[:, column] ** power`` followed by its lags at ``taus``.
     Blocks with the same taus are filtered together (one kernel call).
+    ``carry`` is :func:`~greyml.dynamic._kernels.lag_filter`'s (one flag per
+    test), ``idle`` the blocks whose lags start at 0 in a test without history.
     Returns ``F`` of shape (n, n_columns).
     """
     n = x.shape[0]
@@ -47,7 +49,9 @@ def design(x, dt, bounds, spec, carry):
         for k, b in enumerate(blocks):
             F[:, offsets[b]] = cols[:, k]
         if taus:
-            lags, _ = lag_filter(cols, dt, np.asarray(taus), bounds, carry=carry)
+            lags, _ = lag_filter(
+                cols, dt, np.asarray(taus), bounds, carry=carry, idle=np.isin(blocks, idle)
+            )
             for k, b in enumerate(blocks):
                 F[:, offsets[b] + 1 : offsets[b + 1]] = lags[:, k, :]
     return F

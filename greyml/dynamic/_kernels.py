@@ -49,22 +49,26 @@ def steady_state(x0, n_taus):
 def lag_step(state, x, a):
     """One sample of the lag recursion: ``a·state + (1 − a)·x``.
 
+    The one update of a lag that every sample-by-sample caller uses (the
+    batch recursion on uneven sampling, and :class:`greyml.Compensator`).
+
     Parameters
     ----------
-    state : ndarray of shape (p, m)
-        The lags after the previous sample (one row per input, one column per
-        time constant).
-    x : ndarray of shape (p,)
-        The inputs at this sample.
-    a : ndarray of shape (m,)
-        ``exp(−Δt/τ)`` for each time constant.
+    state : ndarray
+        The lags after the previous sample: (p, m) for p inputs and a bank of
+        m time constants, or (k,) for k terms each with its own time constant.
+    x : ndarray
+        The inputs at this sample, broadcasting against ``state``: (p, 1) for
+        a bank, (k,) for terms.
+    a : ndarray
+        ``exp(−Δt/τ)`` for each time constant, broadcasting against ``state``.
 
     Returns
     -------
-    state : ndarray of shape (p, m)
+    state : ndarray, shaped as ``state``
     """
     # written as lfilter's direct form computes it: (1 − a)·x + a·s
-    return (1.0 - a) * x[:, None] + a * state
+    return (1.0 - a) * x + a * state
 
 
 def _filter_even(xt, a, zi):
@@ -74,7 +78,7 @@ def _filter_even(xt, a, zi):
     return y
 
 
-def lag_filter(x, dt, taus, test_bounds, *, carry=False, initial=None, out=None):
+def lag_filter(x, dt, taus, test_bounds, *, carry=False, initial=None, idle=None, out=None):
     """First-order lags of every column of ``x`` at every time constant.
 
     Parameters
@@ -88,14 +92,19 @@ def lag_filter(x, dt, taus, test_bounds, *, carry=False, initial=None, out=None)
         Time constants in seconds (> 0).
     test_bounds : sequence of (start, stop)
         Row ranges of the tests, contiguous and in order.
-    carry : bool, default=False
-        False: every test starts at steady state at its first value (``s`` equals
-        ``x`` at the first row). True: the tests are consecutive pieces of one
-        recording; the first test starts from ``initial`` (or at steady state at
-        its first value) and each later test continues from the state the
-        previous one left, stepping by ``dt`` at its first row.
+    carry : bool or sequence of bool, default=False
+        Whether each test continues the state the test before it left,
+        stepping by ``dt`` at its first row (one flag for every test, or one
+        per test; the first test's flag is ignored). A test that does not
+        carry starts at rest: every lag equals the input at its first row (or
+        0 for the ``idle`` columns).
     initial : ndarray of shape (p, m), optional
-        State before the first row when ``carry`` is True.
+        State before the first row; it is stepped into the first row by
+        ``dt[0]``. By default the first test starts at rest.
+    idle : ndarray of shape (p,) of bool, optional
+        Columns whose lags start at 0 where a test starts without history (a
+        heat source that was off before the test), instead of at the
+        column's first value.
     out : ndarray of shape (p, m, n), optional
         C-contiguous float64 array to write the lags into (e.g. a block of a
         larger output array, so that the caller needs no copy); by default a
@@ -119,15 +128,16 @@ def lag_filter(x, dt, taus, test_bounds, *, carry=False, initial=None, out=None)
     store = np.empty((p, m, n)) if out is None else out
     out = np.moveaxis(store, 2, 0)
     xt = np.ascontiguousarray(x.T)
-    state = None
-    if carry and initial is not None:
-        state = np.array(initial, dtype=float, copy=True)
-    for start, stop in test_bounds:
+    links = np.broadcast_to(np.asarray(carry, dtype=bool), (len(test_bounds),))
+    state = None if initial is None else np.array(initial, dtype=float, copy=True)
+    for i, (start, stop) in enumerate(test_bounds):
         if stop <= start:
             continue
-        if state is None or not carry:
-            # at rest at the first value: s_0 = x_0 whatever the step
+        if state is None or (i > 0 and not links[i]):
+            # at rest at the first value: s_0 = x_0 (or 0 where idle) whatever the step
             before = steady_state(x[start], m)
+            if idle is not None:
+                before[np.asarray(idle, dtype=bool)] = 0.0
             first = start + 1
             out[start] = before
         else:
@@ -151,7 +161,7 @@ def _filter_segment(xt, steps, taus, before, store):
         a_all = np.exp(-steps[:, None] / taus[None, :])
         state = before
         for k in range(n):
-            state = lag_step(state, xt[:, k], a_all[k])
+            state = lag_step(state, xt[:, k, None], a_all[k])
             store[:, :, k] = state
         return
     run_starts = np.concatenate(([0], change))

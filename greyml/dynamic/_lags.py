@@ -10,14 +10,12 @@ from sklearn.base import BaseEstimator, TransformerMixin
 from sklearn.utils.validation import check_is_fitted
 
 from greyml._param_validation import Integral, Interval, Real, StrOptions
-from greyml._sequences import TEST_LEVEL, TIME_LEVEL, segment_label
 from greyml._time import format_duration
 from greyml._validation import first_flagged, validate_sequences
 from greyml.dynamic._kernels import lag_filter
+from greyml.dynamic._time import STATES, timeline
 
 __all__ = ["LagFeatures"]
-
-_STATES = ("restart", "carry")
 
 
 def _tau_label(seconds):
@@ -76,14 +74,17 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         :class:`~sklearn.compose.ColumnTransformer`'s
         ``remainder="passthrough"``; select columns before this step to drop
         them.
-    state : {"restart", "carry"}, default="restart"
-        The lags' state at the start of each test. ``"restart"``: at rest at
-        the test's first value (every lag equals the input). ``"carry"``: the
-        tests, in the order given, are consecutive pieces of one recording;
-        the first starts at rest at its first value, each later one from the
-        state the previous test left, stepped into it by the recording's
-        nominal step (``nominal_step_s_``), since each test's clock starts
-        anew.
+    state : {"auto", "carry", "restart"}, default="auto"
+        The lags' state at the start of each test. ``"auto"``: a test whose
+        clock runs on from the previous test's last row (a recording cut into
+        consecutive pieces, ``time_s`` not restarting) continues the state that
+        test left, stepped by the time between them; a test on a clock of its
+        own (``time_s`` starting anew), or after a gap longer than the largest
+        time constant, starts at rest. ``"carry"``: every test continues the
+        one before it, stepped by the time between them, or by the recording's
+        nominal step (``nominal_step_s_``) where the clock restarts.
+        ``"restart"``: every test starts at rest (every lag equals the input at
+        the test's first row).
     powers : sequence of float, or dict, default=(1,)
         Powers of a column to lag (and to pass through with
         ``include_input``): the lag of x**p for each p. A sequence applies to
@@ -110,8 +111,12 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         Each lagged column's powers, as a tuple of floats.
     nominal_step_s_ : float
         The median step between rows within the tests seen in ``fit`` (or
-        ``sample_step_s``): the step into each test with ``state="carry"``.
+        ``sample_step_s``): the step into a carried test whose clock restarts.
         NaN when no test seen in ``fit`` has two rows.
+    terms_ : list of tuple
+        ``(input, power, tau_s)`` of every output column, in order: the input
+        raised to the power, lagged with ``tau_s`` seconds (None: not lagged).
+        :meth:`greyml.Compensator.from_pipeline` reads it.
     n_features_in_ : int
     feature_names_in_ : ndarray of shape (``n_features_in_``,)
         Column names seen in ``fit`` (DataFrame input only).
@@ -135,20 +140,18 @@ class LagFeatures(TransformerMixin, BaseEstimator):
     the output's memory (one Fortran-ordered array, which pandas takes
     without a copy).
 
-    **Cross-validating with carried state.** The lags use no target, so with
-    ``state="carry"`` they may be computed once over the whole recording,
-    before the split: each held-out test then starts from the state the
-    recording really was in. Inside a Pipeline, the training folds would be
-    stitched together as if consecutive, and a held-out test would start at
-    rest::
+    **Cross-validating with carried state.** The lags use no target, so they
+    may be computed once over the whole recording, before the split: each
+    held-out test then starts from the state the recording really was in::
 
-        lags = LagFeatures([300, 900, 2700, 8100], state="carry")
-        Z = lags.fit_transform(X)            # the whole recording, in order
+        Z = LagFeatures([300, 900, 2700, 8100]).fit_transform(X)  # the recording
         cross_val_score(make_pipeline(StandardScaler(), RidgeCV()), Z, y,
                         groups=test_ids(Z), cv=LeaveOneGroupOut())
 
-    With ``state="restart"`` every test stands alone, and LagFeatures goes
-    inside the Pipeline like any transformer.
+    Inside a Pipeline, with ``state="auto"``, a training fold carries state
+    across the tests that follow each other on the recording's clock and
+    restarts after the gap a held-out test leaves; the held-out test starts
+    at rest.
 
     **Gaps.** A step longer than the largest time constant inside a test is
     refused: every lag would forget the test's history in it, and a logging
@@ -174,7 +177,7 @@ class LagFeatures(TransformerMixin, BaseEstimator):
     _parameter_constraints: dict = {
         "time_constants": [Interval(Real, 0, None, closed="neither"), "array-like"],
         "columns": [None, str, Integral, "array-like"],
-        "state": [StrOptions(set(_STATES))],
+        "state": [StrOptions(set(STATES))],
         "powers": [Interval(Real, 0, None, closed="neither"), dict, "array-like"],
         "include_input": ["boolean"],
         "sample_step_s": [Interval(Real, 0, None, closed="neither"), None],
@@ -185,7 +188,7 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         time_constants,
         *,
         columns=None,
-        state="restart",
+        state="auto",
         powers=(1,),
         include_input=True,
         sample_step_s=None,
@@ -326,59 +329,17 @@ class LagFeatures(TransformerMixin, BaseEstimator):
 
     # -- time ---------------------------------------------------------------
 
-    def _steps(self, X, segments, taus, nominal=None):
-        """Step in seconds into every row; checks time and gaps."""
-        n = segments[-1].stop if segments else 0
-        index = X.index if isinstance(X, (pd.DataFrame, pd.Series)) else None
-        starts = np.array([s.start for s in segments], dtype=int)
-        if index is not None and TIME_LEVEL in (index.names or []):
-            time = np.asarray(index.get_level_values(TIME_LEVEL), dtype=float)
-            dt = np.empty(n)
-            dt[1:] = np.diff(time)
-            inner = np.ones(n, dtype=bool)
-            inner[starts] = False
-            if TEST_LEVEL not in index.names:  # test_segments checked time only with tests
-                bad = np.flatnonzero(~np.isfinite(time) | (inner & ~(dt > 0)))
-                if bad.size:
-                    k = int(bad[0])
-                    raise ValueError(
-                        f"LagFeatures: '{TIME_LEVEL}' must be finite and strictly increase "
-                        f"within a test; in {segment_label(segments[0])} it is "
-                        f"{time[k]:g} at row {k}"
-                        + (f" after {time[k - 1]:g}." if k and np.isfinite(time[k]) else ".")
-                    )
-            tau_max = float(taus.max())
-            gap = np.flatnonzero(inner & (dt > tau_max))
-            if gap.size:
-                k = int(gap[0])
-                seg = segments[int(np.searchsorted(starts, k, side="right")) - 1]
-                raise ValueError(
-                    f"LagFeatures: {segment_label(seg)} has a sampling gap of {dt[k]:g} s "
-                    f"before '{TIME_LEVEL}' = {time[k]:g} s (row {k}), longer than the "
-                    f"largest time constant ({_tau_label(tau_max)}); split the test "
-                    "there or add a longer time constant."
-                )
-            if nominal is None:
-                nominal = float(np.median(dt[inner])) if inner.any() else float("nan")
-        else:
-            if self.sample_step_s is None:
-                raise ValueError(
-                    "LagFeatures needs the time of every row: X has no "
-                    f"'{TIME_LEVEL}' index level. Give X greyml's (test, time_s) index "
-                    "(greyml.make_test_index), or set sample_step_s= for rows evenly "
-                    "spaced in time."
-                )
-            dt = np.full(n, float(self.sample_step_s))
-            if nominal is None:
-                nominal = float(self.sample_step_s)
-        if self.state == "carry":
-            if len(segments) > 1 and not np.isfinite(nominal):
-                raise ValueError(
-                    "LagFeatures(state='carry') cannot step from one test into the next: no "
-                    "test seen in fit has two rows, so the recording's step is unknown."
-                )
-            dt[starts] = nominal
-        return dt, nominal
+    def _timeline(self, X, segments, taus, nominal=None):
+        """Steps into every row and the tests that carry state (:mod:`greyml.dynamic._time`)."""
+        return timeline(
+            X,
+            segments,
+            owner="LagFeatures",
+            tau_max=float(taus.max()),
+            state=self.state,
+            nominal=nominal,
+            default_step=self.sample_step_s,
+        )
 
     # -- estimator ----------------------------------------------------------
 
@@ -404,9 +365,9 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         self.columns_ = [names[j] for j in chosen]
         self.powers_ = powers
         self._check_powered(Xa, segments, chosen, names)
-        _, nominal = self._steps(X, segments, taus)
         self.time_constants_ = taus
-        self.nominal_step_s_ = nominal
+        self.nominal_step_s_ = self._timeline(X, segments, taus).nominal_step_s
+        self.terms_ = self._terms(names)
         return self
 
     def _check_powered(self, Xa, segments, chosen, names):
@@ -443,7 +404,7 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         chosen = [names.index(c) for c in self.columns_]
         self._check_powered(Xa, segments, chosen, names)
         taus = self.time_constants_
-        dt, _ = self._steps(X, segments, taus, nominal=self.nominal_step_s_)
+        steps = self._timeline(X, segments, taus, nominal=self.nominal_step_s_)
         raw, sources = self._layout(names)
         n, m = Xa.shape[0], taus.size
         # one (features, rows) C-ordered block: its transpose is the (rows,
@@ -463,10 +424,10 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         lags = block[len(raw) :].reshape(len(sources), m, n)
         lag_filter(
             inputs.T,
-            dt,
+            steps.dt,
             taus,
             [(s.start, s.stop) for s in segments],
-            carry=self.state == "carry",
+            carry=steps.carried,
             out=lags,
         )
         out = block.T
@@ -493,6 +454,12 @@ class LagFeatures(TransformerMixin, BaseEstimator):
                         f"infinity in {test} at row {k}; scale the column "
                         "(e.g. rpm in thousands) or use a smaller power."
                     )
+
+    def _terms(self, names):
+        raw, sources = self._layout(names)
+        terms = [(names[j], p, None) for j, p in raw]
+        terms += [(names[j], p, float(t)) for j, p in sources for t in self.time_constants_]
+        return terms
 
     def get_feature_names_out(self, input_features=None):
         """Names of the output columns, e.g. ``"T4_C|lag 15 min"``.

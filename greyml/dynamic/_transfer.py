@@ -24,15 +24,18 @@ matrices, so a candidate costs a few small linear solves, not a refit.
 from __future__ import annotations
 
 import numbers
+import warnings
+from collections.abc import Mapping
+from dataclasses import dataclass
 
 import numpy as np
-import pandas as pd
 from scipy.optimize import minimize
 from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.utils.validation import check_is_fitted
 
-from greyml._param_validation import Integral, Interval, StrOptions
-from greyml._sequences import TIME_LEVEL, segment_label
+from greyml._param_validation import Hidden, Integral, Interval, StrOptions
+from greyml._renamed import DEPRECATED
+from greyml._sequences import segment_label
 from greyml._validation import column_names, first_flagged, require_y, validate_sequences
 from greyml.dynamic._gram import (
     _cols_all,
@@ -42,7 +45,9 @@ from greyml.dynamic._gram import (
     select_sensors,
     solve_all,
 )
+from greyml.dynamic._time import STATES, Timeline, timeline
 from greyml.dynamic._transfer_readout import _round_step, _TransferReadout
+from greyml.exceptions import WarmStartWarning
 
 __all__ = ["ThermalTransferFunction"]
 
@@ -50,6 +55,8 @@ __all__ = ["ThermalTransferFunction"]
 DEFAULT_TIME_CONSTANTS = (300.0, 900.0, 2700.0, 8100.0)
 #: Ridge penalties tried, per row of the (standardised) design.
 DEFAULT_ALPHAS = tuple(np.logspace(-6, 0, 13))
+#: The values of ``reference``.
+REFERENCES = ("auto", "start", "recording")
 
 
 class ThermalTransferFunction(_TransferReadout, RegressorMixin, BaseEstimator):
@@ -116,12 +123,18 @@ class ThermalTransferFunction(_TransferReadout, RegressorMixin, BaseEstimator):
         what heat does in a machine structure, from a cover plate to a column.
         ``"fit"``: start from that bank and fit the time constants by
         variable projection on held-out tests (three tests or more).
-    state : {"restart", "carry"}, default="restart"
-        Lag state at a test's start. ``"restart"``: at rest at the test's first
-        value. ``"carry"``: the tests, in the order given, are consecutive
-        pieces of one recording; the lags run on from the previous test
-        (stepping by the test's own first sampling step, as ``time_s``
-        restarts in each test).
+    state : {"auto", "carry", "restart"}, default="auto"
+        Lag state at a test's start. ``"auto"``: a test whose clock runs on
+        from the previous test's last row (a recording cut into consecutive
+        pieces: ``time_s`` does not restart) continues the lags that test
+        left; a test on a clock of its own, or after a gap longer than the
+        largest time constant, starts without history. ``"carry"``: every
+        test continues the one before it (stepping by the recording's nominal
+        step where the clock restarts). ``"restart"``: every test starts
+        without history. A test without history starts with its temperatures'
+        lags at rest at their first values and its drivers' lags at 0 (the
+        heat source idle before the test); see ``initial_displacement`` in
+        :meth:`predict` for a test that starts mid-run.
     random_state : int, RandomState instance or None, default=None
         Unused (the fit is deterministic); kept so the model is searchable
         alongside the stochastic greyml models.
@@ -131,12 +144,16 @@ class ThermalTransferFunction(_TransferReadout, RegressorMixin, BaseEstimator):
         Lags of the drivers, in seconds. ``None``: the sensors' time
         constants and one three times slower than the largest (405 min by
         default), since a heat source's effect outlasts the sensors' lags.
-    relative_to_start : bool, default=True
-        ``True``: displacement relative to each test's first row (greyml's
-        tests start at 0): the model is fitted to and predicts ``y - y₀``
-        from features minus their first-row values, without intercept.
-        ``False``: absolute, with an intercept (use with ``state="carry"``
-        for a recording relative to its own start).
+    reference : {"auto", "start", "recording"}, default="auto"
+        Where the displacement is measured from. ``"start"``: each test's
+        first row; the model is fitted to and predicts ``y - y₀`` from
+        features minus their first-row values, without intercept.
+        ``"recording"``: the recording's own zero (the probe's datum), with an
+        intercept; right for one recording cut into pieces, whose pieces start
+        where the previous one left off. ``"auto"``: ``"recording"`` when
+        every test continues the one before it (one recording) and the
+        displacement is not zero at every test's first row, else
+        ``"start"``. The choice is ``reference_``.
     alphas : sequence of float or None, default=None
         Ridge penalties per row of the standardised design; ``None``: 13
         values from 1e-6 to 1 (log spaced).
@@ -157,19 +174,27 @@ class ThermalTransferFunction(_TransferReadout, RegressorMixin, BaseEstimator):
         The sensors' time constants in seconds (fitted with ``"fit"``).
     driver_time_constants_ : ndarray of shape (n_driver_taus,)
         The drivers' time constants in seconds.
+    reference_ : {"start", "recording"}
+        Where the displacement is measured from (see ``reference``):
+        :meth:`predict` returns it in this reference.
+    state_ : {"carry", "restart"}
+        ``"carry"`` when the training tests carried their lags from one to
+        the next (every test after the first), else ``"restart"``.
+    nominal_step_s_ : float
+        The median step between rows of the training tests.
     alpha_ : float
         The ridge penalty chosen (per row of the standardised design).
     terms_ : list of tuple
         ``(input, power, tau_s or None, weight)``: the feature ``x**power``
         lagged with ``tau_s`` (None: the raw value), times ``weight``, in the
         inputs' units. The prediction is ``intercept_`` plus their sum (minus
-        its first-row value per test when ``relative_to_start``).
+        its first-row value per test with ``reference_="start"``).
     feature_coef_ : ndarray of shape (n_terms,)
         The weights of the lag features in the order of ``terms_`` (named
         ``feature_coef_``, not ``coef_``: there is one per term, not one per
         input column).
     intercept_ : float
-        Constant term (0 when ``relative_to_start``).
+        Constant term (0 with ``reference_="start"``).
     gains_ : DataFrame
         One row per input and power, one column per term (``static``,
         ``lag 5 min`` ...): the weights of ``terms_`` (µm per unit of the
@@ -234,13 +259,14 @@ class ThermalTransferFunction(_TransferReadout, RegressorMixin, BaseEstimator):
         "drivers": ["array-like"],
         "max_sensors": [Interval(Integral, 1, None, closed="left"), None],
         "time_constants": [StrOptions({"fit"}), "array-like", None],
-        "state": [StrOptions({"restart", "carry"})],
+        "state": [StrOptions(set(STATES))],
         "random_state": ["random_state"],
         "driver_powers": ["array-like"],
         "driver_time_constants": ["array-like", None],
-        "relative_to_start": ["boolean"],
+        "reference": [StrOptions(set(REFERENCES))],
         "alphas": ["array-like", None],
         "selection": [StrOptions({"forward", "stable"})],
+        "relative_to_start": ["boolean", Hidden(StrOptions({DEPRECATED}))],
     }
 
     def __init__(
@@ -249,13 +275,14 @@ class ThermalTransferFunction(_TransferReadout, RegressorMixin, BaseEstimator):
         drivers=(),
         max_sensors=None,
         time_constants=None,
-        state="restart",
+        state="auto",
         random_state=None,
         driver_powers=(1, 2),
         driver_time_constants=None,
-        relative_to_start=True,
+        reference="auto",
         alphas=None,
         selection="forward",
+        relative_to_start=DEPRECATED,
     ):
         self.drivers = drivers
         self.max_sensors = max_sensors
@@ -264,9 +291,10 @@ class ThermalTransferFunction(_TransferReadout, RegressorMixin, BaseEstimator):
         self.random_state = random_state
         self.driver_powers = driver_powers
         self.driver_time_constants = driver_time_constants
-        self.relative_to_start = relative_to_start
+        self.reference = reference
         self.alphas = alphas
         self.selection = selection
+        self.relative_to_start = relative_to_start
 
     # -- parameters -----------------------------------------------------------
 
@@ -320,37 +348,34 @@ class ThermalTransferFunction(_TransferReadout, RegressorMixin, BaseEstimator):
                 f"The 'alphas' parameter of {name} must be a non-empty sequence of finite "
                 f"floats > 0. Got {self.alphas!r} instead."
             )
-        return taus, driver_taus, fit_taus, powers, alphas
+        return _Settings(taus, driver_taus, fit_taus, powers, alphas, self._reference_asked())
+
+    def _reference_asked(self):
+        """``reference``, or the deprecated ``relative_to_start`` with a FutureWarning."""
+        old = self.relative_to_start
+        if isinstance(old, str) and old == DEPRECATED:
+            return self.reference
+        new = "start" if old else "recording"
+        warnings.warn(
+            f"The 'relative_to_start' parameter of {type(self).__name__} is replaced by "
+            f"'reference' and goes away in the next release; use reference={new!r}.",
+            FutureWarning,
+            stacklevel=4,
+        )
+        return new
 
     # -- data -----------------------------------------------------------------
 
-    def _time_steps(self, X, segments, taus_max):
-        """Step in seconds to each row; checks gaps against the largest time constant."""
-        n = segments[-1].stop if segments else 0
-        index = X.index if isinstance(X, (pd.DataFrame, pd.Series)) else None
-        if index is not None and TIME_LEVEL in (index.names or []):
-            t = np.asarray(index.get_level_values(TIME_LEVEL), dtype=float)
-        else:
-            t = None
-        dt = np.ones(n)
-        for seg in segments:
-            if t is None:
-                continue
-            tt = t[seg.slice]
-            if seg.n > 1:
-                steps = np.diff(tt)
-                dt[seg.start + 1 : seg.stop] = steps
-                dt[seg.start] = steps[0]
-                k = int(np.argmax(steps))
-                if steps[k] > taus_max:
-                    raise ValueError(
-                        f"{type(self).__name__}: {segment_label(seg)} has a sampling gap of "
-                        f"{steps[k]:g} s from time_s={tt[k]:g} to {tt[k + 1]:g} (row "
-                        f"{seg.start + k + 1}), longer than the largest time constant "
-                        f"({taus_max:g} s); the lags cannot bridge it. Split the test there "
-                        "or give longer time constants."
-                    )
-        return dt
+    def _timeline(self, X, segments, tau_max, nominal=None):
+        return timeline(
+            X,
+            segments,
+            owner=type(self).__name__,
+            tau_max=tau_max,
+            state=self.state,
+            nominal=nominal,
+            default_step=1.0,
+        )
 
     def _inputs(self, names):
         drivers = list(self.drivers)
@@ -379,17 +404,68 @@ class ThermalTransferFunction(_TransferReadout, RegressorMixin, BaseEstimator):
             labels.append((s, 1))
         return spec, groups, labels
 
-    def _design(self, x, dt, bounds, spec):
-        F = design(x, dt, bounds, spec, self.state == "carry")
-        if self.relative_to_start:
+    def _design(self, x, steps, bounds, spec, groups, reference):
+        """Lag features of the blocks ``spec``; drivers (group -1) start idle without history."""
+        idle = [b for b, g in enumerate(groups) if g == -1]
+        F = design(x, steps.dt, bounds, spec, steps.carried, idle)
+        if reference == "start":
             for start, stop in bounds:
                 F[start:stop] -= F[start].copy()
         return F
+
+    def _data(self, X, y, sample_weight, settings):
+        """Validated training data: arrays, tests, inputs, weights and time."""
+        Xa, ya, segments = validate_sequences(self, X, y, reset=True)
+        names = column_names(self, Xa.shape[1])
+        drivers, sensors = self._inputs(names)
+        if self.max_sensors is not None and self.max_sensors > len(sensors):
+            raise ValueError(
+                f"The 'max_sensors' parameter of {type(self).__name__} is {self.max_sensors}, "
+                f"more than the {len(sensors)} temperature sensor(s) given "
+                f"({', '.join(sensors) or 'none'})."
+            )
+        w = self._weights(sample_weight, Xa.shape[0], segments)
+        tau_max = settings.taus.max()
+        if drivers:
+            tau_max = max(tau_max, settings.driver_taus.max())
+        steps = self._timeline(X, segments, tau_max)
+        bounds = [(s.start, s.stop) for s in segments]
+        return _Data(Xa, ya, w, segments, bounds, names, drivers, sensors, steps)
+
+    @staticmethod
+    def _choose_reference(asked, data):
+        """``reference`` as given, or the one ``"auto"`` means for these tests."""
+        if asked != "auto":
+            return asked
+        one_recording = bool(data.steps.carried[1:].all())
+        zeroed = all(data.y[start] == 0 for start, _ in data.bounds)
+        return "recording" if one_recording and not zeroed else "start"
+
+    def _check_enough_rows(self, data, settings, n_driver_columns, reference):
+        n_used = len(data.sensors) if self.max_sensors is None else self.max_sensors
+        n_coef = n_driver_columns + n_used * (1 + len(settings.taus))
+        relative = reference == "start"
+        n_coef += 0 if relative else 1
+        n_eq = int((data.w > 0).sum()) - (len(data.segments) if relative else 0)
+        if n_eq < n_coef:
+            n = data.X.shape[0]
+            raise ValueError(
+                f"{type(self).__name__} has too few rows to fit {n_coef} coefficients: "
+                f"{n} sample{'' if n == 1 else 's'} in {len(data.segments)} "
+                f"test(s) give {n_eq} equations. "
+                "Give more rows, fewer sensors or fewer time constants."
+            )
 
     # -- fit ------------------------------------------------------------------
 
     def fit(self, X, y, sample_weight=None):
         """Fit the gains (and choose sensors, penalty and time constants) on tests.
+
+        Five steps: check the data and decide which tests carry state and the
+        reference; build the lag features of every input on the bank; choose
+        the sensors and the penalty on held-out tests; with
+        ``time_constants="fit"``, fit the time constants of what was chosen;
+        solve the gains on all tests.
 
         Parameters
         ----------
@@ -400,9 +476,10 @@ class ThermalTransferFunction(_TransferReadout, RegressorMixin, BaseEstimator):
             Displacement.
         sample_weight : array-like of shape (n_samples,), optional
             Weight of each row in the fit. Rows of weight 0 still drive the
-            lags (with ``state="carry"``, give the whole recording and weight
-            0 on the rows of a held-out test), and a test whose weights are all
-            0 is never held out for scoring.
+            lags (give the whole recording and weight 0 on the rows of a
+            held-out test: its inputs carry the state on, its displacement is
+            never seen), and a test whose weights are all 0 is never held out
+            for scoring.
 
         Returns
         -------
@@ -417,85 +494,68 @@ class ThermalTransferFunction(_TransferReadout, RegressorMixin, BaseEstimator):
             )
         self._validate_params()
         require_y(self, y)
-        taus, driver_taus, fit_taus, powers, alphas = self._check_params()
-        Xa, ya, segments = validate_sequences(self, X, y, reset=True)
-        names = column_names(self, Xa.shape[1])
-        drivers, sensors = self._inputs(names)
-        if self.max_sensors is not None and self.max_sensors > len(sensors):
-            raise ValueError(
-                f"The 'max_sensors' parameter of {type(self).__name__} is {self.max_sensors}, "
-                f"more than the {len(sensors)} temperature sensor(s) given "
-                f"({', '.join(sensors) or 'none'})."
-            )
-        w = self._weights(sample_weight, Xa.shape[0], segments)
-        taus_max = max(taus.max(), driver_taus.max()) if drivers else taus.max()
-        dt = self._time_steps(X, segments, taus_max)
-        bounds = [(s.start, s.stop) for s in segments]
-        if self.relative_to_start:
-            y_fit = ya.copy()
-            for start, stop in bounds:
-                y_fit[start:stop] -= ya[start]
-        else:
-            y_fit = ya
-
-        scored = [i for i, s in enumerate(segments) if w[s.slice].sum() > 0]
+        settings = self._check_params()
+        data = self._data(X, y, sample_weight, settings)
+        reference = self._choose_reference(settings.reference, data)
+        y_fit = data.y.copy()
+        if reference == "start":
+            for start, stop in data.bounds:
+                y_fit[start:stop] -= data.y[start]
+        scored = [i for i, s in enumerate(data.segments) if data.w[s.slice].sum() > 0]
         folds = scored if len(scored) >= 3 else None
+        taus, driver_taus = settings.taus, settings.driver_taus
 
-        def build(taus_s, taus_d):
-            spec, groups, labels = self._spec(drivers, sensors, names, powers, taus_s, taus_d)
-            F = self._design(Xa, dt, bounds, spec)
-            return spec, groups, labels, F
-
-        spec, groups, labels, F = build(taus, driver_taus)
-        col_group = np.repeat(groups, [1 + len(b[2]) for b in spec])
-        n_used = len(sensors) if self.max_sensors is None else self.max_sensors
-        n_coef = int((col_group == -1).sum()) + n_used * (1 + len(taus))
-        n_coef += 0 if self.relative_to_start else 1
-        n_eq = int((w > 0).sum()) - (len(segments) if self.relative_to_start else 0)
-        if n_eq < n_coef:
-            raise ValueError(
-                f"{type(self).__name__} has too few rows to fit {n_coef} coefficients: "
-                f"{Xa.shape[0]} sample{'' if Xa.shape[0] == 1 else 's'} in {len(segments)} "
-                f"test(s) give {n_eq} equations. "
-                "Give more rows, fewer sensors or fewer time constants."
-            )
-        grams, pen = self._grams(F, y_fit, w, bounds)
-        chosen, alpha, score, path = select_sensors(
-            grams, pen, col_group, sensors, alphas, folds, self.max_sensors, self.selection
+        spec, groups, labels = self._spec(
+            data.drivers, data.sensors, data.names, settings.powers, taus, driver_taus
         )
-        if fit_taus and folds is not None:
+        col_group = np.repeat(groups, [1 + len(b[2]) for b in spec])
+        self._check_enough_rows(data, settings, int((col_group == -1).sum()), reference)
+        F = self._design(data.X, data.steps, data.bounds, spec, groups, reference)
+        grams, pen = self._grams(F, y_fit, data.w, data.bounds, reference)
+        chosen, alpha, score, path = select_sensors(
+            grams,
+            pen,
+            col_group,
+            data.sensors,
+            settings.alphas,
+            folds,
+            self.max_sensors,
+            self.selection,
+        )
+        if settings.fit_taus and folds is not None:
+            chosen_names = [data.sensors[k] for k in chosen]
             taus, driver_taus = self._fit_taus(
-                Xa,
-                dt,
-                bounds,
-                names,
-                drivers,
-                [sensors[k] for k in chosen],
-                taus,
-                driver_taus,
-                powers,
-                y_fit,
-                w,
-                alphas,
-                folds,
+                data, chosen_names, settings, y_fit, folds, reference
             )
-            spec, groups, labels, F = build(taus, driver_taus)
-            grams, pen = self._grams(F, y_fit, w, bounds)
+            spec, groups, labels = self._spec(
+                data.drivers, data.sensors, data.names, settings.powers, taus, driver_taus
+            )
+            F = self._design(data.X, data.steps, data.bounds, spec, groups, reference)
+            grams, pen = self._grams(F, y_fit, data.w, data.bounds, reference)
             cols = _cols_all(col_group, chosen, grams[0].shape[1])
-            sc = held_out_scores(grams, cols, alphas, pen, folds)
-            alpha, score = float(alphas[np.argmin(sc)]), float(sc.min())
+            sc = held_out_scores(grams, cols, settings.alphas, pen, folds)
+            alpha, score = float(settings.alphas[np.argmin(sc)]), float(sc.min())
         cols = _cols_all(col_group, chosen, grams[0].shape[1])
         G, b = grams[0].sum(axis=0), grams[1].sum(axis=0)
         coef = np.zeros(grams[0].shape[1])
         coef[cols] = solve_all(G[np.ix_(cols, cols)], b[cols], grams[3].sum(), [alpha], pen[cols])[
             :, 0
         ]
-
-        self.sensors_ = sensors
-        self.drivers_ = drivers
-        self.selected_sensors_ = [sensors[k] for k in chosen]
+        self._store(data, reference, spec, groups, labels, col_group, coef, alpha, score, path)
+        self.selected_sensors_ = [data.sensors[k] for k in chosen]
         self.time_constants_ = np.asarray(taus, dtype=float)
         self.driver_time_constants_ = np.asarray(driver_taus, dtype=float)
+        return self
+
+    def _store(self, data, reference, spec, groups, labels, col_group, coef, alpha, score, path):
+        """The fitted attributes of one solution."""
+        self.sensors_ = data.sensors
+        self.drivers_ = data.drivers
+        self.reference_ = reference
+        self.state_ = (
+            "carry" if len(data.segments) > 1 and data.steps.carried[1:].all() else ("restart")
+        )
+        self.nominal_step_s_ = data.steps.nominal_step_s
         self.alpha_ = float(alpha)
         self.cv_score_ = float(score)
         stable = bool(path) and len(path[0]) == 2
@@ -506,18 +566,18 @@ class ThermalTransferFunction(_TransferReadout, RegressorMixin, BaseEstimator):
             ["sensor", "share_of_runs"] if stable else ["sensor", "held_out_rmse", "alpha"]
         )
         self._spec_ = spec
+        self._groups_ = list(groups)
         self._labels_ = labels
         self._col_group_ = col_group
         n_cols = len(col_group)
         self.feature_coef_ = coef[:n_cols]
-        self.intercept_ = 0.0 if self.relative_to_start else float(coef[n_cols])
+        self.intercept_ = 0.0 if reference == "start" else float(coef[n_cols])
         self.terms_ = self._terms()
-        self.step_sizes_ = {s: 1.0 for s in sensors}
-        for d in drivers:
-            col = Xa[:, names.index(d)]
+        self.step_sizes_ = {s: 1.0 for s in data.sensors}
+        for d in data.drivers:
+            col = data.X[:, data.names.index(d)]
             self.step_sizes_[d] = _round_step(float(np.abs(col).max()))
-        self.step_sizes_ = {c: self.step_sizes_[c] for c in drivers + sensors}
-        return self
+        self.step_sizes_ = {c: self.step_sizes_[c] for c in data.drivers + data.sensors}
 
     def _weights(self, sample_weight, n, segments):
         if sample_weight is None:
@@ -541,36 +601,23 @@ class ThermalTransferFunction(_TransferReadout, RegressorMixin, BaseEstimator):
             )
         return w
 
-    def _grams(self, F, y, w, bounds):
-        """Per-test raw Grams of the design (ones column last without relative_to_start)."""
-        A = F if self.relative_to_start else np.column_stack([F, np.ones(len(F))])
+    @staticmethod
+    def _grams(F, y, w, bounds, reference):
+        """Per-test raw Grams of the design (a ones column last in the recording reference)."""
+        relative = reference == "start"
+        A = F if relative else np.column_stack([F, np.ones(len(F))])
         pen = np.ones(A.shape[1])
-        if not self.relative_to_start:
+        if not relative:
             pen[-1] = 0.0
         return grams_by_test(A, y, w, bounds), pen
 
-    def _fit_taus(
-        self,
-        Xa,
-        dt,
-        bounds,
-        names,
-        drivers,
-        chosen_names,
-        taus,
-        driver_taus,
-        powers,
-        y,
-        w,
-        alphas,
-        folds,
-    ):
+    def _fit_taus(self, data, chosen_names, settings, y, folds, reference):
         """Variable projection: Nelder–Mead over the log time constants, gains solved inside.
 
         Only the drivers and the chosen sensors are filtered; the score is the
         mean held-out RMSE (best penalty) of whole tests.
         """
-        m = len(taus)
+        m = len(settings.taus)
 
         def unpack(z):
             return np.sort(np.exp(z[:m])), np.sort(np.exp(z[m:]))
@@ -579,13 +626,15 @@ class ThermalTransferFunction(_TransferReadout, RegressorMixin, BaseEstimator):
             ts, td = unpack(z)
             if ts.max() > 1e7 or td.max() > 1e7 or ts.min() < 1.0 or td.min() < 1.0:
                 return np.inf
-            spec, groups, _ = self._spec(drivers, chosen_names, names, powers, ts, td)
-            F = self._design(Xa, dt, bounds, spec)
-            grams, pen = self._grams(F, y, w, bounds)
+            spec, groups, _ = self._spec(
+                data.drivers, chosen_names, data.names, settings.powers, ts, td
+            )
+            F = self._design(data.X, data.steps, data.bounds, spec, groups, reference)
+            grams, pen = self._grams(F, y, data.w, data.bounds, reference)
             cols = np.arange(grams[0].shape[1])
-            return float(held_out_scores(grams, cols, alphas, pen, folds).min())
+            return float(held_out_scores(grams, cols, settings.alphas, pen, folds).min())
 
-        z0 = np.log(np.concatenate([taus, driver_taus]))
+        z0 = np.log(np.concatenate([settings.taus, settings.driver_taus]))
         f0 = objective(z0)
         result = minimize(
             objective,
@@ -596,13 +645,27 @@ class ThermalTransferFunction(_TransferReadout, RegressorMixin, BaseEstimator):
         best = result.x if result.fun < f0 else z0
         return unpack(best)
 
-    def predict(self, X):
-        """Predicted displacement of every row.
+    # -- predict --------------------------------------------------------------
+
+    def predict(self, X, initial_displacement=None):
+        """Predicted displacement of every row, in the reference ``reference_``.
 
         Parameters
         ----------
         X : DataFrame of shape (n_samples, n_features)
-            The columns seen in ``fit``, tests marked as in ``fit``.
+            The columns seen in ``fit``, tests marked as in ``fit``. Tests
+            that follow each other on one clock carry the lags from one to the
+            next as in ``fit`` (``state``); give a test together with the rows
+            before it to start it from its history.
+        initial_displacement : float or dict, optional
+            The displacement measured at the first row of every test (a
+            number) or of the tests named (a dict from test label to number),
+            in the reference ``reference_``: such a test's prediction is moved
+            to start there. Without it, a test that starts later on its clock
+            than 0 without the rows before it gets a
+            :class:`~greyml.exceptions.WarmStartWarning` (unless
+            ``state="restart"``: every test starting at rest is then the
+            model's assumption).
 
         Returns
         -------
@@ -610,39 +673,138 @@ class ThermalTransferFunction(_TransferReadout, RegressorMixin, BaseEstimator):
         """
         check_is_fitted(self)
         Xa, _, segments = validate_sequences(self, X, reset=False)
-        taus_max = self.time_constants_.max()
-        if self.drivers_:
-            taus_max = max(taus_max, self.driver_time_constants_.max())
-        dt = self._time_steps(X, segments, taus_max)
+        steps = self._timeline(X, segments, self._tau_max(), self.nominal_step_s_)
         bounds = [(s.start, s.stop) for s in segments]
-        used = np.flatnonzero(self.feature_coef_ != 0)
-        if used.size == 0:
-            return np.full(Xa.shape[0], self.intercept_)
-        F = self._design(Xa, dt, bounds, self._spec_)
-        return F @ self.feature_coef_ + self.intercept_
+        given = self._initial_displacements(initial_displacement, segments)
+        if not (self.feature_coef_ != 0).any():
+            pred = np.full(Xa.shape[0], self.intercept_)
+        else:
+            F = self._design(Xa, steps, bounds, self._spec_, self._groups_, self.reference_)
+            pred = F @ self.feature_coef_ + self.intercept_
+        for i, seg in enumerate(segments):
+            if i in given:
+                pred[seg.slice] += given[i] - pred[seg.start]
+            elif (
+                self.state != "restart"  # restarting each test is then what was asked
+                and (i == 0 or not steps.carried[i])
+                and steps.starts[i] > self.nominal_step_s_
+            ):
+                warnings.warn(
+                    f"{type(self).__name__}: {segment_label(seg)} starts at time_s = "
+                    f"{steps.starts[i]:g} s of its clock without the rows before it, so its "
+                    "lags start from an assumed state (temperatures at rest, drivers idle). "
+                    "Give the rows before it (the state carries on along one clock), or the "
+                    "displacement measured at its first row with initial_displacement=.",
+                    WarmStartWarning,
+                    stacklevel=2,
+                )
+        return pred
 
-    def compensator(self):
+    def _tau_max(self):
+        tau_max = self.time_constants_.max()
+        if self.drivers_:
+            tau_max = max(tau_max, self.driver_time_constants_.max())
+        return float(tau_max)
+
+    def _initial_displacements(self, value, segments):
+        """``initial_displacement`` as {test position: finite number}."""
+        if value is None:
+            return {}
+        name = type(self).__name__
+        if isinstance(value, Mapping):
+            labels = {str(s.label): i for i, s in enumerate(segments)}
+            out = {}
+            for label, v in value.items():
+                if str(label) not in labels:
+                    raise ValueError(
+                        f"{name}.predict: initial_displacement names the test {label!r}, which "
+                        f"is not in X (its tests: {', '.join(list(labels)[:10])})."
+                    )
+                out[labels[str(label)]] = _finite(v, f"the initial displacement of {label!r}")
+            return out
+        v = _finite(value, "initial_displacement")
+        return dict.fromkeys(range(len(segments)), v)
+
+    def compensator(self, *, nominal_step_s=None, row_columns=None):
         """A :class:`greyml.dynamic.Compensator` that runs this model row by row.
+
+        Streaming a test from its first row (after construction or
+        :meth:`~greyml.Compensator.reset`) equals :meth:`predict` on that test
+        alone, and streaming the tests of one recording one after another
+        equals :meth:`predict` on all of them, in the reference
+        ``reference_`` (to 1e-9).
+
+        Parameters
+        ----------
+        nominal_step_s : float, optional
+            For a recording whose clock restarts in every piece: the step into
+            a row whose ``time_s`` is not later than the previous row's (the
+            next piece). By default such a row is refused, unless the model
+            carried state across restarting clocks in ``fit``
+            (``state="carry"``), which steps by ``nominal_step_s_``.
+        row_columns : list of str, optional
+            The order of the values in an array row (``"time_s"`` and every
+            input, in any order); without it only mappings and Series are
+            taken.
 
         Returns
         -------
         compensator : Compensator
-            ``update(row)`` (a mapping with the inputs and ``"time_s"``) returns
-            the correction; it equals :meth:`predict` on the same rows of one
-            test (to 1e-9).
         """
         check_is_fitted(self)
         from greyml.dynamic._compensator import Compensator
 
+        if nominal_step_s is None and self.state == "carry":
+            nominal_step_s = self.nominal_step_s_
         inputs = list(dict.fromkeys(name for name, _, _, _ in self.terms_))
         return Compensator(
             inputs,
             list(self.terms_),
             self.intercept_,
-            relative_to_start=bool(self.relative_to_start),
+            relative_to_start=self.reference_ == "start",
+            nominal_step_s=nominal_step_s,
+            idle_inputs=[d for d in self.drivers_ if d in inputs],
+            max_step_s=self._tau_max(),
+            row_columns=row_columns,
         )
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()
         tags.input_tags.allow_nan = False
         return tags
+
+
+@dataclass(frozen=True)
+class _Settings:
+    """The checked parameters of one fit."""
+
+    taus: np.ndarray
+    driver_taus: np.ndarray
+    fit_taus: bool
+    powers: tuple
+    alphas: np.ndarray
+    reference: str
+
+
+@dataclass(frozen=True)
+class _Data:
+    """The checked training data of one fit."""
+
+    X: np.ndarray
+    y: np.ndarray
+    w: np.ndarray
+    segments: list
+    bounds: list
+    names: list
+    drivers: list
+    sensors: list
+    steps: Timeline
+
+
+def _finite(value, what):
+    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not np.isfinite(value):
+        raise ValueError(
+            f"ThermalTransferFunction.predict: {what} must be a finite number of the "
+            f"target's unit; got {value!r}."
+        )
+    return float(value)

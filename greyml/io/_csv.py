@@ -291,8 +291,10 @@ def _split_line(text, sep, name, line):
         raise ValueError(f"Line {line} of {name!r} is not well-formed CSV: {exc}.") from None
 
 
-def _header(path, sep, max_line_bytes):
-    """The header's names, the separator and the first data lines (up to 50)."""
+def _header(path, sep, max_line_bytes, keys=KEYS):
+    """The header's names, the separator and the first data lines (up to 50).
+
+    ``keys`` are the columns that hold the test labels and the time."""
     name = os.fspath(path)
     try:
         with open(path, newline="", encoding="utf-8-sig") as fh:
@@ -310,7 +312,7 @@ def _header(path, sep, max_line_bytes):
         sep = ","
         for candidate in _SEPARATORS:
             names = [h.strip() for h in _split_line(first, candidate, name, 1)]
-            if all(key in names for key in KEYS):
+            if all(key in names for key in keys):
                 sep = candidate
                 break
     header = [_unneutralise(h.strip()) for h in _split_line(first, sep, name, 1)]
@@ -321,17 +323,26 @@ def _header(path, sep, max_line_bytes):
         if col in seen:
             raise ValueError(f"The header of {name!r} names column '{col}' more than once.")
         seen.add(col)
-    for key in KEYS:
+    for key in keys:
         if key not in seen:
+            hint = ""
+            if key == TEST_LEVEL:
+                hint = " If another column names the tests (e.g. 'cycle'), pass test_column="
+                hint += "'cycle' (--test-column cycle on the command line)."
             raise ValueError(
                 f"{name!r} has no '{key}' column; the header must contain "
-                f"'{TEST_LEVEL}' and '{TIME_LEVEL}' (found {header[:12]}"
-                f"{'...' if len(header) > 12 else ''}; separator {sep!r})."
+                f"'{keys[0]}' and '{TIME_LEVEL}' (found {header[:12]}"
+                f"{'...' if len(header) > 12 else ''}; separator {sep!r}).{hint}"
             )
+    if keys[0] != TEST_LEVEL and TEST_LEVEL in seen:
+        raise ValueError(
+            f"{name!r} has a '{TEST_LEVEL}' column as well as the test column "
+            f"'{keys[0]}' named by test_column; rename one of them."
+        )
     return header, sep, [d.rstrip("\r\n") for d in data if d.strip()]
 
 
-def _decimal(lines, header, sep, name, decimal):
+def _decimal(lines, header, sep, name, decimal, test_key=TEST_LEVEL):
     """The decimal mark: ``decimal``, or ``","`` when the first data lines use it."""
     if decimal is not None:
         if decimal == sep:
@@ -352,7 +363,7 @@ def _decimal(lines, header, sep, name, decimal):
                 f"{len(header)} (separator {sep!r}){hint}."
             )
         if sep != "," and any(
-            _DECIMAL_COMMA.match(c) for j, c in enumerate(cells) if header[j] != TEST_LEVEL
+            _DECIMAL_COMMA.match(c) for j, c in enumerate(cells) if header[j] != test_key
         ):
             found = ","
     return found
@@ -467,7 +478,9 @@ def _data_columns(raw, labels, name):
     return time, pd.DataFrame(columns, copy=False)
 
 
-def read_tests_csv(path, *, time_unit="s", sep=None, decimal=None, max_line_bytes=None):
+def read_tests_csv(
+    path, *, time_unit="s", sep=None, decimal=None, max_line_bytes=None, test_column=None
+):
     """Read test data written by :func:`write_tests_csv` (or by hand, or a spreadsheet).
 
     Parameters
@@ -490,6 +503,12 @@ def read_tests_csv(path, *, time_unit="s", sep=None, decimal=None, max_line_byte
         The longest line read, :data:`MAX_LINE_BYTES` (16 MiB) by default; a
         longer one is an error, so a file of one huge line cannot exhaust
         memory.
+    test_column : str, optional
+        The column that labels the tests, when it is not called ``test``
+        (a logger's ``cycle``, ``run`` or ``part``); it becomes the ``test``
+        level of the index. A file whose ``time_s`` runs on across its tests
+        is one recording cut into consecutive pieces, and greyml's dynamic
+        models carry their state from one piece into the next.
 
     Returns
     -------
@@ -531,6 +550,17 @@ def read_tests_csv(path, *, time_unit="s", sep=None, decimal=None, max_line_byte
     ...     df = read_tests_csv(p, time_unit="min")
     >>> df.index.get_level_values("time_s").tolist(), df["T1_C"].tolist()
     ([0.0, 60.0], [20.0, 20.5])
+
+    A logger's recording, its pieces labelled in a column ``cycle`` on one clock:
+
+    >>> text = "time_s,cycle,T1_C\\n0,1,20.0\\n15,1,20.5\\n30,2,21.0\\n"
+    >>> with tempfile.TemporaryDirectory() as d:
+    ...     p = os.path.join(d, "c.csv")
+    ...     with open(p, "w") as fh:
+    ...         _ = fh.write(text)
+    ...     df = read_tests_csv(p, test_column="cycle")
+    >>> df.index.tolist()
+    [('1', 0.0), ('1', 15.0), ('2', 30.0)]
     """
     name = os.fspath(path)
     if time_unit not in TIME_UNITS:
@@ -544,6 +574,13 @@ def read_tests_csv(path, *, time_unit="s", sep=None, decimal=None, max_line_byte
         raise ValueError(f"decimal must be '.' or ','; got {decimal!r}.")
     if decimal is not None and decimal == sep:
         raise ValueError(f"decimal {decimal!r} cannot also be the separator sep={sep!r}.")
+    if test_column is not None and (
+        not isinstance(test_column, str) or not test_column.strip() or test_column == TIME_LEVEL
+    ):
+        raise ValueError(
+            f"test_column must name the column of test labels (not {TIME_LEVEL!r}); got "
+            f"{test_column!r}."
+        )
     if max_line_bytes is None:
         max_line_bytes = MAX_LINE_BYTES
     if (
@@ -556,12 +593,13 @@ def read_tests_csv(path, *, time_unit="s", sep=None, decimal=None, max_line_byte
         what = "a folder" if os.path.isdir(path) else "not a regular file (a pipe or device)"
         raise ValueError(f"{name!r} is {what}; give a CSV file (it is read more than once).")
     _check_line_lengths(path, name, max_line_bytes)
-    header, sep, first_lines = _header(path, sep, max_line_bytes)
+    test_key = TEST_LEVEL if test_column is None else test_column
+    header, sep, first_lines = _header(path, sep, max_line_bytes, (test_key, TIME_LEVEL))
     if len(header) == len(KEYS):
         raise ValueError(
             f"{name!r} has no data columns (0 features): its header holds only {', '.join(header)}."
         )
-    decimal = _decimal(first_lines, header, sep, name, decimal)
+    decimal = _decimal(first_lines, header, sep, name, decimal, test_key)
     if not first_lines:
         raise ValueError(f"{name!r} has a header but no rows (0 samples).")
     options = dict(
@@ -575,7 +613,7 @@ def read_tests_csv(path, *, time_unit="s", sep=None, decimal=None, max_line_byte
         na_values=[""],
         low_memory=False,
     )
-    position = header.index(TEST_LEVEL)
+    position = header.index(test_key)
     try:
         # the labels are text (read alone: a dtype for one column slows the
         # whole read down with the square of the column count)
@@ -599,7 +637,7 @@ def read_tests_csv(path, *, time_unit="s", sep=None, decimal=None, max_line_byte
         row = int(np.flatnonzero(missing.to_numpy())[0])
         raise ValueError(
             f"Line {_line(row)} of {name!r} (data row {row}) has no test label in column "
-            "'test' (a missing test label); every row must name its test."
+            f"'{test_key}' (a missing test label); every row must name its test."
         )
     labels = labels.astype(str).str.strip().map(_unneutralise)
     time, data = _data_columns(raw, labels, name)

@@ -1,0 +1,171 @@
+"""Time in the dynamic models: steps between rows, gaps, and which tests carry state.
+
+One place decides, for :class:`greyml.LagFeatures`, :class:`greyml.ThermalTransferFunction`
+and the :class:`greyml.Compensator` alike:
+
+* the step in seconds into every row, from the ``time_s`` index level;
+* which steps are too long: a gap longer than the largest time constant inside
+  a test is refused with one message, whoever finds it;
+* which tests continue the state of the test before them (``state``):
+
+  - ``"restart"``: none; every test starts without history;
+  - ``"carry"``: every test after the first (the tests are consecutive pieces of
+    one recording); the step into a test is the time since the previous test's
+    last row when its clock runs on, else the recording's nominal step (a clock
+    that restarts in every piece);
+  - ``"auto"``: a test continues the previous one when its clock runs on from the
+    previous test's last row by a step that the lags can bridge (more than 0, at
+    most the largest time constant): a recording cut into consecutive pieces
+    carries, tests on separate clocks (each starting at 0) restart.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+from greyml._sequences import TEST_LEVEL, TIME_LEVEL, segment_label
+from greyml._time import format_duration
+
+__all__ = ["STATES", "Timeline", "gap_message", "timeline"]
+
+#: The values of the ``state`` parameter of the dynamic models.
+STATES = ("auto", "carry", "restart")
+
+
+@dataclass(frozen=True)
+class Timeline:
+    """Steps and links of the rows of some tests.
+
+    Attributes
+    ----------
+    dt : ndarray of shape (n_samples,)
+        Step in seconds into each row. At the first row of a test that carries
+        the previous test's state, the step from that test's last row; at the
+        first row of a test that restarts, unused.
+    carried : ndarray of shape (n_tests,) of bool
+        Whether each test continues the state of the test before it.
+    starts : ndarray of shape (n_tests,)
+        ``time_s`` of each test's first row (NaN without a ``time_s`` level).
+    nominal_step_s : float
+        The median step between rows inside the tests (NaN when no test has
+        two rows).
+    """
+
+    dt: np.ndarray
+    carried: np.ndarray
+    starts: np.ndarray
+    nominal_step_s: float
+
+
+def gap_message(owner, where, gap, time, tau_max, row=None):
+    """The one message of a step too long for the lags, in batch and streaming alike."""
+    at = "" if row is None else f" (row {row})"
+    return (
+        f"{owner}: {where} has a sampling gap of {format_duration(gap)} before "
+        f"time_s = {time:g} s{at}, longer than the largest time constant "
+        f"({format_duration(tau_max)}); the lags cannot bridge it: split the test there "
+        "(a new test restarts), or give a longer time constant."
+    )
+
+
+def _times(X, segments, owner, default_step):
+    index = X.index if isinstance(X, (pd.DataFrame, pd.Series)) else None
+    if index is not None and TIME_LEVEL in (index.names or []):
+        return np.asarray(index.get_level_values(TIME_LEVEL), dtype=float), True
+    if default_step is None:
+        raise ValueError(
+            f"{owner} needs the time of every row: X has no '{TIME_LEVEL}' index level. "
+            "Give X greyml's (test, time_s) index (greyml.make_test_index), or set "
+            "sample_step_s= for rows evenly spaced in time."
+        )
+    n = segments[-1].stop if segments else 0
+    t = np.empty(n)
+    for seg in segments:
+        t[seg.slice] = default_step * np.arange(seg.n)
+    return t, False
+
+
+def timeline(X, segments, *, owner, tau_max, state, nominal=None, default_step=None):
+    """Steps into every row and the tests that carry state, checked.
+
+    Parameters
+    ----------
+    X : DataFrame or array-like
+        Rows of the tests; the time comes from its ``time_s`` index level.
+    segments : list of Segment
+    owner : str
+        Who is asking, for messages (``"LagFeatures"``).
+    tau_max : float
+        The largest time constant: a longer step inside a test is refused.
+    state : {"auto", "carry", "restart"}
+    nominal : float, optional
+        The recording's step (from ``fit``); by default the median step.
+    default_step : float, optional
+        Seconds between rows when ``X`` has no ``time_s`` level; None refuses
+        such ``X``.
+
+    Returns
+    -------
+    Timeline
+    """
+    t, clocked = _times(X, segments, owner, default_step)
+    n = t.size
+    dt = np.empty(n)
+    if n:
+        dt[0] = np.nan
+        dt[1:] = np.diff(t)
+    starts = np.array([s.start for s in segments], dtype=int)
+    inner = np.ones(n, dtype=bool)
+    inner[starts] = False
+    index = X.index if isinstance(X, (pd.DataFrame, pd.Series)) else None
+    if clocked and TEST_LEVEL not in (index.names or []):
+        # with a test level, test_segments has checked the time already
+        bad = np.flatnonzero(~np.isfinite(t) | (inner & ~(dt > 0)))
+        if bad.size:
+            k = int(bad[0])
+            after = f" after {t[k - 1]:g}." if k and np.isfinite(t[k]) else "."
+            raise ValueError(
+                f"{owner}: '{TIME_LEVEL}' must be finite and strictly increase within a test; "
+                f"in {segment_label(segments[0])} it is {t[k]:g} at row {k}{after}"
+            )
+    gap = np.flatnonzero(inner & (dt > tau_max))
+    if gap.size:
+        k = int(gap[0])
+        seg = segments[int(np.searchsorted(starts, k, side="right")) - 1]
+        raise ValueError(gap_message(owner, segment_label(seg), dt[k], t[k], tau_max, row=k))
+    if nominal is None:
+        nominal = float(np.median(dt[inner])) if inner.any() else float("nan")
+    carried = np.zeros(len(segments), dtype=bool)
+    for i in range(1, len(segments)):
+        step = t[starts[i]] - t[starts[i] - 1]
+        runs_on = clocked and step > 0
+        if state == "auto":
+            carried[i] = runs_on and step <= tau_max
+        elif state == "carry":
+            carried[i] = True
+            if not runs_on:
+                if not np.isfinite(nominal):
+                    raise ValueError(
+                        f"{owner}(state='carry') cannot step from one test into the next: no "
+                        "test seen in fit has two rows, so the recording's step is unknown."
+                    )
+                step = nominal
+            elif step > tau_max:
+                raise ValueError(
+                    gap_message(
+                        owner,
+                        f"the recording between {segment_label(segments[i - 1])} and "
+                        f"{segment_label(segments[i])}",
+                        step,
+                        t[starts[i]],
+                        tau_max,
+                    )
+                    + " With state='auto' a test after such a gap restarts."
+                )
+        if carried[i]:
+            dt[starts[i]] = step
+    test_starts = t[starts] if clocked else np.full(len(segments), np.nan)
+    return Timeline(dt, carried, test_starts, float(nominal))
