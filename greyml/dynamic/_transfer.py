@@ -348,7 +348,10 @@ class ThermalTransferFunction(_TransferReadout, RegressorMixin, BaseEstimator):
                 f"The 'alphas' parameter of {name} must be a non-empty sequence of finite "
                 f"floats > 0. Got {self.alphas!r} instead."
             )
-        return _Settings(taus, driver_taus, fit_taus, powers, alphas, self._reference_asked())
+        extend = self.time_constants is None and self.driver_time_constants is None
+        return _Settings(
+            taus, driver_taus, fit_taus, powers, alphas, self._reference_asked(), extend
+        )
 
     def _reference_asked(self):
         """``reference``, or the deprecated ``relative_to_start`` with a FutureWarning."""
@@ -430,7 +433,7 @@ class ThermalTransferFunction(_TransferReadout, RegressorMixin, BaseEstimator):
             tau_max = max(tau_max, settings.driver_taus.max())
         steps = self._timeline(X, segments, tau_max)
         bounds = [(s.start, s.stop) for s in segments]
-        return _Data(Xa, ya, w, segments, bounds, names, drivers, sensors, steps)
+        return _Data(Xa, ya, w, segments, bounds, names, drivers, sensors, steps, float(tau_max))
 
     @staticmethod
     def _choose_reference(asked, data):
@@ -503,52 +506,83 @@ class ThermalTransferFunction(_TransferReadout, RegressorMixin, BaseEstimator):
                 y_fit[start:stop] -= data.y[start]
         scored = [i for i, s in enumerate(data.segments) if data.w[s.slice].sum() > 0]
         folds = scored if len(scored) >= 3 else None
-        taus, driver_taus = settings.taus, settings.driver_taus
+        n_driver_columns = (
+            len(data.drivers) * len(settings.powers) * (1 + len(settings.driver_taus))
+        )
+        self._check_enough_rows(data, settings, n_driver_columns, reference)
+        banks = [(settings.taus, settings.driver_taus)]
+        if settings.extend and folds is not None:
+            banks += _longer_banks(settings.taus, settings.driver_taus, _span(data))
+        fits = [self._fit_bank(data, settings, y_fit, folds, reference, *bank) for bank in banks]
+        best = min(range(len(fits)), key=lambda i: (fits[i].score, i))
+        bank = fits[best]
+        if settings.fit_taus and folds is not None:
+            chosen_names = [data.sensors[k] for k in bank.chosen]
+            taus, driver_taus = self._fit_taus(
+                data, chosen_names, settings, y_fit, folds, reference
+            )
+            bank = self._fit_bank(
+                data, settings, y_fit, folds, reference, taus, driver_taus, chosen=bank.chosen
+            )
+        cols = _cols_all(bank.col_group, bank.chosen, bank.grams[0].shape[1])
+        G, b = bank.grams[0].sum(axis=0), bank.grams[1].sum(axis=0)
+        coef = np.zeros(bank.grams[0].shape[1])
+        coef[cols] = solve_all(
+            G[np.ix_(cols, cols)], b[cols], bank.grams[3].sum(), [bank.alpha], bank.pen[cols]
+        )[:, 0]
+        self._store(data, reference, bank, coef)
+        self.bank_scores_ = {len(f.taus): f.score for f in fits} if len(fits) > 1 else {}
+        self.selected_sensors_ = [data.sensors[k] for k in bank.chosen]
+        self.time_constants_ = np.asarray(bank.taus, dtype=float)
+        self.driver_time_constants_ = np.asarray(bank.driver_taus, dtype=float)
+        self.gap_limit_s_ = float(data.gap_limit)
+        return self
 
+    def _fit_bank(self, data, settings, y, folds, reference, taus, driver_taus, chosen=None):
+        """Lag features on one bank, the sensors and penalty chosen on held-out tests.
+
+        With ``chosen`` the sensors are kept and only the penalty is chosen.
+        """
         spec, groups, labels = self._spec(
             data.drivers, data.sensors, data.names, settings.powers, taus, driver_taus
         )
         col_group = np.repeat(groups, [1 + len(b[2]) for b in spec])
-        self._check_enough_rows(data, settings, int((col_group == -1).sum()), reference)
         F = self._design(data.X, data.steps, data.bounds, spec, groups, reference)
-        grams, pen = self._grams(F, y_fit, data.w, data.bounds, reference)
-        chosen, alpha, score, path = select_sensors(
-            grams,
-            pen,
-            col_group,
-            data.sensors,
-            settings.alphas,
-            folds,
-            self.max_sensors,
-            self.selection,
-        )
-        if settings.fit_taus and folds is not None:
-            chosen_names = [data.sensors[k] for k in chosen]
-            taus, driver_taus = self._fit_taus(
-                data, chosen_names, settings, y_fit, folds, reference
+        grams, pen = self._grams(F, y, data.w, data.bounds, reference)
+        if chosen is None:
+            chosen, alpha, score, path = select_sensors(
+                grams,
+                pen,
+                col_group,
+                data.sensors,
+                settings.alphas,
+                folds,
+                self.max_sensors,
+                self.selection,
             )
-            spec, groups, labels = self._spec(
-                data.drivers, data.sensors, data.names, settings.powers, taus, driver_taus
-            )
-            F = self._design(data.X, data.steps, data.bounds, spec, groups, reference)
-            grams, pen = self._grams(F, y_fit, data.w, data.bounds, reference)
+        else:
             cols = _cols_all(col_group, chosen, grams[0].shape[1])
             sc = held_out_scores(grams, cols, settings.alphas, pen, folds)
-            alpha, score = float(settings.alphas[np.argmin(sc)]), float(sc.min())
-        cols = _cols_all(col_group, chosen, grams[0].shape[1])
-        G, b = grams[0].sum(axis=0), grams[1].sum(axis=0)
-        coef = np.zeros(grams[0].shape[1])
-        coef[cols] = solve_all(G[np.ix_(cols, cols)], b[cols], grams[3].sum(), [alpha], pen[cols])[
-            :, 0
-        ]
-        self._store(data, reference, spec, groups, labels, col_group, coef, alpha, score, path)
-        self.selected_sensors_ = [data.sensors[k] for k in chosen]
-        self.time_constants_ = np.asarray(taus, dtype=float)
-        self.driver_time_constants_ = np.asarray(driver_taus, dtype=float)
-        return self
+            alpha, score, path = float(settings.alphas[np.argmin(sc)]), float(sc.min()), []
+        return _Bank(
+            np.asarray(taus, dtype=float),
+            np.asarray(driver_taus, dtype=float),
+            spec,
+            groups,
+            labels,
+            col_group,
+            grams,
+            pen,
+            list(chosen),
+            float(alpha),
+            float(score),
+            path,
+        )
 
-    def _store(self, data, reference, spec, groups, labels, col_group, coef, alpha, score, path):
+    def _store(self, data, reference, bank, coef):
         """The fitted attributes of one solution."""
+        spec, groups, labels, col_group = bank.spec, bank.groups, bank.labels, bank.col_group
+        alpha, score, path = bank.alpha, bank.score, bank.path
         self.sensors_ = data.sensors
         self.drivers_ = data.drivers
         self.reference_ = reference
@@ -673,7 +707,7 @@ class ThermalTransferFunction(_TransferReadout, RegressorMixin, BaseEstimator):
         """
         check_is_fitted(self)
         Xa, _, segments = validate_sequences(self, X, reset=False)
-        steps = self._timeline(X, segments, self._tau_max(), self.nominal_step_s_)
+        steps = self._timeline(X, segments, self.gap_limit_s_, self.nominal_step_s_)
         bounds = [(s.start, s.stop) for s in segments]
         given = self._initial_displacements(initial_displacement, segments)
         if not (self.feature_coef_ != 0).any():
@@ -699,12 +733,6 @@ class ThermalTransferFunction(_TransferReadout, RegressorMixin, BaseEstimator):
                     stacklevel=2,
                 )
         return pred
-
-    def _tau_max(self):
-        tau_max = self.time_constants_.max()
-        if self.drivers_:
-            tau_max = max(tau_max, self.driver_time_constants_.max())
-        return float(tau_max)
 
     def _initial_displacements(self, value, segments):
         """``initial_displacement`` as {test position: finite number}."""
@@ -764,7 +792,7 @@ class ThermalTransferFunction(_TransferReadout, RegressorMixin, BaseEstimator):
             relative_to_start=self.reference_ == "start",
             nominal_step_s=nominal_step_s,
             idle_inputs=[d for d in self.drivers_ if d in inputs],
-            max_step_s=self._tau_max(),
+            max_step_s=self.gap_limit_s_,
             row_columns=row_columns,
         )
 
@@ -784,6 +812,7 @@ class _Settings:
     powers: tuple
     alphas: np.ndarray
     reference: str
+    extend: bool
 
 
 @dataclass(frozen=True)
@@ -799,6 +828,47 @@ class _Data:
     drivers: list
     sensors: list
     steps: Timeline
+    gap_limit: float
+
+
+@dataclass(frozen=True)
+class _Bank:
+    """One bank of time constants with the sensors and penalty chosen on it."""
+
+    taus: np.ndarray
+    driver_taus: np.ndarray
+    spec: list
+    groups: list
+    labels: list
+    col_group: np.ndarray
+    grams: tuple
+    pen: np.ndarray
+    chosen: list
+    alpha: float
+    score: float
+    path: list
+
+
+def _span(data):
+    """The longest stretch of time that the lags run through without a restart."""
+    t = np.cumsum(np.nan_to_num(data.steps.dt, nan=0.0))
+    longest, start = 0.0, 0.0
+    for i, (first, stop) in enumerate(data.bounds):
+        if i == 0 or not data.steps.carried[i]:
+            start = t[first]
+        longest = max(longest, t[stop - 1] - start)
+    return longest
+
+
+def _longer_banks(taus, driver_taus, span):
+    """The bank extended by a lag three times slower at a time, while it fits in ``span``."""
+    out = []
+    ts, td = list(taus), list(driver_taus)
+    while 3.0 * ts[-1] <= span:
+        ts = [*ts, 3.0 * ts[-1]]
+        td = [*td, 3.0 * td[-1]]
+        out.append((np.asarray(ts), np.asarray(td)))
+    return out
 
 
 def _finite(value, what):
