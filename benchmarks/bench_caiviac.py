@@ -6,9 +6,9 @@ minute, ``--seed-step``), and ``ThermalTransferFunction`` with at most five
 sensors plus the spindle speed (forward and stable selection) and with all
 sixteen, for ch1 and ch3, with displacement and temperatures from each
 cycle's first row and from the recording's first row. The transfer
-functions carry their lags through the whole recording: each is given every
-row with sample weight 0 on the held-out cycle (its displacement is never
-seen). It also times ``ThermalTransferFunction(max_sensors=5).fit`` on all
+functions carry their lags through the whole recording, on the temperatures
+as read (never re-zeroed at a cycle's start): each is given every row with
+sample weight 0 on the held-out cycle (its displacement is never seen). It also times ``ThermalTransferFunction(max_sensors=5).fit`` on all
 five cycles. ``--seed-only`` runs the issue-5 search alone, as follows.
 
 The real recording CAIVIAC/FL_THERMAL (MIT licence; read where it lies by
@@ -423,7 +423,7 @@ def transfer_models(reference):
                 drivers=[DRIVER],
                 max_sensors=MAX_SENSORS,
                 state="carry",
-                relative_to_start=relative,
+                reference="start" if relative else "recording",
             ),
             True,
         ),
@@ -433,14 +433,18 @@ def transfer_models(reference):
                 drivers=[DRIVER],
                 max_sensors=MAX_SENSORS,
                 state="carry",
-                relative_to_start=relative,
+                reference="start" if relative else "recording",
                 selection="stable",
             ),
             True,
         ),
         (
             "TTF-16",
-            ThermalTransferFunction(drivers=[DRIVER], state="carry", relative_to_start=relative),
+            ThermalTransferFunction(
+                drivers=[DRIVER],
+                state="carry",
+                reference="start" if relative else "recording",
+            ),
             True,
         ),
     ]
@@ -454,7 +458,7 @@ def transfer_models(reference):
                     drivers=[DRIVER],
                     max_sensors=MAX_SENSORS,
                     state="carry",
-                    relative_to_start=False,
+                    reference="recording",
                 ),
                 "recording",
             )
@@ -469,7 +473,7 @@ def transfer_models(reference):
     return out
 
 
-def dynamic_loco(X, y, rpm, reference, recording=None):
+def dynamic_loco(X, y, rpm, reference, recording=None, raw=None):
     """Per held-out cycle: ridge-16 and every ThermalTransferFunction variant.
 
     Carried lags: each model is given the whole recording with sample weight
@@ -488,7 +492,9 @@ def dynamic_loco(X, y, rpm, reference, recording=None):
     from greyml import test_ids
     from greyml.metrics import rmse
 
-    Xd = with_driver(X, rpm)
+    # the transfer functions carry their lags through the recording: they get the
+    # temperatures as read (raw), never re-zeroed at each cycle's start
+    Xd = with_driver(X if raw is None else raw, rpm)
     groups = np.asarray(test_ids(X))
     models = transfer_models(reference)
     rows = []
@@ -648,7 +654,8 @@ def run_sensitivity(args):
             if loaded is None:
                 return None
             X, y, data = loaded
-            Xd = with_driver(X, data.frame[DRIVER])
+            # the transfer functions get the temperatures as read (raw)
+            Xd = with_driver(data.frame[data.sensors], data.frame[DRIVER])
             fits = {"": (Xd, y, reference == "cycle", False)}
             if reference == "cycle":
                 # fitted from the recording's start, scored on each cycle's change
@@ -683,7 +690,7 @@ def run_sensitivity(args):
                     max_sensors=budget,
                     time_constants=bank,
                     state="carry",
-                    relative_to_start=relative,
+                    reference="start" if relative else "recording",
                     selection=selection,
                 )
                 per = []
@@ -758,7 +765,7 @@ def run_dynamic(args):
                 labels.append("ridge-16 rec-fit")
             start = time.perf_counter()
             with threadpool_limits(limits=1):
-                rows = dynamic_loco(X, y, rpm, reference, recording)
+                rows = dynamic_loco(X, y, rpm, reference, recording, data.frame[data.sensors])
             dyn_s = time.perf_counter() - start
             labels += [lab for lab, _, _ in transfer_models(reference)]
             seed_note = ""

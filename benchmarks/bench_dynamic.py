@@ -245,7 +245,8 @@ def bench_compensator(args, results):
     model = make_pipeline(
         LagFeatures(TAUS, powers={"spindle_rpm": (1, 2)}), StandardScaler(), Ridge()
     ).fit(X, y)
-    comp = Compensator.from_pipeline(model)
+    # array rows are read in the order declared (the controller's fast path)
+    comp = Compensator.from_pipeline(model, row_columns=["time_s", *X.columns])
     rows = np.column_stack([X.index.get_level_values("time_s"), X.to_numpy()])
 
     def stream(obj):

@@ -120,7 +120,12 @@ class ThermalTransferFunction(_TransferReadout, RegressorMixin, BaseEstimator):
     time_constants : sequence of float, "fit" or None, default=None
         Time constants of the lags, in seconds. ``None``: 300, 900, 2700 and
         8100 s (5, 15, 45 and 135 min), spaced by a factor of three to cover
-        what heat does in a machine structure, from a cover plate to a column.
+        what heat does in a machine structure, from a cover plate to a column;
+        with three tests or more, that bank is also tried extended by a lag
+        three times slower at a time (with the drivers' bank) as far as the
+        longest stretch of the training data without a restart, and the bank
+        with the lowest held-out RMSE is kept (slow dynamics, such as a
+        warm-up that goes on for a day).
         ``"fit"``: start from that bank and fit the time constants by
         variable projection on held-out tests (three tests or more).
     state : {"auto", "carry", "restart"}, default="auto"
@@ -182,6 +187,15 @@ class ThermalTransferFunction(_TransferReadout, RegressorMixin, BaseEstimator):
         the next (every test after the first), else ``"restart"``.
     nominal_step_s_ : float
         The median step between rows of the training tests.
+    gap_limit_s_ : float
+        The longest step the lags bridge, within a test or from one test into
+        the next (the largest time constant of the bank given): a longer one
+        inside a test is refused, between tests it restarts the lags, in
+        ``fit``, :meth:`predict` and the compensator alike.
+    bank_scores_ : dict
+        With the default bank and three tests or more: the mean held-out
+        RMSE of each bank tried, keyed by its number of sensor time
+        constants (empty otherwise).
     alpha_ : float
         The ridge penalty chosen (per row of the standardised design).
     terms_ : list of tuple
