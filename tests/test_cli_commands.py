@@ -560,7 +560,10 @@ def test_fit_transfer_function_with_drivers_and_a_sensor_budget(capsys, tmp_path
     code = main([*argv, "--drivers", "spindle_rpm", "--max-sensors", "1", "--out", str(model)])
     out = capsys.readouterr().out
     assert code == 0
-    assert "inputs: drivers spindle_rpm; sensors T1_C (chosen inside the fit from 2)" in out
+    assert (
+        "inputs: drivers spindle_rpm; sensors T1_C (chosen inside the fit on held-out whole tests from 2)"
+        in out
+    )
     assert "spindle_rpm: " in out and "µm per 1000 rpm" in out
     loaded = load_model(model)
     assert loaded.selected_sensors_ == ["T1_C"] and loaded.drivers_ == ["spindle_rpm"]

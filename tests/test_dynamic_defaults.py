@@ -7,7 +7,7 @@ import math
 import os
 import re
 import warnings
-from contextlib import redirect_stdout
+from contextlib import redirect_stderr, redirect_stdout
 
 import numpy as np
 import pandas as pd
@@ -345,3 +345,42 @@ def test_cli_reaches_every_setting(tmp_path):
     np.testing.assert_array_equal(model.time_constants_, [600.0, 3600.0])
     np.testing.assert_array_equal(model.driver_time_constants_, [2700.0])
     assert "as its change since each test's first row" in out
+
+
+def test_cli_says_when_nothing_is_held_out_and_when_time_looks_like_minutes(tmp_path):
+    X, y = _recording(n_cycles=2)
+    frame = pd.concat([X, y], axis=1)
+    path = write_tests_csv(frame, tmp_path / "two.csv")
+    argv = [
+        "fit",
+        path,
+        "--target",
+        "dz_um",
+        "--model",
+        "transfer-function",
+        "--drivers",
+        "spindle_rpm",
+        "--max-sensors",
+        "1",
+        "--out",
+        tmp_path / "m.greyml",
+    ]
+    err = io.StringIO()
+    with redirect_stderr(err):
+        code, out = _run(argv)
+    assert code == 0
+    assert "fewer than 3 tests, so none is held out" in out
+    assert err.getvalue() == ""
+    # the same file with time_s in minutes, read as seconds
+    minutes = frame.copy()
+    minutes.index = make_test_index(
+        minutes.index.get_level_values("test"), minutes.index.get_level_values("time_s") / 60.0
+    )
+    path = write_tests_csv(minutes, tmp_path / "minutes.csv")
+    argv[1], argv[-1] = path, tmp_path / "m2.greyml"
+    err = io.StringIO()
+    with redirect_stderr(err):
+        code, out = _run(argv)
+    assert code == 0
+    assert "steps by 1 s and its longest test lasts 359 s" in err.getvalue()
+    assert "--time-unit min" in err.getvalue()

@@ -182,10 +182,11 @@ def test_saved_and_loaded(tmp_path):
 @pytest.mark.parametrize(
     "params, match",
     [
-        ({"time_constants": [600.0, 0.0]}, r"finite numbers of seconds > 0; entry 1 is 0\.0"),
-        ({"time_constants": [-5.0]}, r"entry 0 is -5\.0"),
-        ({"time_constants": [np.inf]}, r"entry 0 is inf"),
-        ({"time_constants": [np.nan]}, r"entry 0 is nan"),
+        ({"time_constants": [600.0, 0.0]}, r"time constant 0\.0 s \(entry 1\) is not a finite"),
+        ({"time_constants": list(range(1, 1003))}, r"holds 1,002 time constants, more than the 1,000"),
+        ({"time_constants": [-5.0]}, r"time constant -5\.0 s \(entry 0\)"),
+        ({"time_constants": [np.inf]}, r"time constant inf s \(entry 0\)"),
+        ({"time_constants": [np.nan]}, r"time constant nan s \(entry 0\)"),
         ({"time_constants": []}, "non-empty sequence"),
         ({"time_constants": [60.0, 60.0]}, "1 min more than once"),
         ({"time_constants": [60.0], "state": "keep"}, "'state' parameter.*'keep'"),

@@ -169,3 +169,35 @@ def _load_training(data, target, sensors, tests, flag, csv_options=None):
     _require_values(frame, [target], data, "target")
     _require_values(frame, columns, data, "sensor")
     return frame, columns
+
+
+def _time_unit_hint(frame, path, csv_options=None):
+    """A warning when the file's time looks like minutes or hours read as seconds.
+
+    Thermal tests last hours and are sampled every few seconds or more: a
+    median step under 1 s, or tests that all last under 10 min, is usually a
+    ``time_s`` column in minutes or hours read as seconds (every time
+    constant would be 60 or 3600 times too short). None when the time looks
+    like seconds, or the unit was given with ``--time-unit``.
+    """
+    import numpy as np
+
+    if (csv_options or {}).get("time_unit", "s") != "s":
+        return None
+    time = np.asarray(frame.index.get_level_values("time_s"), dtype=float)
+    tests = np.asarray(frame.index.get_level_values("test"), dtype=object)
+    same = tests[1:] == tests[:-1]
+    steps = np.diff(time)[same]
+    if steps.size == 0:
+        return None
+    starts = np.r_[True, ~same]
+    bounds = np.flatnonzero(starts).tolist() + [len(time)]
+    longest = max(time[b - 1] - time[a] for a, b in zip(bounds[:-1], bounds[1:]))
+    median = float(np.median(steps))
+    if median < 1.0 or longest < 600.0:
+        return (
+            f"the time_s of {os.fspath(path)!r} steps by {median:g} s and its longest test "
+            f"lasts {longest:g} s: if time_s holds minutes or hours, say so with "
+            "--time-unit min or --time-unit h"
+        )
+    return None

@@ -304,6 +304,7 @@ def run_fit(
         saved = save_model(estimator, path, overwrite=force)
     _warn("fit", fit_messages)
     _warn("fit", messages)
+    _warn("fit", _careless(frame, data, fit_scores, csv_options))
     model_step = estimator[-1] if steps else estimator
     inputs = list(estimator["select"].selected_) if select is not None else columns
     tests = _test_labels(frame)
@@ -319,9 +320,24 @@ def run_fit(
         )
     elif dynamic:
         kept = ", ".join(map(printable, model_step.selected_sensors_)) or "none"
+        n_candidates = len(columns) - len(drivers)
+        how = (
+            f"chosen inside the fit on held-out whole tests from {n_candidates}"
+            if len(_test_labels(frame)) >= 3
+            else f"chosen on the training rows from {n_candidates}: fewer than 3 tests, so "
+            "none is held out"
+        )
         print(
             f"  inputs: drivers {', '.join(map(printable, drivers)) or 'none'}; sensors {kept} "
-            f"(chosen inside the fit from {len(columns) - len(drivers)})"
+            f"({how})"
+        )
+        print(
+            "  lags: "
+            + (
+                "carried from each test into the next on the file's clock"
+                if model_step.state_ == "carry"
+                else "each test starts without history"
+            )
         )
         buffer = io.StringIO()
         model_step.describe(file=buffer)
@@ -339,3 +355,21 @@ def run_fit(
     )
     print(f"saved to {os.fspath(saved)!r}")
     return 0
+
+
+def _careless(frame, data, fit_scores, csv_options):
+    """Warnings about data that fits but is probably not what was meant."""
+    from greyml._cli._files import _time_unit_hint
+
+    out = []
+    hint = _time_unit_hint(frame, data, csv_options)
+    if hint:
+        out.append(hint)
+    efficiency = fit_scores.get("E", float("nan"))
+    if efficiency < 0:
+        out.append(
+            f"the model's Nash-Sutcliffe E on its own training rows is {efficiency:.3g}, below "
+            "0: it predicts them worse than their mean would; check the inputs, the target "
+            "and the model before using it"
+        )
+    return out

@@ -7,7 +7,14 @@ import warnings
 from pathlib import Path
 
 from greyml._cli import _flags as flags
-from greyml._cli._files import _check_output_file, _read, _require_values, _test_labels, _where
+from greyml._cli._files import (
+    _check_output_file,
+    _read,
+    _require_values,
+    _test_labels,
+    _time_unit_hint,
+    _where,
+)
 from greyml._cli._fitting import (
     _REFERENCE_WORDS,
     _final_step,
@@ -246,6 +253,8 @@ def run_predict(
         write_tests_csv(result, path, overwrite=force)
     _warn("predict", load_messages)
     _warn("predict", messages)
+    hint = _time_unit_hint(frame, data, csv_options)
+    _warn("predict", [hint] if hint else [])
     print(
         f"wrote {len(result)} rows of {len(tests)} test(s) to {os.fspath(path)!r}: "
         f"{predicted} and {compensation} = -{predicted}."

@@ -9,6 +9,13 @@ needs a thermal lag, :mod:`greyml.gap` included.
 
 from greyml.dynamic._compensator import Compensator
 from greyml.dynamic._lags import LagFeatures
+from greyml.dynamic._time import MAX_TERMS, MAX_TIME_CONSTANTS
 from greyml.dynamic._transfer import ThermalTransferFunction
 
-__all__ = ["Compensator", "LagFeatures", "ThermalTransferFunction"]
+__all__ = [
+    "Compensator",
+    "LagFeatures",
+    "MAX_TERMS",
+    "MAX_TIME_CONSTANTS",
+    "ThermalTransferFunction",
+]

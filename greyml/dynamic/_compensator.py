@@ -18,7 +18,7 @@ from greyml._param_validation import Interval, Real
 from greyml._sequences import TIME_LEVEL
 from greyml.dynamic._kernels import lag_step
 from greyml.dynamic._lags import LagFeatures, _power_name, _tau_label
-from greyml.dynamic._time import gap_message
+from greyml.dynamic._time import MAX_TERMS, gap_message
 
 __all__ = ["Compensator"]
 
@@ -27,6 +27,26 @@ _PREFIX = "Compensator.update:"
 # per compensator, the last pandas index seen and the positions of time_s and
 # the inputs in it (kept outside the object: an Index is not part of its state)
 _SERIES_POSITIONS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
+
+
+def _numbers_only(values, names):
+    """Refuse, in one line, a value of a row that is not a real number.
+
+    A bool, bytes, text, a date or a duration would otherwise become a
+    number (``True`` is 1, ``b"21"`` is 21, a datetime64 is its count of
+    seconds since 1970) and move the axis by it. ``names`` (or the keys) say
+    which entries to check.
+    """
+    for key in names if names is not None else values:
+        value = values[key]
+        if isinstance(value, (bool, np.bool_)) or not isinstance(
+            value, (numbers.Real, np.integer, np.floating)
+        ):
+            kind = type(value).__name__
+            where = f"position {key}" if names is None else repr(key)
+            raise ValueError(
+                f"{_PREFIX} the row's {where} is {value!r} (a {kind}), not a real number."
+            )
 
 
 def _real(value):
@@ -181,9 +201,16 @@ class Compensator(BaseEstimator):
                 f"The 'terms' parameter of {name} must be a list of "
                 f"(input_name, power, tau_s, weight). Got {self.terms!r} instead."
             )
+        too_many = (
+            f"{name} holds more than the {MAX_TERMS:,} terms or inputs a compensator may hold."
+        )
+        if len(inputs) > MAX_TERMS:
+            raise ValueError(too_many)
         position = {v: j for j, v in enumerate(inputs)}
         raw, lagged = {}, {}
         for k, term in enumerate(self.terms):
+            if k >= MAX_TERMS:
+                raise ValueError(too_many)
             try:
                 column, power, tau, weight = term
             except (TypeError, ValueError):
@@ -238,6 +265,10 @@ class Compensator(BaseEstimator):
             "max_step": float(max_step),
             "row": self._row_positions(inputs),
             "span": (start, stop),
+            # terms whose power is not a whole number: a negative input has no real power
+            "fractional": np.array(
+                [i for i in range(start, stop) if keys[i][1] != round(keys[i][1])], dtype=np.intp
+            ),
             "power": np.array([k[1] for k in keys[start:stop]], dtype=float),
             "tau": np.array([k[2] for k in lag_keys], dtype=float),
             "weight": np.array([lagged[k] for k in lag_keys] + [raw[k] for k in raw_keys]),
@@ -435,6 +466,42 @@ class Compensator(BaseEstimator):
         self._start = None if start is None else float(start)
         return self
 
+    def _check_fitted_state(self):
+        """Rebuild the update plan from the terms, and check the running state.
+
+        Run on a compensator read from a file (:func:`greyml.persist.load_model`):
+        the plan an update runs is always made anew from ``inputs`` and
+        ``terms`` (never taken from the file, which could make it read the
+        wrong sensor or cost any memory), cached coefficients are dropped, and
+        the saved state must pass :meth:`set_state`'s checks against the
+        terms: a NaN start or a lag of the wrong length is refused with one
+        line.
+        """
+        saved = dict(vars(self))
+        time, lags, start = saved.get("_time"), saved.get("_lags"), saved.get("_start")
+        for key in ("_plan", "_dt", "_a", "_b"):
+            self.__dict__.pop(key, None)
+        plan = self._build()  # checks the parameters, the number of terms, and resets
+        if time is None:
+            return
+        labels = plan["labels"]
+        try:
+            values = np.asarray(lags, dtype=float)
+        except (TypeError, ValueError):
+            values = None
+        if values is None or values.shape != plan["weight"].shape:
+            raise ValueError(
+                "Compensator: the saved state's lags do not match its terms "
+                f"({len(labels)} lags and {plan['weight'].size - len(labels)} inputs without lag)."
+            )
+        self.set_state(
+            {
+                "time_s": time,
+                "lags": dict(zip(labels, values[: len(labels)].tolist())),
+                "start": start,
+            }
+        )
+
     def _plan_or_build(self):
         try:
             return self._plan
@@ -450,6 +517,11 @@ class Compensator(BaseEstimator):
             index = row.index
             seen, positions = _SERIES_POSITIONS.get(self, (None, None))
             if index is not seen:
+                if index.has_duplicates:
+                    twice = index[index.duplicated()][0]
+                    raise ValueError(f"{_PREFIX} the row names {twice!r} more than once.")
+                if row.dtype.kind not in "fiu":
+                    _numbers_only(row.to_dict(), [TIME_LEVEL, *names])
                 positions = index.get_indexer([TIME_LEVEL, *names])
                 if (positions < 0).any():
                     missing = [TIME_LEVEL, *names][int(np.flatnonzero(positions < 0)[0])]
@@ -464,6 +536,7 @@ class Compensator(BaseEstimator):
                 values = [row[TIME_LEVEL], *(row[v] for v in names)]
             except KeyError as exc:
                 raise ValueError(f"{_PREFIX} the row has no {exc.args[0]!r}.") from None
+            _numbers_only(dict(zip([TIME_LEVEL, *names], values)), [TIME_LEVEL, *names])
             try:
                 return np.asarray(values, dtype=float)
             except (TypeError, ValueError):
@@ -475,6 +548,9 @@ class Compensator(BaseEstimator):
                 "a mapping or a Series by name, or declare the order of array rows with "
                 f"row_columns= (e.g. {[TIME_LEVEL, *names][:4]})."
             )
+        given = np.asarray(row)
+        if given.dtype.kind not in "fiu":
+            _numbers_only(dict(enumerate(given.reshape(-1).tolist())), None)
         try:
             values = np.asarray(row, dtype=float)
         except (TypeError, ValueError):
@@ -518,6 +594,8 @@ class Compensator(BaseEstimator):
             self._bad_value(time, row, plan)
         v = row[plan["index"]]
         if plan["power"].size:
+            if plan["fractional"].size and (v[plan["fractional"]] < 0).any():
+                self._bad_value(time, row, plan)
             start, stop = plan["span"]
             v[start:stop] **= plan["power"]
         previous = self._time
@@ -575,6 +653,15 @@ class Compensator(BaseEstimator):
                 f"{_PREFIX} input {plan['names'][j]!r} is {float(row[j + 1])!r} at time_s = "
                 f"{time:g} s."
             )
+        start, stop = plan["span"]
+        for k, power in zip(range(start, stop), plan["power"]):
+            j = int(plan["index"][k]) - 1
+            if power != round(power) and row[j + 1] < 0:
+                raise ValueError(
+                    f"{_PREFIX} input {plan['names'][j]!r} is negative ({float(row[j + 1])!r}) "
+                    f"at time_s = {time:g} s, and a term takes it to the power {power:g}, which "
+                    "is not a real number."
+                )
         raise ValueError(
             f"{_PREFIX} the correction overflows at time_s = {time:g} s (a power of an "
             "input too large); scale the inputs."

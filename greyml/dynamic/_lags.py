@@ -13,7 +13,7 @@ from greyml._param_validation import Integral, Interval, Real, StrOptions
 from greyml._time import format_duration
 from greyml._validation import first_flagged, validate_sequences
 from greyml.dynamic._kernels import lag_filter
-from greyml.dynamic._time import STATES, timeline
+from greyml.dynamic._time import MAX_TERMS, STATES, check_time_constants, timeline
 
 __all__ = ["LagFeatures"]
 
@@ -212,12 +212,7 @@ class LagFeatures(TransformerMixin, BaseEstimator):
                 f"The 'time_constants' parameter of {name} must be a number or a non-empty "
                 f"sequence of numbers of seconds. Got {self.time_constants!r} instead."
             )
-        for k, tau in enumerate(taus):
-            if not (np.isfinite(tau) and tau > 0):
-                raise ValueError(
-                    f"The 'time_constants' parameter of {name} must hold finite numbers of "
-                    f"seconds > 0; entry {k} is {tau!r}."
-                )
+        taus = tuple(check_time_constants(taus, f"The 'time_constants' parameter of {name}"))
         labels = [_tau_label(t) for t in taus]
         if len(set(labels)) != len(labels):
             dup = next(t for t, lab in zip(taus, labels) if labels.count(lab) > 1)
@@ -483,6 +478,33 @@ class LagFeatures(TransformerMixin, BaseEstimator):
             base = _power_name(names[j], p)
             out.extend(f"{base}|lag {label}" for label in labels)
         return np.asarray(out, dtype=object)
+
+    def _check_fitted_state(self):
+        """The fitted attributes in their domain and consistent (a model read from a file)."""
+        if "time_constants_" not in vars(self):
+            return
+        what = "The fitted time_constants_ of LagFeatures"
+        taus = check_time_constants(self.time_constants_, what)
+        names = self._input_names()
+        if not set(self.columns_) <= set(names) or set(self.powers_) != set(self.columns_):
+            raise ValueError("LagFeatures: the fitted columns_ and powers_ are not columns of X.")
+        for column, powers in self.powers_.items():
+            checked = _real_tuple(powers)
+            if checked is None or not all(np.isfinite(p) and p > 0 for p in checked):
+                raise ValueError(f"LagFeatures: the fitted powers of {column!r} are {powers!r}.")
+        n_terms = sum(len(p) for p in self.powers_.values()) * (1 + taus.size) + len(names)
+        if n_terms > MAX_TERMS:
+            raise ValueError(
+                f"LagFeatures would give {n_terms:,} columns, more than the {MAX_TERMS:,} a "
+                "model may hold."
+            )
+        step = self.nominal_step_s_
+        if not (_is_real(step) and (np.isnan(step) or (np.isfinite(step) and step > 0))):
+            raise ValueError(f"LagFeatures: nominal_step_s_ is {step!r}.")
+        if "terms_" not in vars(self):  # saved before terms_ was public
+            self.terms_ = self._terms(names)
+        if [tuple(t) for t in self.terms_] != [tuple(t) for t in self._terms(names)]:
+            raise ValueError("LagFeatures: terms_ disagree with the fitted columns and powers.")
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()

@@ -29,10 +29,27 @@ import pandas as pd
 from greyml._sequences import TEST_LEVEL, TIME_LEVEL, segment_label
 from greyml._time import format_duration
 
-__all__ = ["STATES", "Timeline", "gap_message", "timeline"]
+__all__ = [
+    "MAX_TERMS",
+    "MAX_TIME_CONSTANTS",
+    "STATES",
+    "Timeline",
+    "check_time_constants",
+    "gap_message",
+    "timeline",
+]
 
 #: The values of the ``state`` parameter of the dynamic models.
 STATES = ("auto", "carry", "restart")
+
+#: The most time constants a dynamic model takes (a bank, or each input's
+#: lags): no honest model needs more than a few dozen, and each one costs
+#: every predicted row a column. A model file that holds more is refused.
+MAX_TIME_CONSTANTS = 1000
+
+#: The most terms (lag features) a dynamic model or compensator holds: the
+#: work and memory of one ``predict`` row or one ``update`` grow with them.
+MAX_TERMS = 100_000
 
 
 @dataclass(frozen=True)
@@ -58,6 +75,36 @@ class Timeline:
     carried: np.ndarray
     starts: np.ndarray
     nominal_step_s: float
+
+
+def check_time_constants(values, what):
+    """``values`` as a 1-D float array of time constants in seconds, checked.
+
+    Each must be finite and > 0 (a lag with a negative time constant grows
+    without bound), and there may be at most :data:`MAX_TIME_CONSTANTS`.
+    ``what`` names them in the one-line ValueError, e.g. ``"The
+    'time_constants' parameter of LagFeatures"``.
+    """
+    try:
+        taus = np.asarray(values, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        raise ValueError(
+            f"{what} must be a sequence of time constants in seconds. Got {values!r} instead."
+        ) from None
+    if taus.size == 0:
+        raise ValueError(f"{what} needs at least one time constant.")
+    if taus.size > MAX_TIME_CONSTANTS:
+        raise ValueError(
+            f"{what} holds {taus.size:,} time constants, more than the {MAX_TIME_CONSTANTS:,} "
+            "a dynamic model takes."
+        )
+    bad = np.flatnonzero(~(np.isfinite(taus) & (taus > 0)))
+    if bad.size:
+        k = int(bad[0])
+        raise ValueError(
+            f"{what}: time constant {float(taus[k])!r} s (entry {k}) is not a finite number > 0."
+        )
+    return taus
 
 
 def gap_message(owner, where, gap, time, tau_max, row=None):

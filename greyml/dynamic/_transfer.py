@@ -45,7 +45,13 @@ from greyml.dynamic._gram import (
     select_sensors,
     solve_all,
 )
-from greyml.dynamic._time import STATES, Timeline, timeline
+from greyml.dynamic._time import (
+    MAX_TERMS,
+    STATES,
+    Timeline,
+    check_time_constants,
+    timeline,
+)
 from greyml.dynamic._transfer_readout import _round_step, _TransferReadout
 from greyml.exceptions import WarmStartWarning
 
@@ -315,24 +321,7 @@ class ThermalTransferFunction(_TransferReadout, RegressorMixin, BaseEstimator):
     def _taus(self, name, value, default):
         if value is None:
             return np.asarray(default, dtype=float)
-        try:
-            taus = np.asarray(value, dtype=float).reshape(-1)
-        except (TypeError, ValueError):
-            raise ValueError(
-                f"The {name!r} parameter of {type(self).__name__} must be a sequence of "
-                f"time constants in seconds. Got {value!r} instead."
-            ) from None
-        if taus.size == 0:
-            raise ValueError(
-                f"The {name!r} parameter of {type(self).__name__} needs at least one time constant."
-            )
-        for tau in taus:
-            if not np.isfinite(tau) or tau <= 0:
-                raise ValueError(
-                    f"The {name!r} parameter of {type(self).__name__}: time constant "
-                    f"{tau!r} s is not a finite number > 0."
-                )
-        return taus
+        return check_time_constants(value, f"The {name!r} parameter of {type(self).__name__}")
 
     def _check_params(self):
         """Check what the constraints cannot say: the entries of the sequences."""
@@ -810,6 +799,63 @@ class ThermalTransferFunction(_TransferReadout, RegressorMixin, BaseEstimator):
             row_columns=row_columns,
         )
 
+    def _check_fitted_state(self):
+        """Every fitted attribute in its domain and consistent with the others.
+
+        Run on a model read from a file (:func:`greyml.persist.load_model`),
+        which could hold anything: a negative time constant would make every
+        prediction grow without bound, a block naming a column the model does
+        not have would read the wrong sensor. Raises a one-line ValueError.
+        """
+        if "feature_coef_" not in vars(self):
+            return  # not fitted: nothing but parameters
+        name = type(self).__name__
+        if "gap_limit_s_" not in vars(self) or "reference_" not in vars(self):
+            raise ValueError(
+                f"{name} was saved by an earlier greyml, before it had a reference and a gap "
+                "limit; fit it again."
+            )
+        n_in = int(self.n_features_in_)
+        check_time_constants(self.time_constants_, f"The fitted time_constants_ of {name}")
+        check_time_constants(
+            self.driver_time_constants_, f"The fitted driver_time_constants_ of {name}"
+        )
+        spec = list(self._spec_)
+        width = 0
+        for column, power, taus in spec:
+            if not (isinstance(column, numbers.Integral) and 0 <= column < n_in):
+                raise ValueError(f"{name}: a fitted block reads column {column!r} of {n_in}.")
+            if not (_is_real(power) and np.isfinite(power) and power > 0):
+                raise ValueError(f"{name}: a fitted block has the power {power!r}.")
+            if taus:
+                check_time_constants(taus, f"A fitted block of {name}")
+            width += 1 + len(taus)
+        if width > MAX_TERMS:
+            raise ValueError(
+                f"{name} holds {width:,} terms, more than the {MAX_TERMS:,} a model may hold."
+            )
+        coef = np.asarray(self.feature_coef_, dtype=float)
+        if coef.shape != (width,) or not np.isfinite(coef).all():
+            raise ValueError(
+                f"{name}: feature_coef_ must be {width} finite numbers, one per term of the "
+                f"fitted blocks; it has shape {coef.shape}."
+            )
+        if not (_is_real(self.intercept_) and np.isfinite(self.intercept_)):
+            raise ValueError(f"{name}: the intercept_ {self.intercept_!r} is not finite.")
+        if len(self._groups_) != len(spec) or len(self._labels_) != len(spec):
+            raise ValueError(f"{name}: the fitted blocks and their groups disagree.")
+        if self.reference_ not in ("start", "recording"):
+            raise ValueError(f"{name}: reference_ is {self.reference_!r}.")
+        if not (_is_real(self.gap_limit_s_) and np.isfinite(self.gap_limit_s_)):
+            raise ValueError(f"{name}: gap_limit_s_ is {self.gap_limit_s_!r}.")
+        if self.gap_limit_s_ <= 0:
+            raise ValueError(f"{name}: gap_limit_s_ is {self.gap_limit_s_!r}.")
+        step = self.nominal_step_s_
+        if not (_is_real(step) and (np.isnan(step) or (np.isfinite(step) and step > 0))):
+            raise ValueError(f"{name}: nominal_step_s_ is {step!r}.")
+        if [tuple(t) for t in self.terms_] != [tuple(t) for t in self._terms()]:
+            raise ValueError(f"{name}: terms_ disagree with the fitted blocks and gains.")
+
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()
         tags.input_tags.allow_nan = False
@@ -883,6 +929,10 @@ def _longer_banks(taus, driver_taus, span):
         td = [*td, 3.0 * td[-1]]
         out.append((np.asarray(ts), np.asarray(td)))
     return out
+
+
+def _is_real(value):
+    return isinstance(value, numbers.Real) and not isinstance(value, bool)
 
 
 def _finite(value, what):

@@ -217,6 +217,8 @@ class _Reader:
                 )
         if "n_jobs" in attributes:  # processes are the caller's choice, not the file's
             attributes["n_jobs"] = None
+        if "memory" in attributes:  # so are folders: a cache the file names is never used
+            attributes["memory"] = None
         upgrade_renamed(attributes, cls)  # a file from before a parameter was renamed
         obj = cls.__new__(cls)
         if "items" in node:
@@ -323,9 +325,17 @@ def _check_greyml_params(estimator, name):
     uses too). The checks are the class's own methods, never an attribute:
     ``_validate_params`` (the declared ``_parameter_constraints``; its
     ``InvalidParameterError`` is a ``ValueError``), then the checks the
-    constraints cannot express.
+    constraints cannot express, and last ``_check_fitted_state``: every fitted
+    attribute in its physical domain and consistent with the others (a time
+    constant > 0, a compensator's running state against its terms), and the
+    cost of one ``predict`` row or ``update`` within the class's limits.
     """
-    for check in ("_validate_params", "_check_params", "_check_common_params"):
+    for check in (
+        "_validate_params",
+        "_check_params",
+        "_check_common_params",
+        "_check_fitted_state",
+    ):
         method = inspect.getattr_static(type(estimator), check, None)
         if not inspect.isfunction(method):
             continue
@@ -367,7 +377,13 @@ def load_model(path, *, trusted=None, max_bytes=DEFAULT_MAX_BYTES):
     (see :mod:`greyml.persist` for exactly what is guaranteed). Every loaded
     object's ``n_jobs`` is set to ``None``: how many processes a model uses is
     for the caller to decide (``model.set_params(n_jobs=4)`` after loading),
-    never the file's.
+    never the file's, and every ``memory`` (a Pipeline's cache folder) is set
+    to ``None``, so a refit never writes into a folder the file chose. A
+    greyml model's fitted attributes are checked against their physical
+    domain and against each other (time constants > 0, a compensator's state
+    against its terms), and the work of one ``predict`` row or one ``update``
+    is bounded (at most :data:`greyml.dynamic.MAX_TIME_CONSTANTS` time
+    constants and :data:`greyml.dynamic.MAX_TERMS` terms).
 
     Parameters
     ----------
