@@ -516,12 +516,15 @@ class Compensator(BaseEstimator):
         if isinstance(row, pd.Series):
             index = row.index
             seen, positions = _SERIES_POSITIONS.get(self, (None, None))
+            if row.dtype.kind not in "fiu":
+                if index.has_duplicates:
+                    twice = index[index.duplicated()][0]
+                    raise ValueError(f"{_PREFIX} the row names {twice!r} more than once.")
+                _numbers_only(row.to_dict(), [v for v in (TIME_LEVEL, *names) if v in index])
             if index is not seen:
                 if index.has_duplicates:
                     twice = index[index.duplicated()][0]
                     raise ValueError(f"{_PREFIX} the row names {twice!r} more than once.")
-                if row.dtype.kind not in "fiu":
-                    _numbers_only(row.to_dict(), [TIME_LEVEL, *names])
                 positions = index.get_indexer([TIME_LEVEL, *names])
                 if (positions < 0).any():
                     missing = [TIME_LEVEL, *names][int(np.flatnonzero(positions < 0)[0])]
