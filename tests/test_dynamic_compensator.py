@@ -201,7 +201,7 @@ def test_bad_rows():
     _one_line(lambda: comp.update([-5.0, 20.0, 1.0]), "time_s goes back from 0 to -5 s")
     _one_line(lambda: comp.update([5.0, 20.0]), r"must hold the 3 values of row_columns")
     _one_line(lambda: comp.update([5000.0, 20.0, 1.0]), r"sampling gap of 5000 s .* \(15 min\)")
-    _one_line(lambda: comp.update({"time_s": 5.0, "T1_C": "hot", "rpm": 1}), "not a number")
+    _one_line(lambda: comp.update({"time_s": 5.0, "T1_C": "hot", "rpm": 1}), "not a real number")
     _one_line(lambda: comp.update(pd.Series({"time_s": 5.0, "T1_C": 20.0})), "the row has no 'rpm'")
     assert comp.get_state() == before  # a refused row changes nothing
 
