@@ -371,10 +371,10 @@ def test_cli_says_when_nothing_is_held_out_and_when_time_looks_like_minutes(tmp_
     assert code == 0
     assert "fewer than 3 tests, so none is held out" in out
     assert err.getvalue() == ""
-    # the same file with time_s in minutes, read as seconds
+    # the same file with time_s in hours, read as seconds
     minutes = frame.copy()
     minutes.index = make_test_index(
-        minutes.index.get_level_values("test"), minutes.index.get_level_values("time_s") / 60.0
+        minutes.index.get_level_values("test"), minutes.index.get_level_values("time_s") / 3600.0
     )
     path = write_tests_csv(minutes, tmp_path / "minutes.csv")
     argv[1], argv[-1] = path, tmp_path / "m2.greyml"
@@ -382,5 +382,5 @@ def test_cli_says_when_nothing_is_held_out_and_when_time_looks_like_minutes(tmp_
     with redirect_stderr(err):
         code, out = _run(argv)
     assert code == 0
-    assert "steps by 1 s and its longest test lasts 359 s" in err.getvalue()
+    assert "steps by 0.0166667 s and its tests last 11.9667 s in all" in err.getvalue()
     assert "--time-unit min" in err.getvalue()

@@ -226,3 +226,25 @@ def test_the_compensator_names_a_repeated_label_and_a_negative_fractional_power(
     with pytest.raises(ValueError, match=r"'rpm' is negative \(-3.0\).*power 1.5"):
         comp.update({"time_s": 0.0, "T1_C": 20.0, "rpm": -3.0})
     assert math.isclose(comp.update({"time_s": 0.0, "T1_C": 20.0, "rpm": 4.0}), 20.008)
+
+
+def test_a_dict_of_keys_sharing_one_hash_is_refused_before_it_is_built(tmp_path):
+    comp = Compensator(["T1_C"], [("T1_C", 1, 600.0, 1.0)])
+    path = save_model(comp, tmp_path / "c.greyml")
+    modulus = 2**61 - 1  # ints k * modulus + 1 all hash to 1
+
+    def edit(state):
+        keys = [1 + k * modulus for k in range(68_000)]
+        state["state"]["notes_"] = {"kind": "dict", "items": [[key, 0] for key in keys]}
+
+    message = _refused(_rewrite(path, edit, tmp_path / "flood.greyml"), "distinct hash values")
+    assert "68,000 keys with only 1 distinct" in message
+    # a set of distinct numbers of the same size is not refused for its hashes
+    assert (
+        len(
+            __import__("greyml.persist._reader", fromlist=["_spread_keys"])._spread_keys(
+                list(range(68_000)), "set"
+            )
+        )
+        == 68_000
+    )

@@ -175,7 +175,7 @@ def _time_unit_hint(frame, path, csv_options=None):
     """A warning when the file's time looks like minutes or hours read as seconds.
 
     Thermal tests last hours and are sampled every few seconds or more: a
-    median step under 1 s, or tests that all last under 10 min, is usually a
+    median step under 1 s, or tests that last under 10 min in all, is usually a
     ``time_s`` column in minutes or hours read as seconds (every time
     constant would be 60 or 3600 times too short). None when the time looks
     like seconds, or the unit was given with ``--time-unit``.
@@ -190,14 +190,12 @@ def _time_unit_hint(frame, path, csv_options=None):
     steps = np.diff(time)[same]
     if steps.size == 0:
         return None
-    starts = np.r_[True, ~same]
-    bounds = np.flatnonzero(starts).tolist() + [len(time)]
-    longest = max(time[b - 1] - time[a] for a, b in zip(bounds[:-1], bounds[1:]))
+    total = float(steps.sum())
     median = float(np.median(steps))
-    if median < 1.0 or longest < 600.0:
+    if median < 1.0 or total < 600.0:
         return (
-            f"the time_s of {os.fspath(path)!r} steps by {median:g} s and its longest test "
-            f"lasts {longest:g} s: if time_s holds minutes or hours, say so with "
+            f"the time_s of {os.fspath(path)!r} steps by {median:g} s and its tests last "
+            f"{total:g} s in all: if time_s holds minutes or hours, say so with "
             "--time-unit min or --time-unit h"
         )
     return None

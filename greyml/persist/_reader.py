@@ -121,15 +121,16 @@ class _Reader:
         return tuple(self._list(node, "items", depth))
 
     def _decode_set(self, node, depth):
-        return set(self._list(node, "items", depth))
+        return set(_spread_keys(self._list(node, "items", depth), "set"))
 
     def _decode_frozenset(self, node, depth):
-        return frozenset(self._list(node, "items", depth))
+        return frozenset(_spread_keys(self._list(node, "items", depth), "frozenset"))
 
     def _pairs(self, node, depth):
         pairs = self._list(node, "items", depth)
         if not all(type(p) is list and len(p) == 2 for p in pairs):
             raise _Corrupt("a dict node's items are not key-value pairs")
+        _spread_keys([p[0] for p in pairs], "dict")
         return [tuple(p) for p in pairs]
 
     def _decode_dict(self, node, depth):
@@ -229,6 +230,35 @@ class _Reader:
         if name.startswith("greyml."):
             _check_greyml_params(obj, name)
         return obj
+
+
+#: Keys of one dict or set above which they must mostly hash apart (see
+#: :func:`_spread_keys`); fewer cost nothing whatever their hashes.
+_FEW_KEYS = 64
+
+
+def _spread_keys(keys, what):
+    """``keys``, refused when many share one hash value.
+
+    Numbers and tuples hash the same in every process, so a file can hold
+    thousands of dict keys with one hash (``1 + k * (2**61 - 1)``), which
+    makes building the dict take time that grows with the square of their
+    number (68,000 such keys took 23 s). Counting the distinct hashes costs
+    one pass; a container whose keys share hashes more than twice on average
+    is refused, which no model's own dicts come near.
+    """
+    if len(keys) <= _FEW_KEYS:
+        return keys
+    try:
+        distinct = len({hash(k) for k in keys})
+    except TypeError:
+        raise _Corrupt(f"a {what} holds a key that cannot be hashed") from None
+    if 2 * distinct < len(keys):
+        raise _Corrupt(
+            f"a {what} holds {len(keys):,} keys with only {distinct:,} distinct hash values, "
+            "built to make loading slow"
+        )
+    return keys
 
 
 def _describe_callable(value):
