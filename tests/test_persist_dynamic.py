@@ -248,3 +248,22 @@ def test_a_dict_of_keys_sharing_one_hash_is_refused_before_it_is_built(tmp_path)
         )
         == 68_000
     )
+
+
+def test_a_model_with_malformed_attributes_fails_predict_in_one_line(tmp_path):
+    from greyml import GMC
+
+    X, y = _recording()
+    path = save_model(GMC().fit(X[["T1_C"]], y), tmp_path / "gmc.greyml")
+
+    def edit(state):
+        state["state"]["start_range_"] = {"kind": "dict", "items": [["not", "an array"]]}
+
+    bad = _rewrite(path, edit, tmp_path / "bad.greyml")
+    load_model(bad)  # it loads: the damage shows only when it predicts
+    data = write_tests_csv(pd.concat([X, y.rename("dz_um")], axis=1), tmp_path / "x.csv")
+    err = io.StringIO()
+    with redirect_stderr(err), redirect_stdout(io.StringIO()):
+        code = main(["predict", str(bad), str(data), "--out", str(tmp_path / "p.csv")])
+    assert code == 2, err.getvalue()
+    assert err.getvalue().count("\n") == 1 and "Traceback" not in err.getvalue()

@@ -36,11 +36,26 @@ def _fit_quietly(estimator, X, y):
 
 
 def _predict_quietly(estimator, X, **params):
+    """``estimator.predict(X)`` as floats, and the distinct warnings raised.
+
+    A model whose attributes are malformed (a file altered so that it still
+    loads) fails deep inside NumPy or scikit-learn: that is one ValueError
+    naming the model's class and what failed, not a traceback.
+    """
     import numpy as np
 
     with warnings.catch_warnings(record=True) as w:
         warnings.simplefilter("always")
-        pred = np.asarray(estimator.predict(X, **params), dtype=float)
+        try:
+            pred = np.asarray(estimator.predict(X, **params), dtype=float)
+        except ValueError:
+            raise
+        except (TypeError, IndexError, KeyError, AttributeError, np.linalg.LinAlgError) as exc:
+            raise ValueError(
+                f"the model ({type(_final_step(estimator)).__name__}) could not predict "
+                f"({type(exc).__name__}: {str(exc).splitlines()[0] if str(exc) else ''}); its "
+                "file may have been altered, or the data are not what it was fitted on."
+            ) from None
     return pred, _distinct_warnings(w)
 
 
