@@ -309,20 +309,31 @@ def test_cli_on_caiviac_equals_the_api(tmp_path):
     _cli_equals_api(os.fspath(found[0]), "ch1_um", ["1", "2", "3", "4"], "5", tmp_path)
 
 
+def _fit_argv(path, out, *extra):
+    """``greyml fit`` of a transfer function of the speed on ``path``'s dz_um."""
+    return [
+        "fit",
+        path,
+        "--target",
+        "dz_um",
+        "--model",
+        "transfer-function",
+        "--drivers",
+        "spindle_rpm",
+        *extra,
+        "--out",
+        out,
+    ]
+
+
 def test_cli_reaches_every_setting(tmp_path):
     X, y = _recording(n_cycles=3)
     path = write_tests_csv(pd.concat([X, y], axis=1), tmp_path / "rec.csv")
     model_file = tmp_path / "m.greyml"
     code, out = _run(
-        [
-            "fit",
+        _fit_argv(
             path,
-            "--target",
-            "dz_um",
-            "--model",
-            "transfer-function",
-            "--drivers",
-            "spindle_rpm",
+            model_file,
             "--state",
             "restart",
             "--reference",
@@ -333,9 +344,7 @@ def test_cli_reaches_every_setting(tmp_path):
             "600,3600",
             "--driver-time-constants",
             "2700",
-            "--out",
-            model_file,
-        ]
+        )
     )
     assert code == 0, out
     from greyml.persist import load_model
@@ -351,20 +360,7 @@ def test_cli_says_when_nothing_is_held_out_and_when_time_looks_like_minutes(tmp_
     X, y = _recording(n_cycles=2)
     frame = pd.concat([X, y], axis=1)
     path = write_tests_csv(frame, tmp_path / "two.csv")
-    argv = [
-        "fit",
-        path,
-        "--target",
-        "dz_um",
-        "--model",
-        "transfer-function",
-        "--drivers",
-        "spindle_rpm",
-        "--max-sensors",
-        "1",
-        "--out",
-        tmp_path / "m.greyml",
-    ]
+    argv = _fit_argv(path, tmp_path / "m.greyml", "--max-sensors", "1")
     err = io.StringIO()
     with redirect_stderr(err):
         code, out = _run(argv)
