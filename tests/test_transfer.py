@@ -342,3 +342,64 @@ def test_stable_selection_keeps_the_sensors_most_runs_chose(data):
     three = X.index.get_level_values("test") != "t3"
     forward = _model(max_sensors=3, selection="stable").fit(X[three], y[three])
     assert list(forward.selection_.columns) == ["sensor", "held_out_rmse", "alpha"]
+
+
+def test_forward_selection_keeps_the_shortest_prefix_within_one_standard_error():
+    from greyml.dynamic._gram import _forward
+
+    scores = {(): 1.0, (0,): 0.5, (0, 1): 0.45, (0, 1, 2): 0.44}
+
+    def evaluate(chosen):
+        return scores.get(tuple(chosen), 2.0), 1e-3  # other sensors help less
+
+    def forward(se):
+        keep, _, score, path = _forward(
+            evaluate,
+            [0, 1, 2],
+            ["a", "b", "c"],
+            np.array([-1, 0, 1, 2]),
+            4,
+            3,
+            lambda chosen, alpha: se,
+        )
+        return keep, score
+
+    # 0.44 is the lowest; within 0.06 of it, one sensor (0.50) is enough
+    assert forward(0.06) == ([0], 0.5)
+    assert forward(0.01) == ([0, 1], 0.45)
+    assert forward(0.0) == ([0, 1, 2], 0.44)
+
+
+def test_held_out_spread_is_the_standard_error_of_the_refits(data):
+    from greyml.dynamic._gram import _cols_all, held_out_spread
+
+    X, y = data
+    model = _model(max_sensors=None, alphas=[1e-2]).fit(X, y + 0.05 * np.sin(np.arange(len(y))))
+    noisy = y + 0.05 * np.sin(np.arange(len(y)))
+    tests = list(dict.fromkeys(X.index.get_level_values("test")))
+    rmses = []
+    for held in tests:
+        train = X.index.get_level_values("test") != held
+        part = _model(max_sensors=None, alphas=[1e-2]).fit(X[train], noisy[train])
+        pred = part.predict(X[~train])
+        y_held = noisy[~train].to_numpy()
+        rmses.append(np.sqrt(np.mean((pred - (y_held - y_held[0])) ** 2)))
+    F = model._design(
+        X.to_numpy(),
+        model._timeline(X, __import__("greyml")._sequences.test_segments(X), model.gap_limit_s_),
+        [(i * 360, (i + 1) * 360) for i in range(4)],
+        model._spec_,
+        model._groups_,
+        "start",
+    )
+    y0 = noisy.groupby(level="test", sort=False).transform("first")
+    grams, pen = model._grams(
+        F,
+        (noisy - y0).to_numpy(),
+        np.ones(len(y)),
+        [(i * 360, (i + 1) * 360) for i in range(4)],
+        "start",
+    )
+    cols = _cols_all(model._col_group_, list(range(5)), grams[0].shape[1])
+    spread = held_out_spread(grams, cols, 1e-2, pen, [0, 1, 2, 3])
+    assert spread == pytest.approx(np.std(rmses, ddof=1) / 2.0, rel=1e-6)

@@ -16,7 +16,9 @@ from greyml.dynamic._kernels import lag_filter
 
 __all__ = [
     "design",
+    "held_out_errors",
     "held_out_scores",
+    "held_out_spread",
     "select_sensors",
     "solve_all",
     "grams_by_test",
@@ -116,13 +118,12 @@ def solve_all(G, b, sw, alphas, pen):
     return coefs / scale[:, None]
 
 
-def held_out_scores(grams, cols, alphas, pen, folds):
-    """Mean held-out RMSE over ``folds`` for each alpha, on design columns ``cols``.
+def held_out_errors(grams, cols, alphas, pen, folds):
+    """Held-out RMSE of each fold for each alpha: an array (n_folds, n_alphas).
 
     ``grams`` are the per-test raw (G, b, yy, sw); each fold holds out one test,
     standardises and solves the ridge on the others exactly as a refit on them
-    would, and scores the held-out test from its own Gram. Returns an array
-    (n_alphas,) of mean per-test RMSE.
+    would, and scores the held-out test from its own Gram.
     """
     G, b, yy, sw = grams
     ix = np.ix_(cols, cols)
@@ -130,12 +131,33 @@ def held_out_scores(grams, cols, alphas, pen, folds):
     bs = b[:, cols]
     Gt, bt, st = Gs.sum(axis=0), bs.sum(axis=0), sw.sum()
     pen = pen[cols]
-    out = np.zeros(len(alphas))
-    for h in folds:
+    out = np.zeros((len(folds), len(alphas)))
+    for i, h in enumerate(folds):
         coefs = solve_all(Gt - Gs[h], bt - bs[h], st - sw[h], alphas, pen)
         sse = yy[h] - 2.0 * (bs[h] @ coefs) + np.einsum("ia,ij,ja->a", coefs, Gs[h], coefs)
-        out += np.sqrt(np.maximum(sse, 0.0) / sw[h])
-    return out / len(folds)
+        out[i] = np.sqrt(np.maximum(sse, 0.0) / sw[h])
+    return out
+
+
+def held_out_scores(grams, cols, alphas, pen, folds):
+    """Mean held-out RMSE over ``folds`` for each alpha, on design columns ``cols``.
+
+    An array (n_alphas,): the mean over the folds of :func:`held_out_errors`.
+    """
+    return held_out_errors(grams, cols, alphas, pen, folds).mean(axis=0)
+
+
+def held_out_spread(grams, cols, alpha, pen, folds):
+    """The standard error of the mean held-out RMSE for one penalty (0 without folds).
+
+    The one-standard-error rule (Breiman et al., 1984) takes the simplest
+    candidate whose mean held-out RMSE is within this of the best one: with
+    a handful of tests, differences smaller than that are noise.
+    """
+    if folds is None or len(folds) < 2:
+        return 0.0
+    errors = held_out_errors(grams, cols, [alpha], pen, folds)[:, 0]
+    return float(errors.std(ddof=1) / np.sqrt(errors.size))
 
 
 def train_scores(grams, cols, alphas, pen):
@@ -180,13 +202,17 @@ def select_sensors(grams, pen, col_group, sensors, alphas, folds, max_sensors, s
         i = int(np.argmin(sc))
         return float(sc[i]), float(alphas[i])
 
+    def spread(chosen, alpha):
+        cols = _cols_all(col_group, chosen, n_total)
+        return held_out_spread(grams, cols, alpha, pen, folds)
+
     everything = list(range(len(sensors)))
     if max_sensors is None:
         score, alpha = evaluate(everything)
         return everything, alpha, score, []
     if selection == "stable" and folds is not None and len(folds) >= 4:
         return _stable(grams, pen, col_group, sensors, alphas, folds, evaluate, max_sensors)
-    return _forward(evaluate, everything, sensors, col_group, n_total, max_sensors)
+    return _forward(evaluate, everything, sensors, col_group, n_total, max_sensors, spread)
 
 
 def _stable(grams, pen, col_group, sensors, alphas, folds, evaluate, max_sensors):
@@ -225,13 +251,15 @@ def _stable(grams, pen, col_group, sensors, alphas, folds, evaluate, max_sensors
     return chosen, alpha, score, path
 
 
-def _forward(evaluate, everything, sensors, col_group, n_total, max_sensors):
-    """Greedy forward selection; the best prefix up to ``max_sensors`` by held-out score.
+def _forward(evaluate, everything, sensors, col_group, n_total, max_sensors, spread=None):
+    """Greedy forward selection; the shortest good prefix up to ``max_sensors``.
 
-    A longer prefix is kept only when it lowers the score by more than
-    ``_RESOLUTION`` times the first step's score: a sensor whose gain is
-    at the level of rounding (noise-free data fitted to 1e-7) is not
-    chosen by the last digits of a floating-point sum.
+    The prefix kept is the shortest whose mean held-out score is within one
+    standard error of the lowest (``spread(chosen, alpha)`` of the lowest;
+    the one-standard-error rule), and never within less than
+    ``_RESOLUTION`` times the first step's score: a sensor whose gain is at
+    the level of rounding (noise-free data fitted to 1e-7) is not chosen by
+    the last digits of a floating-point sum.
     """
     chosen, path, prefixes = [], [], []
     if (col_group == -1).any() or n_total > len(col_group):
@@ -251,7 +279,8 @@ def _forward(evaluate, everything, sensors, col_group, n_total, max_sensors):
         chosen = [*chosen, k]
         path.append((sensors[k], score, alpha))
         prefixes.append((score, list(chosen), alpha))
-    lowest = min(score for score, _, _ in prefixes)
-    within = lowest + _RESOLUTION * abs(prefixes[0][0])
+    lowest, best, best_alpha = min(prefixes, key=lambda p: p[0])
+    margin = 0.0 if spread is None else spread(best, best_alpha)
+    within = lowest + max(margin, _RESOLUTION * abs(prefixes[0][0]))
     score, keep, alpha = next(p for p in prefixes if p[0] <= within)
     return keep, alpha, score, path

@@ -517,8 +517,7 @@ class ThermalTransferFunction(_TransferReadout, RegressorMixin, BaseEstimator):
         if settings.extend and folds is not None:
             banks += _longer_banks(settings.taus, settings.driver_taus, _span(data))
         fits = [self._fit_bank(data, settings, y_fit, folds, reference, *bank) for bank in banks]
-        best = min(range(len(fits)), key=lambda i: (fits[i].score, i))
-        bank = fits[best]
+        bank = min(fits, key=lambda f: f.score)  # the first of equal scores: the shortest
         if settings.fit_taus and folds is not None:
             chosen_names = [data.sensors[k] for k in bank.chosen]
             taus, driver_taus = self._fit_taus(
