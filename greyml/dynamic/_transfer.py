@@ -26,7 +26,7 @@ from __future__ import annotations
 import numbers
 import warnings
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from scipy.optimize import minimize
@@ -87,10 +87,13 @@ class ThermalTransferFunction(_TransferReadout, RegressorMixin, BaseEstimator):
     * with ``max_sensors``, which temperature sensors: **forward selection**
       of whole sensors (a sensor's static term and all its lags enter
       together), each step adding the sensor that lowers the mean held-out
-      RMSE most, then keeping the number of sensors (up to ``max_sensors``)
-      whose held-out RMSE is lowest (a longer list must lower it by more
-      than one part in a million of the first step's RMSE, so that rounding
-      never adds a sensor). Forward selection rather than a group
+      RMSE most, then keeping the shortest list (up to ``max_sensors``)
+      whose mean held-out RMSE is within one standard error (over the
+      held-out tests) of the lowest, the one-standard-error rule of Breiman
+      et al. (1984): with a handful of tests, smaller differences are noise
+      (and never within less than one part in a million of the first step's
+      RMSE, so that rounding never adds a sensor). Forward selection rather
+      than a group
       lasso because it scores exactly what is asked (held-out error of whole
       tests with a hard budget of sensors), its penalty does not shrink the
       gains that are kept, and with per-test Gram matrices a step costs only
@@ -127,11 +130,11 @@ class ThermalTransferFunction(_TransferReadout, RegressorMixin, BaseEstimator):
         Time constants of the lags, in seconds. ``None``: 300, 900, 2700 and
         8100 s (5, 15, 45 and 135 min), spaced by a factor of three to cover
         what heat does in a machine structure, from a cover plate to a column;
-        with three tests or more, that bank is also tried extended by a lag
-        three times slower at a time (with the drivers' bank) as far as the
-        longest stretch of the training data without a restart, and the bank
-        with the lowest held-out RMSE is kept (slow dynamics, such as a
-        warm-up that goes on for a day).
+        with three tests or more, once the sensors are chosen on that bank,
+        it is also tried extended by a lag three times slower at a time (with
+        the drivers' bank) as far as the longest stretch of the training data
+        without a restart, and the bank with the lowest held-out RMSE is kept
+        (slow dynamics, such as a warm-up that goes on for a day).
         ``"fit"``: start from that bank and fit the time constants by
         variable projection on held-out tests (three tests or more).
     state : {"auto", "carry", "restart"}, default="auto"
@@ -249,6 +252,10 @@ class ThermalTransferFunction(_TransferReadout, RegressorMixin, BaseEstimator):
 
     References
     ----------
+    Breiman, L., Friedman, J. H., Olshen, R. A., Stone, C. J. (1984).
+    Classification and Regression Trees. Wadsworth (the one-standard-error
+    rule).
+
     Mareš, M., Horejš, O., Havlík, L. (2020). Thermal error compensation of a
     5-axis machine tool using indigenous temperature sensors and CNC
     integrated Python code validated with a machined test piece. Precision
@@ -513,10 +520,19 @@ class ThermalTransferFunction(_TransferReadout, RegressorMixin, BaseEstimator):
             len(data.drivers) * len(settings.powers) * (1 + len(settings.driver_taus))
         )
         self._check_enough_rows(data, settings, n_driver_columns, reference)
-        banks = [(settings.taus, settings.driver_taus)]
+        base = self._fit_bank(
+            data, settings, y_fit, folds, reference, settings.taus, settings.driver_taus
+        )
+        fits = [base]
         if settings.extend and folds is not None:
-            banks += _longer_banks(settings.taus, settings.driver_taus, _span(data))
-        fits = [self._fit_bank(data, settings, y_fit, folds, reference, *bank) for bank in banks]
+            # the sensors chosen on the bank, then the bank made longer for them
+            fits += [
+                replace(
+                    self._fit_bank(data, settings, y_fit, folds, reference, *b, chosen=base.chosen),
+                    path=base.path,
+                )
+                for b in _longer_banks(settings.taus, settings.driver_taus, _span(data))
+            ]
         bank = min(fits, key=lambda f: f.score)  # the first of equal scores: the shortest
         if settings.fit_taus and folds is not None:
             chosen_names = [data.sensors[k] for k in bank.chosen]
