@@ -15,6 +15,7 @@ from greyml._cli._fit import _add_fit_parser
 from greyml._cli._flags import EXIT_ERROR, EXIT_OK, _Parser
 from greyml._cli._gap import _add_gap_parser
 from greyml._cli._predict import _add_predict_parser
+from greyml._cli._printing import printable, terminal_safe
 from greyml._cli._select import _add_select_parser
 from greyml._cli._simulate import _add_simulate_parser
 
@@ -77,6 +78,10 @@ def build_parser():
 def main(argv=None):
     """Run the ``greyml`` command line.
 
+    Everything the command prints passes through
+    :func:`greyml._cli._printing.terminal_safe`: no terminal control from a
+    file reaches the terminal.
+
     Parameters
     ----------
     argv : list of str, optional
@@ -96,18 +101,22 @@ def main(argv=None):
     greyml ...
     0
     """
-    parser = build_parser()
-    try:
-        args = parser.parse_args(argv)
-    except SystemExit as exc:  # --help, --version and usage errors
-        return EXIT_OK if exc.code is None else int(exc.code)
+    with terminal_safe():
+        parser = build_parser()
+        try:
+            args = parser.parse_args(argv)
+        except SystemExit as exc:  # --help, --version and usage errors
+            return EXIT_OK if exc.code is None else int(exc.code)
+        return _run(args)
+
+
+def _run(args):
+    """Run the parsed command; a user error is one line on standard error and code 2."""
     try:
         return args.handler(args)
     except OSError as exc:
         message = _os_message(exc)
     except ValueError as exc:
         message = str(exc)
-    from greyml._cli._printing import printable
-
     print(f"{args.parser.prog}: error: {printable(message)}", file=sys.stderr)
     return EXIT_ERROR
