@@ -58,13 +58,17 @@ def _check_output_file(path, force, what="--out"):
 
 
 def _write_text(path, text, force):
-    """Write ``text`` to ``path`` through a temporary file; an existing file only if ``force``."""
+    """Write ``text`` to ``path`` through a temporary file; an existing file only if ``force``.
+
+    Whatever stops the write (an error, Ctrl-C, SIGTERM) removes the temporary file.
+    """
     import secrets
 
     folder = os.path.dirname(os.path.abspath(path))
     temp = os.path.join(folder, f".{os.path.basename(path)}.{secrets.token_hex(4)}.part")
-    fd = os.open(temp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
+    fd = None
     try:
+        fd = os.open(temp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
         with open(fd, "w", encoding="utf-8") as fh:
             fh.write(text)
         if force:
@@ -76,11 +80,23 @@ def _write_text(path, text, force):
                 raise ValueError(f"--json {path!r} exists; pass --force to replace it.") from None
             except OSError:  # no hard links on this file system
                 os.replace(temp, path)
-            else:
-                os.unlink(temp)
-    finally:
-        if os.path.exists(temp):
+        if os.path.exists(temp):  # the name left after a hard link
             os.unlink(temp)
+    except FileExistsError:
+        if fd is not None:  # else os.open met a file of that name, not ours to remove
+            _remove(temp)
+        raise
+    except BaseException:
+        _remove(temp)
+        raise
+
+
+def _remove(path):
+    """Remove the file ``path`` if it exists."""
+    try:
+        os.unlink(path)
+    except FileNotFoundError:
+        pass
 
 
 def _read(path, csv_options=None):
