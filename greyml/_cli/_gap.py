@@ -32,10 +32,10 @@ only with --force.
 Warnings and progress go to standard error, never to standard output.
 
 Exit codes:
-  {ok}  the diagnosis ran (whether or not it names a cause)
-  {error}  usage error, unreadable or unwritable file, or data that cannot be
-     diagnosed (one line on standard error: greyml gap: error: <message>)
-"""
+  {ok}    the diagnosis ran (whether or not it names a cause)
+  {error}    usage error, unreadable or unwritable file, or data that cannot be
+       diagnosed (one line on standard error: greyml gap: error: <message>)
+{interrupted}"""
 
 
 def _gap_epilog():
@@ -43,7 +43,12 @@ def _gap_epilog():
     from greyml.gap import EFFECTS
 
     effects = textwrap.fill("Effects (--effects): " + ", ".join(EFFECTS) + ".", width=79)
-    return _GAP_EPILOG.format(effects=effects, ok=flags.EXIT_OK, error=flags.EXIT_ERROR)
+    return _GAP_EPILOG.format(
+        effects=effects,
+        ok=flags.EXIT_OK,
+        error=flags.EXIT_ERROR,
+        interrupted=flags._EXIT_INTERRUPTED_HELP,
+    )
 
 
 def _add_gap_parser(subparsers):
