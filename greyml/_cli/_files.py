@@ -15,8 +15,11 @@ from pathlib import Path
 OPERATING_COLUMNS = ("spindle_rpm", "feed_mm_min", "c_rpm", "ambient_C")
 
 
-def _prepare_output_folder(out, force):
-    """Create ``out`` or check that it is an empty folder (any folder with ``force``)."""
+def _check_output_folder(out, force):
+    """Check that ``out`` may be written: absent, or an empty folder (any folder with ``force``).
+
+    Creates nothing (``greyml demo`` writes into a temporary folder and moves it there).
+    """
     out = Path(out)
     if out.exists():
         if not out.is_dir():
@@ -26,16 +29,8 @@ def _prepare_output_folder(out, force):
                 f"the output folder {os.fspath(out)!r} is not empty; choose another --out, "
                 "or pass --force to write into it (files of the same names are replaced)."
             )
-    else:
-        try:
-            out.mkdir(parents=True)
-        except OSError as exc:
-            reason = exc.strerror or type(exc).__name__
-            raise ValueError(
-                f"cannot create the output folder {os.fspath(out)!r}: {reason}."
-            ) from None
-    if not os.access(out, os.W_OK | os.X_OK):
-        raise ValueError(f"cannot write to the output folder {os.fspath(out)!r}.")
+        if not os.access(out, os.W_OK | os.X_OK):
+            raise ValueError(f"cannot write to the output folder {os.fspath(out)!r}.")
     return out
 
 
