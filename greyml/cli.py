@@ -53,6 +53,12 @@ Exit codes: 0 when the diagnosis ran, whether or not it names a cause; 2 for
 a usage error, a file that cannot be read or written, or data that cannot be
 diagnosed (one line starting with ``greyml gap: error:``).
 
+Every command: Ctrl-C exits with 130 and SIGTERM with 143, after one line
+``greyml <command>: interrupted`` and after removing the files it was
+writing (an output is complete or absent). Everything a command prints
+passes through one filter that removes terminal control characters
+(:func:`greyml._cli._printing.terminal_safe`).
+
 ``greyml demo`` fits the six models on the seeds' simulated tests and prints
 them beside the papers' numbers; ``simulate``, ``select``, ``fit`` and
 ``predict`` are the steps of the same job on a user's CSV files. Each has its

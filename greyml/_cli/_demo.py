@@ -3,13 +3,17 @@
 from __future__ import annotations
 
 import os
+import secrets
+import shutil
 import textwrap
 import time
 from dataclasses import dataclass
+from pathlib import Path
 
 from greyml._cli import _flags as flags
-from greyml._cli._files import OPERATING_COLUMNS, _prepare_output_folder
+from greyml._cli._files import OPERATING_COLUMNS, _check_output_folder
 from greyml._cli._fitting import _final_step, _fit_quietly, _predict_quietly, _selector
+from greyml._cli._interrupt import deferred
 from greyml._cli._printing import _progress, _tests_words
 from greyml._command_names import MODEL_NAMES
 
@@ -19,15 +23,18 @@ DEMO_SENSORS = 5
 
 _DEMO_EPILOG = """\
 What it does:
-  1. simulates Abdulshahed et al.'s (2015) six VMC tests and Abdulshahed et al.'s (2016) three gantry tests
-     (greyml.datasets.load_vmc_tests, load_gantry_tests);
+  1. simulates Abdulshahed et al.'s (2015) six VMC tests and Abdulshahed et
+     al.'s (2016) three gantry tests (greyml.datasets.load_vmc_tests,
+     load_gantry_tests);
   2. on each machine, fits GMC, GNNMCI, ANFISGrid, ANFISFCM and MLPBaseline, each
      after GreyInfluenceSelector (5 sensors) in one Pipeline, on the seeds'
      training tests (VMC: Test IV; gantry: the Z-axis and C-axis tests);
   3. validates them on the other tests and prints R, RMSE, E (Nash-Sutcliffe),
      the residual band and the improvement beside what the papers report;
   4. writes one plot per model and machine (measured and predicted displacement
-     over time, the residual and its band) and results.txt to --out.
+     over time, the residual and its band) and results.txt to --out (first
+     into a hidden folder, moved to --out at the end: an interrupted run leaves
+     --out as it was).
 
 The full run takes about half a minute; --quick (smaller swarms, fewer epochs)
 a few seconds.
@@ -351,7 +358,85 @@ def _plot(path, run, result):
         f"{_tests_words(run['train_tests'])}, validated on the tests shown"
     )
     fig.suptitle(textwrap.fill(title, width=int(11 * width)))
-    fig.savefig(path, dpi=90)
+    _write_whole(path, lambda fh: fig.savefig(fh, format="png", dpi=90))
+
+
+def _write_whole(path, write):
+    """``write(file)`` to a temporary file beside ``path``, then renamed to ``path``.
+
+    Whatever stops the writing (a full disk, Ctrl-C) removes the temporary
+    file, so ``path`` is whole or absent: never an empty or half-drawn PNG.
+    """
+    path = Path(path)
+    temp = path.with_name(f".{path.name}.{secrets.token_hex(4)}.part")
+    try:
+        with open(temp, "xb") as fh:
+            write(fh)
+        os.replace(temp, path)
+    except BaseException:
+        temp.unlink(missing_ok=True)
+        raise
+
+
+class _Staging:
+    """A hidden folder that receives the demo's files, moved to ``--out`` at the end.
+
+    When ``out`` does not exist, the folder is made beside it (with any
+    missing parent folders) and renamed to ``out`` at the end; when ``out``
+    exists (empty, or any folder with ``--force``), it is made inside it and
+    its files are moved into ``out`` at the end. :meth:`discard` removes what
+    it made, so Ctrl-C or an error leave ``--out`` as it was: a next run is
+    not refused for a half-filled folder.
+    """
+
+    def __init__(self, out):
+        self.out = Path(out)
+        self.inside = self.out.exists()
+        parent = self.out if self.inside else self.out.parent
+        self.made = []  # parent folders created for it, innermost last
+        name = self.out.name or "greyml-demo"
+        self.folder = parent / f".{name}.{os.getpid()}.{secrets.token_hex(4)}.part"
+        try:
+            for folder in reversed([parent, *parent.parents]):
+                if not folder.exists():
+                    folder.mkdir()
+                    self.made.append(folder)
+            self.folder.mkdir()
+        except OSError as exc:
+            self.discard()
+            reason = exc.strerror or type(exc).__name__
+            raise ValueError(
+                f"cannot create the output folder {os.fspath(self.out)!r}: {reason}."
+            ) from None
+
+    def publish(self):
+        """Move the files to ``out``: a rename of the folder, or file by file into it."""
+        if self.inside:
+            with deferred():  # Ctrl-C waits for the last file: no half-filled folder
+                for path in sorted(self.folder.iterdir()):
+                    os.replace(path, self.out / path.name)
+                self.folder.rmdir()
+            return
+        try:
+            os.rename(self.folder, self.out)
+        except OSError:
+            if self.out.exists():
+                raise ValueError(
+                    f"the output folder {os.fspath(self.out)!r} was made by something else "
+                    "while the demo ran; choose another --out."
+                ) from None
+            raise
+        self.made = []
+
+    def discard(self):
+        """Remove the hidden folder and the parent folders made for it (if still empty)."""
+        shutil.rmtree(self.folder, ignore_errors=True)
+        for folder in reversed(self.made):
+            try:
+                folder.rmdir()
+            except OSError:
+                break
+        self.made = []
 
 
 def run_demo(out="greyml-demo", *, force=False, quick=False, quiet=False):
@@ -382,10 +467,32 @@ def run_demo(out="greyml-demo", *, force=False, quick=False, quiet=False):
     int
         0.
     """
+    start = time.perf_counter()
+    _check_output_folder(out, force)
+    folder = Path(out)
+    staging = _Staging(folder)
+    try:
+        text = _demo_report(staging.folder, folder, quick=quick, quiet=quiet, start=start)
+        staging.publish()
+    except OSError as exc:  # a full disk, a folder removed meanwhile
+        reason = exc.strerror or str(exc)
+        raise ValueError(
+            f"cannot write the demo's files to {os.fspath(folder)!r}: {reason}; "
+            "nothing was written there."
+        ) from None
+    finally:
+        staging.discard()
+    print(text)
+    return 0
+
+
+def _demo_report(staging, folder, *, quick, quiet, start):
+    """Fit, plot and write ``results.txt`` into ``staging``; return the report's text.
+
+    ``folder`` is where the files will be (named in the report).
+    """
     from greyml._seeds import SEED_RESULTS
 
-    start = time.perf_counter()
-    folder = _prepare_output_folder(out, force)
     progress = _progress(len(_DEMO_MACHINES) * (2 + len(MODEL_NAMES)), quiet)
     runs = []
     written = []
@@ -395,9 +502,9 @@ def run_demo(out="greyml-demo", *, force=False, quick=False, quiet=False):
             progress.step(f"plotting the {machine.label} models")
             for r in run["results"]:
                 if "prediction" in r:
-                    path = folder / f"{machine.key}_{r['name']}.png"
-                    _plot(path, run, r)
-                    written.append(path.name)
+                    name = f"{machine.key}_{r['name']}.png"
+                    _plot(staging / name, run, r)
+                    written.append(name)
             runs.append(run)
     finally:
         progress.close()
@@ -423,6 +530,5 @@ def run_demo(out="greyml-demo", *, force=False, quick=False, quiet=False):
         "also in results.txt there.",
     ]
     text = "\n".join(_wrap(p) for p in parts)
-    (folder / "results.txt").write_text(text + "\n", encoding="utf-8")
-    print(text)
-    return 0
+    _write_whole(staging / "results.txt", lambda fh: fh.write((text + "\n").encode("utf-8")))
+    return text

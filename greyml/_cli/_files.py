@@ -15,8 +15,11 @@ from pathlib import Path
 OPERATING_COLUMNS = ("spindle_rpm", "feed_mm_min", "c_rpm", "ambient_C")
 
 
-def _prepare_output_folder(out, force):
-    """Create ``out`` or check that it is an empty folder (any folder with ``force``)."""
+def _check_output_folder(out, force):
+    """Check that ``out`` may be written: absent, or an empty folder (any folder with ``force``).
+
+    Creates nothing (``greyml demo`` writes into a temporary folder and moves it there).
+    """
     out = Path(out)
     if out.exists():
         if not out.is_dir():
@@ -26,16 +29,8 @@ def _prepare_output_folder(out, force):
                 f"the output folder {os.fspath(out)!r} is not empty; choose another --out, "
                 "or pass --force to write into it (files of the same names are replaced)."
             )
-    else:
-        try:
-            out.mkdir(parents=True)
-        except OSError as exc:
-            reason = exc.strerror or type(exc).__name__
-            raise ValueError(
-                f"cannot create the output folder {os.fspath(out)!r}: {reason}."
-            ) from None
-    if not os.access(out, os.W_OK | os.X_OK):
-        raise ValueError(f"cannot write to the output folder {os.fspath(out)!r}.")
+        if not os.access(out, os.W_OK | os.X_OK):
+            raise ValueError(f"cannot write to the output folder {os.fspath(out)!r}.")
     return out
 
 
@@ -58,13 +53,17 @@ def _check_output_file(path, force, what="--out"):
 
 
 def _write_text(path, text, force):
-    """Write ``text`` to ``path`` through a temporary file; an existing file only if ``force``."""
+    """Write ``text`` to ``path`` through a temporary file; an existing file only if ``force``.
+
+    Whatever stops the write (an error, Ctrl-C, SIGTERM) removes the temporary file.
+    """
     import secrets
 
     folder = os.path.dirname(os.path.abspath(path))
     temp = os.path.join(folder, f".{os.path.basename(path)}.{secrets.token_hex(4)}.part")
-    fd = os.open(temp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
+    fd = None
     try:
+        fd = os.open(temp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
         with open(fd, "w", encoding="utf-8") as fh:
             fh.write(text)
         if force:
@@ -76,11 +75,23 @@ def _write_text(path, text, force):
                 raise ValueError(f"--json {path!r} exists; pass --force to replace it.") from None
             except OSError:  # no hard links on this file system
                 os.replace(temp, path)
-            else:
-                os.unlink(temp)
-    finally:
-        if os.path.exists(temp):
+        if os.path.exists(temp):  # the name left after a hard link
             os.unlink(temp)
+    except FileExistsError:
+        if fd is not None:  # else os.open met a file of that name, not ours to remove
+            _remove(temp)
+        raise
+    except BaseException:
+        _remove(temp)
+        raise
+
+
+def _remove(path):
+    """Remove the file ``path`` if it exists."""
+    try:
+        os.unlink(path)
+    except FileNotFoundError:
+        pass
 
 
 def _read(path, csv_options=None):

@@ -17,6 +17,9 @@ from greyml._command_names import CSV_TIME_UNITS
 #: Exit codes, also listed in the ``--help`` text.
 EXIT_OK = 0
 EXIT_ERROR = 2
+#: Stopped by Ctrl-C (SIGINT) or SIGTERM: 128 + the signal's number, as a shell reports it.
+EXIT_INTERRUPTED = 130
+EXIT_TERMINATED = 143
 
 
 def _names(text):
@@ -271,12 +274,21 @@ def _subparser(subparsers, name, epilog, *, exit_codes=True):
     )
 
 
+#: The lines of the exit codes 130 and 143 in every subcommand's help (the
+#: end of :data:`_EXIT_CODES`, and of ``greyml gap``'s own list).
+_EXIT_INTERRUPTED_HELP = f"""\
+  {EXIT_INTERRUPTED}  interrupted by Ctrl-C (SIGINT)
+  {EXIT_TERMINATED}  stopped by SIGTERM
+       (one line on standard error: greyml <command>: interrupted; no partial
+       or temporary file is left: each output is either complete or absent)
+"""
+
 _EXIT_CODES = f"""
 Exit codes:
-  {EXIT_OK}  success
-  {EXIT_ERROR}  usage error, unreadable or unwritable file, or unusable data (one line
-     on standard error: greyml <command>: error: <message>)
-"""
+  {EXIT_OK}    success
+  {EXIT_ERROR}    usage error, unreadable or unwritable file, or unusable data (one line
+       on standard error: greyml <command>: error: <message>)
+{_EXIT_INTERRUPTED_HELP}"""
 
 
 _SENSORS_HELP = (

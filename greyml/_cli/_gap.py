@@ -6,10 +6,12 @@ import argparse
 import json
 import sys
 import textwrap
+import warnings
 
 from greyml._cli import _flags as flags
 from greyml._cli._files import _check_output_file, _read, _write_text
-from greyml._cli._printing import _progress
+from greyml._cli._fitting import _distinct_warnings
+from greyml._cli._printing import _progress, _warn
 
 _GAP_EPILOG = """\
 The CSV files have the columns test and time_s, then the data columns; SIM.csv
@@ -27,11 +29,13 @@ only with --force.
 
 {effects}
 
+Warnings and progress go to standard error, never to standard output.
+
 Exit codes:
-  {ok}  the diagnosis ran (whether or not it names a cause)
-  {error}  usage error, unreadable or unwritable file, or data that cannot be
-     diagnosed (one line on standard error: greyml gap: error: <message>)
-"""
+  {ok}    the diagnosis ran (whether or not it names a cause)
+  {error}    usage error, unreadable or unwritable file, or data that cannot be
+       diagnosed (one line on standard error: greyml gap: error: <message>)
+{interrupted}"""
 
 
 def _gap_epilog():
@@ -39,7 +43,12 @@ def _gap_epilog():
     from greyml.gap import EFFECTS
 
     effects = textwrap.fill("Effects (--effects): " + ", ".join(EFFECTS) + ".", width=79)
-    return _GAP_EPILOG.format(effects=effects, ok=flags.EXIT_OK, error=flags.EXIT_ERROR)
+    return _GAP_EPILOG.format(
+        effects=effects,
+        ok=flags.EXIT_OK,
+        error=flags.EXIT_ERROR,
+        interrupted=flags._EXIT_INTERRUPTED_HELP,
+    )
 
 
 def _add_gap_parser(subparsers):
@@ -132,25 +141,28 @@ def _run_gap(args):
         if sensitivities is not None:
             sensitivities = _read(sensitivities, options)
         progress.step("diagnosing the gap (effects against random placebos)")
-        report = diagnose_gap(
-            real,
-            sim,
-            target=args.target,
-            ambient=args.ambient,
-            drivers=flags._unique(args.drivers),
-            sensors=flags._unique(args.sensors),
-            fbgs=flags._unique(args.fbgs),
-            effects=None if args.effects is None else flags._unique(args.effects),
-            random_state=args.random_state,
-            sensitivities=sensitivities,
-            tolerance=args.tolerance,
-            custom_effects=dict(args.custom) if args.custom else None,
-        )
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            report = diagnose_gap(
+                real,
+                sim,
+                target=args.target,
+                ambient=args.ambient,
+                drivers=flags._unique(args.drivers),
+                sensors=flags._unique(args.sensors),
+                fbgs=flags._unique(args.fbgs),
+                effects=None if args.effects is None else flags._unique(args.effects),
+                random_state=args.random_state,
+                sensitivities=sensitivities,
+                tolerance=args.tolerance,
+                custom_effects=dict(args.custom) if args.custom else None,
+            )
         data = report.to_dict()
         if args.json not in (None, "-"):
             progress.step(f"writing {args.json!r}")
             text = json.dumps(data, indent=2, allow_nan=False, ensure_ascii=False) + "\n"
             _write_text(args.json, text, args.force)
+    _warn("gap", _distinct_warnings(caught))
     if args.json == "-":
         # ASCII-only JSON reads back the same through any stdout encoding.
         sys.stdout.write(json.dumps(data, indent=2, allow_nan=False, ensure_ascii=True) + "\n")

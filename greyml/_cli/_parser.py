@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import signal
 import sys
 
 # Only light modules here: ``greyml --help`` and ``--version`` must answer
@@ -12,9 +13,17 @@ import sys
 from greyml import __version__
 from greyml._cli._demo import _add_demo_parser
 from greyml._cli._fit import _add_fit_parser
-from greyml._cli._flags import EXIT_ERROR, EXIT_OK, _Parser
+from greyml._cli._flags import (
+    EXIT_ERROR,
+    EXIT_INTERRUPTED,
+    EXIT_OK,
+    EXIT_TERMINATED,
+    _Parser,
+)
 from greyml._cli._gap import _add_gap_parser
+from greyml._cli._interrupt import interrupts
 from greyml._cli._predict import _add_predict_parser
+from greyml._cli._printing import printable, terminal_safe
 from greyml._cli._select import _add_select_parser
 from greyml._cli._simulate import _add_simulate_parser
 
@@ -59,7 +68,8 @@ def build_parser():
     parser = argparse.ArgumentParser(
         prog="greyml",
         description="Thermal-error modelling of CNC machine tools.",
-        epilog=f"Exit codes: {EXIT_OK} success, {EXIT_ERROR} error.",
+        epilog=f"Exit codes: {EXIT_OK} success, {EXIT_ERROR} error, {EXIT_INTERRUPTED} "
+        f"interrupted (Ctrl-C), {EXIT_TERMINATED} terminated (SIGTERM).",
     )
     parser.add_argument("--version", action="version", version=f"greyml {_version()}")
     subparsers = parser.add_subparsers(
@@ -77,6 +87,13 @@ def build_parser():
 def main(argv=None):
     """Run the ``greyml`` command line.
 
+    Everything the command prints passes through
+    :func:`greyml._cli._printing.terminal_safe` (no terminal control from a
+    file reaches the terminal), and Ctrl-C or SIGTERM stop it cleanly
+    (:func:`greyml._cli._interrupt.interrupts`): the files it was writing are
+    removed, one line ``greyml <command>: interrupted`` is printed, and the
+    exit code says which signal it was.
+
     Parameters
     ----------
     argv : list of str, optional
@@ -85,9 +102,10 @@ def main(argv=None):
     Returns
     -------
     code : int
-        The exit code: 0 on success, 2 on a usage error or when the
+        The exit code: 0 on success; 2 on a usage error or when the
         subcommand fails (the message is printed to standard error as
-        ``greyml <command>: error: <message>``, without a traceback).
+        ``greyml <command>: error: <message>``, without a traceback); 130
+        when interrupted by Ctrl-C (SIGINT), 143 by SIGTERM.
 
     Examples
     --------
@@ -96,18 +114,45 @@ def main(argv=None):
     greyml ...
     0
     """
-    parser = build_parser()
-    try:
-        args = parser.parse_args(argv)
-    except SystemExit as exc:  # --help, --version and usage errors
-        return EXIT_OK if exc.code is None else int(exc.code)
+    with terminal_safe(), interrupts() as signals:
+        prog = "greyml"
+        try:
+            parser = build_parser()
+            try:
+                args = parser.parse_args(argv)
+            except SystemExit as exc:  # --help, --version and usage errors
+                code = EXIT_OK if exc.code is None else int(exc.code)
+            else:
+                prog = args.parser.prog
+                code = _run(args, signals)
+            signals.disarm()  # from here on, a signal is only noted
+        except KeyboardInterrupt as exc:
+            signals.disarm()
+            signum = getattr(exc, "signum", signal.SIGINT)
+        except Exception:
+            signals.disarm()
+            if signals.first is None:
+                raise
+            signum = signals.first  # an error the interrupt caused, reported as one
+        else:
+            if signals.first is None:
+                return code
+            signum = signals.first  # the interrupt was swallowed on the way
+        print(f"{prog}: interrupted", file=sys.stderr)
+        return EXIT_TERMINATED if signum == signal.SIGTERM else EXIT_INTERRUPTED
+
+
+def _run(args, signals):
+    """Run the parsed command; a user error is one line on standard error and code 2.
+
+    An error after a signal (``signals.first``) is left to :func:`main`, which
+    reports the interrupt instead.
+    """
     try:
         return args.handler(args)
-    except OSError as exc:
-        message = _os_message(exc)
-    except ValueError as exc:
-        message = str(exc)
-    from greyml._cli._printing import printable
-
+    except (OSError, ValueError) as exc:
+        if signals.first is not None:
+            raise
+        message = _os_message(exc) if isinstance(exc, OSError) else str(exc)
     print(f"{args.parser.prog}: error: {printable(message)}", file=sys.stderr)
     return EXIT_ERROR

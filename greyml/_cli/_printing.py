@@ -1,7 +1,16 @@
-"""What the ``greyml`` subcommands show: progress lines, warnings, safe text."""
+"""What the ``greyml`` subcommands show: progress lines, warnings, safe text.
+
+Everything a command writes to standard output and standard error goes
+through :class:`_TerminalText` (installed by :func:`greyml.cli.main` with
+:func:`terminal_safe`), which removes terminal control sequences: a column
+name, test label or model file that holds them cannot clear the screen or
+retitle the terminal, whichever command prints it. Only the progress line is
+drawn on the stream underneath (its text passes through :func:`printable`).
+"""
 
 from __future__ import annotations
 
+import contextlib
 import os
 import re
 import sys
@@ -31,7 +40,9 @@ class Progress:
     REFRESH_S = 1.0
 
     def __init__(self, total, stream=None, *, enabled=None):
-        self.stream = sys.stderr if stream is None else stream
+        # the progress line redraws itself with carriage returns: it is drawn
+        # on the terminal itself, not through the stream that removes them
+        self.stream = _unfiltered(sys.stderr) if stream is None else stream
         if enabled is None:
             isatty = getattr(self.stream, "isatty", None)
             enabled = bool(isatty and isatty())
@@ -96,9 +107,24 @@ class Progress:
         self.close()
 
 
-#: ANSI escape sequences: CSI (ESC [ ... final), OSC (ESC ] ... BEL or ESC \\),
-#: and two-character escapes.
-_ANSI = re.compile(r"\x1b(?:\[[0-?]*[ -/]*[@-~]|\][^\x07\x1b]*(?:\x07|\x1b\\)?|[@-Z\\-_])")
+#: ANSI escape sequences: CSI (ESC [ ... final), OSC (ESC ] ... BEL or ESC \\,
+#: an unterminated one ends at the line's end), and two-character escapes.
+_ANSI = re.compile(r"\x1b(?:\[[0-?]*[ -/]*[@-~]|\][^\x07\x1b\n]*(?:\x07|\x1b\\)?|[@-Z\\-_])")
+
+
+def _without_control(text, *, newlines):
+    """``text`` without ANSI escapes and control characters.
+
+    Tabs, carriage returns and, unless ``newlines``, line breaks become spaces;
+    with ``newlines`` a line break stays one.
+    """
+    text = _ANSI.sub("", str(text))
+    kept = "\n" if newlines else ""
+    return "".join(
+        ch if ch in kept else " " if ch in "\n\r\t" else ch
+        for ch in text
+        if ch in "\n\r\t" or unicodedata.category(ch) not in ("Cc", "Cf")
+    )
 
 
 def printable(text):
@@ -108,12 +134,54 @@ def printable(text):
     test labels) is printed through this, so a crafted file cannot clear the
     screen or rewrite the terminal's title. Line breaks and tabs become spaces.
     """
-    text = _ANSI.sub("", str(text))
-    return "".join(
-        " " if ch in "\n\r\t" else ch
-        for ch in text
-        if ch in "\n\r\t" or unicodedata.category(ch) not in ("Cc", "Cf")
+    return _without_control(text, newlines=False)
+
+
+class _TerminalText:
+    """A text stream that writes what it is given without terminal control.
+
+    Each ``write`` passes through :func:`printable`, line breaks kept: ANSI
+    escapes, control characters (C0, DEL, C1) and invisible format characters
+    (bidirectional overrides) are removed, tabs and carriage returns become
+    spaces. Everything else (``flush``, ``isatty``, ``encoding``...) is the
+    stream's underneath, :attr:`unfiltered`.
+    """
+
+    def __init__(self, stream):
+        self.unfiltered = stream
+
+    def write(self, text):
+        self.unfiltered.write(_without_control(text, newlines=True))
+        return len(text)
+
+    def writelines(self, lines):
+        for line in lines:
+            self.write(line)
+
+    def __getattr__(self, name):
+        return getattr(self.unfiltered, name)
+
+
+def _unfiltered(stream):
+    """The stream underneath a :class:`_TerminalText`, else ``stream``."""
+    return stream.unfiltered if isinstance(stream, _TerminalText) else stream
+
+
+@contextlib.contextmanager
+def terminal_safe():
+    """Standard output and standard error through :class:`_TerminalText` meanwhile.
+
+    :func:`greyml.cli.main` runs every command inside this: one printing path,
+    so that no command can print a file's text raw.
+    """
+    saved = sys.stdout, sys.stderr
+    sys.stdout, sys.stderr = (
+        None if stream is None else _TerminalText(_unfiltered(stream)) for stream in saved
     )
+    try:
+        yield
+    finally:
+        sys.stdout, sys.stderr = saved
 
 
 def _progress(total, quiet):

@@ -128,10 +128,11 @@ def run_select(
     for rank, name in enumerate(selector.selected_, start=1):
         j = names.index(name)
         group = int(selector.clusters_[j])
-        members = [names[i] for i in np.flatnonzero(selector.clusters_ == group)]
+        members = [printable(names[i]) for i in np.flatnonzero(selector.clusters_ == group)]
         listed = ", ".join(members[:6]) + (", ..." if len(members) > 6 else "")
+        # padded as it is shown: a name's control characters are not printed
         print(
-            f"  {rank:4d}  {name:14s} {group + 1:5d} {selector.influence_[j]:10.4g}  "
+            f"  {rank:4d}  {printable(name):14s} {group + 1:5d} {selector.influence_[j]:10.4g}  "
             f"{len(members)}: {listed}"
         )
     print(

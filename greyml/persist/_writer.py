@@ -225,7 +225,8 @@ def save_model(estimator, path, *, overwrite=False) -> Path:
     The file is a zip archive with a JSON description of the estimator and its
     arrays as ``.npy`` entries; it holds no code (see :mod:`greyml.persist`).
     It is written to a temporary file next to ``path`` and moved into place,
-    so an interrupted save never leaves half a model under ``path``.
+    so an interrupted save never leaves half a model under ``path``; whatever
+    stops it (an error, :class:`KeyboardInterrupt`) removes the temporary file.
 
     Parameters
     ----------
@@ -314,10 +315,13 @@ def save_model(estimator, path, *, overwrite=False) -> Path:
     }
     payload = json.dumps(header, allow_nan=False, indent=1).encode("utf-8")
 
-    # a new file in the same folder (permissions from the umask), then moved
-    tmp = folder / f".{path.name}.{secrets.token_hex(6)}.tmp"
-    fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0), 0o666)
+    # a new file in the same folder (permissions from the umask), then moved;
+    # whatever stops the save (an error, Ctrl-C, SIGTERM in the greyml
+    # command) removes it
+    tmp = folder / f".{path.name}.{os.getpid()}.{secrets.token_hex(6)}.part"
+    fd = None
     try:
+        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0), 0o666)
         with (
             os.fdopen(fd, "wb") as handle,
             zipfile.ZipFile(handle, "w", compression=zipfile.ZIP_DEFLATED) as archive,
@@ -329,9 +333,14 @@ def save_model(estimator, path, *, overwrite=False) -> Path:
             os.replace(tmp, path)
         else:
             _move_without_replacing(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
+        tmp.unlink(missing_ok=True)  # the name left after a hard link
+    except FileExistsError:
+        if fd is not None:  # else os.open met a file of that name, not ours to remove
+            tmp.unlink(missing_ok=True)
+        raise
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
     return path
 
 
