@@ -642,3 +642,14 @@ def test_fit_with_rises_keeps_the_drivers_as_levels(capsys, tmp_path):
     capsys.readouterr()
     saved = load_model(tmp_path / "t.greyml")
     assert saved["rises"].columns_ == ["T1_C", "T2_C", "T3_C"]
+
+
+def test_demo_marks_a_model_that_misses_the_paper_by_far():
+    from greyml._cli._demo import _missed
+
+    paper = {"RMSE": None, "band": "<5", "improvement": ">80"}
+    ours = {"R": 0.034, "RMSE": 9.0, "E": -0.5, "band": 12.3, "improvement": -1.46}
+    assert _missed(paper, ours) == "±res 12.3 against <5 µm; impr% -146 against >80"
+    close = {"R": 0.97, "RMSE": 5.0, "E": 0.9, "band": 9.5, "improvement": 0.85}
+    assert _missed({"RMSE": 4.6, "band": 9.0}, close) is None
+    assert _missed(None, ours) is None
