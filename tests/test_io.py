@@ -253,3 +253,88 @@ def test_a_folder_or_pipe_is_not_read(tmp_path):
     os.mkfifo(fifo)
     with pytest.raises(ValueError, match=r"not a regular file \(a pipe or device\)"):
         read_tests_csv(fifo)  # without the check, opening it would wait for a writer
+
+
+# ------------------------------------------------------------------------------
+# What write_tests_csv writes reads back unchanged, or is refused (issue 26, item 7a)
+# ------------------------------------------------------------------------------
+
+AWKWARD_LABELS = ["A", " A ", "A ", "A\nB", "x\r\ny", "A\r", '"q"', "a, b", "\xa0nbsp", "'=x "]
+AWKWARD_NAMES = ["T1", " T1", "T1\nC", "T2\r", '"', "c,d", "\t=x", "x\u2028"]
+
+
+def _awkward_frame(labels=AWKWARD_LABELS, names=AWKWARD_NAMES):
+    n = 2 * len(labels)
+    values = np.arange(n * len(names), dtype=float).reshape(n, len(names)) / 7 - 3
+    index = make_test_index(np.repeat(labels, 2), np.tile([0.0, 60.0], len(labels)))
+    return pd.DataFrame(values, columns=names, index=index)
+
+
+def test_labels_and_names_with_spaces_and_line_breaks_read_back(tmp_path):
+    frame = _awkward_frame()
+    path = write_tests_csv(frame, tmp_path / "awkward.csv")
+    back = read_tests_csv(path)
+    assert back.equals(frame)
+    assert back.index.get_level_values("test").unique().tolist() == AWKWARD_LABELS
+    assert back.columns.tolist() == AWKWARD_NAMES
+    text = path.read_bytes().decode()
+    # quoted where needed, and only there
+    assert text.startswith('test,time_s,T1," T1","T1\nC","T2\r","""","c,d",\'\t=x,"x\u2028"\n')
+    assert '\n" A ",0.0,' in text and "\nA,0.0," in text and '\n"A ",0.0,' in text
+
+
+def test_quoted_labels_read_back_in_a_wide_file(tmp_path):
+    names = [f"c{k}" for k in range(1200)]  # NumPy's parser reads the numbers
+    frame = _awkward_frame(labels=["A\nB", " C ", "D"], names=names)
+    back = read_tests_csv(write_tests_csv(frame, tmp_path / "wide.csv"))
+    assert back.equals(frame)
+
+
+def test_spaces_around_unquoted_cells_are_still_dropped(tmp_path):
+    text = (
+        'test , time_s , T1_C ," T2_C "\n'
+        "A    , 0      , 20.5 , 1\n"
+        "A    , 60     , 21.0 , 2\n"
+        '" B ", 0      , 22.0 , 3\n'
+        '"C"  , 0      , 23.0 , 4\n'
+    )
+    frame = read_tests_csv(write(tmp_path, text))
+    assert frame.index.tolist() == [("A", 0.0), ("A", 60.0), (" B ", 0.0), ("C", 0.0)]
+    assert frame.columns.tolist() == ["T1_C", " T2_C "]
+    assert frame["T1_C"].tolist() == [20.5, 21.0, 22.0, 23.0]
+
+
+def test_line_numbers_count_the_line_breaks_inside_labels(tmp_path):
+    text = 'test,time_s,"T1\nC"\n"A\nB",0,20\n"A\nB",60,21\nC,0,hot\n'
+    with pytest.raises(ValueError, match=r"holds 'hot' at line 7 \(test 'C'\)") as err:
+        read_tests_csv(write(tmp_path, text))
+    assert "\n" not in str(err.value)
+    text = 'test,time_s,T1\n"A\nB",0,20\n"A\nB",0,21\n'
+    with pytest.raises(ValueError, match=r"test 'A\\nB' at time_s 0: lines 2, 4\."):
+        read_tests_csv(write(tmp_path, text, "dup.csv"))
+
+
+def test_a_quote_that_is_never_closed_is_one_error(tmp_path):
+    path = write(tmp_path, 'test,time_s,"T1_C\nA,0,20\n')
+    with pytest.raises(ValueError, match=r'Line 1 of .* quoted field \(opened by "\) is never'):
+        read_tests_csv(path)
+
+
+@pytest.mark.parametrize(
+    "labels, names, match",
+    [
+        (["A", ""], ["T1_C"], r"^Test label '' is empty; "),
+        (["A", "  "], ["T1_C"], r"^Test label '  ' is blank \(only white space\); "),
+        (["\r\n", "B"], ["T1_C"], r"^Test label '\\r\\n' is blank"),
+        (["A", "x\ud800"], ["T1_C"], r"^Test label 'x\\ud800' holds '\\ud800' at position 1, "),
+        (["A"], ["T1_C", ""], r"^The frame's column name '' is empty; "),
+        (["A"], [" \n"], r"^The frame's column name ' \\n' is blank"),
+        (["A"], ["\udcff"], r"^The frame's column name '\\udcff' holds .* lone surrogate"),
+    ],
+)
+def test_labels_and_names_a_file_cannot_give_back_are_refused(tmp_path, labels, names, match):
+    frame = _awkward_frame(labels=labels, names=names)
+    with pytest.raises(ValueError, match=match) as err:
+        write_tests_csv(frame, tmp_path / "out.csv")
+    assert "\n" not in str(err.value)
+    assert list(tmp_path.iterdir()) == []
