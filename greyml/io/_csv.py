@@ -67,6 +67,12 @@ _ESCAPED_FORMULA = re.compile(r"^'(?='*[=+\-@\t\r])")
 #: A number written with a decimal comma: ``20,5``, ``-0,25``, ``1,5e-3``.
 _DECIMAL_COMMA = re.compile(r"^[+-]?\d*,\d+([eE][+-]?\d+)?$")
 
+#: A number in decimal notation, with a decimal point or comma: ``20``, ``-1.5e3``.
+_NUMBER = re.compile(r"^[+-]?(\d+[.,]?\d*|[.,]\d+)([eE][+-]?\d+)?$")
+
+#: Text of a cell shown whole in a message; a longer one is shortened.
+_SHOWN_CHARS = 40
+
 
 def neutralise_cell(text):
     """``text`` with a leading ``'`` if a spreadsheet would run it as a formula.
@@ -181,11 +187,11 @@ def write_tests_csv(frame, path, *, overwrite=False):
     """Write test data to a CSV file.
 
     Floats are written with the shortest representation that reads back to
-    the same double, so :func:`read_tests_csv` returns the same numbers.
-    Test labels and column names read back unchanged: one with white space
-    around it, a comma, a quote or a line break is quoted, and one a
-    spreadsheet would run as a formula gets a leading ``'``
-    (:func:`neutralise_cell`).
+    the same double, so :func:`read_tests_csv` returns the same numbers (NaN,
+    a missing value, as an empty cell). Test labels and column names read
+    back unchanged: one with white space around it, a comma, a quote or a
+    line break is quoted, and one a spreadsheet would run as a formula gets a
+    leading ``'`` (:func:`neutralise_cell`).
 
     Parameters
     ----------
@@ -206,9 +212,10 @@ def write_tests_csv(frame, path, *, overwrite=False):
     FileExistsError
         If ``path`` exists and ``overwrite`` is false.
     ValueError
-        If ``frame`` does not follow the layout, or a test label or column
-        name is empty, blank (only white space) or holds a lone surrogate (not
-        UTF-8): a file would not give them back. Nothing is written then.
+        If ``frame`` does not follow the layout, a test label or column name
+        is empty, blank (only white space) or holds a lone surrogate (not
+        UTF-8), or a value is infinite: a file would not give them back.
+        Nothing is written then.
 
     Examples
     --------
@@ -287,7 +294,7 @@ def _text_fault(text):
 
 def _check_writable(out):
     """Refuse what a CSV file would not give back: a column name or test label that is
-    empty, blank or not UTF-8."""
+    empty, blank or not UTF-8, and an infinity (NaN is written as an empty cell)."""
     for c in out.columns[1:]:
         fault = _text_fault(str(c))
         if fault:
@@ -301,6 +308,20 @@ def _check_writable(out):
             raise ValueError(
                 f"Test label {t!r} {fault}; every row of a CSV file must name its test "
                 "with a label that reads back as written. Rename the test."
+            )
+    for c, dtype in zip(out.columns[1:], out.dtypes.iloc[1:]):
+        if not pd.api.types.is_float_dtype(dtype):
+            continue
+        infinite = np.flatnonzero(np.isinf(out[c].to_numpy(dtype=float)))
+        if infinite.size:
+            row = int(infinite[0])
+            test, time_s = out[TEST_LEVEL].iloc[row], out[TIME_LEVEL].iloc[row]
+            what = f"The {TIME_LEVEL!r} index level" if c == TIME_LEVEL else f"Column {c!r}"
+            more = f", the first of {infinite.size} infinities" if infinite.size > 1 else ""
+            raise ValueError(
+                f"{what} holds {out[c].iloc[row]} in test {test!r} at row {row} (time_s "
+                f"{time_s:g}){more}: a CSV file of tests holds finite numbers (NaN is written "
+                "as an empty cell). Replace or drop the infinities."
             )
 
 
@@ -584,30 +605,87 @@ def _label_fields(path, sep, name, position, parsed, max_line_bytes):
     return labels, np.asarray(lines)
 
 
-def _first_bad(values: pd.Series):
-    """Row and text of the first cell that is present but not a number."""
-    text = values.astype(object)
-    present = text.notna() & (text.astype(str).str.strip() != "")
-    numbers = pd.to_numeric(text.where(present), errors="coerce")
-    bad = np.flatnonzero((present & numbers.isna()).to_numpy())
-    return (int(bad[0]), text.iloc[bad[0]]) if bad.size else (None, None)
+def _shown(text) -> str:
+    """A cell's text for a message: its repr, the middle left out when it is long."""
+    text = str(text)
+    if len(text) <= _SHOWN_CHARS:
+        return repr(text)
+    return f"{text[:24] + '…' + text[-8:]!r} ({len(text):,} characters)"
+
+
+def _not_finite(col, name, text, line, where=""):
+    """The error for a cell holding an infinity or a number beyond a float.
+
+    ``1e400`` or a number of 400 digits is named by its size (the digits are
+    shown shortened): a float reads it as infinity, which the file does not
+    mean."""
+    text = str(text).strip()
+    rule = (
+        "every data column (sensor, input or target) must hold finite numbers, an empty "
+        "cell for a missing value."
+    )
+    if _NUMBER.match(text):
+        digits = sum(c.isdigit() for c in text)
+        shown = repr(text) if len(text) <= 24 else f"{text[:4]}…{text[-3:]}, {digits:,} digits"
+        return ValueError(
+            f"Column {col!r} of {name!r} holds a number too large for a float ({shown}) at "
+            f"line {line}{where}; a float holds at most about 1.8e308, and {rule}"
+        )
+    return ValueError(
+        f"Column {col!r} of {name!r} holds {_shown(text)} at line {line}{where}, which is "
+        f"not a finite number (an infinity); {rule}"
+    )
+
+
+def _as_floats(text: pd.Series) -> pd.Series:
+    """Cells as numbers, NaN where a cell is not one; an integer beyond a float is ±inf.
+
+    pandas reads an integer beyond 64 bits as a Python int, which
+    ``pd.to_numeric`` cannot convert; such a column is converted cell by cell."""
+    try:
+        return pd.to_numeric(text, errors="coerce").astype(float)
+    except OverflowError:
+        pass
+
+    def number(value):
+        if isinstance(value, int):
+            try:
+                return float(value)
+            except OverflowError:
+                return np.inf if value > 0 else -np.inf
+        return pd.to_numeric(pd.Series([value], dtype=object), errors="coerce").iloc[0]
+
+    return pd.Series([number(v) for v in text], index=text.index, dtype=float)
 
 
 def _numeric_column(values: pd.Series, col, name: str, context=lambda row: "", lines=None):
-    """A CSV column as floats (empty cells NaN); a cell that is text raises,
+    """A CSV column as floats (empty cells NaN).
+
+    A cell that is text, an infinity or a number beyond a float raises,
     naming the column, the file, the line (``lines[row]``, or row + 2) and
-    ``context(row)``."""
+    ``context(row)``. A column pandas read as numbers is returned as it is."""
     if pd.api.types.is_numeric_dtype(values.dtype):
         return values
-    row, text = _first_bad(values)
-    if row is not None:
+    text = values.astype(object)
+    present = (text.notna() & (text.astype(str).str.strip() != "")).to_numpy()
+    numbers = _as_floats(text.where(present))
+    values_ = numbers.to_numpy(copy=True)
+    suspects = np.flatnonzero((present & np.isnan(values_)) | np.isinf(values_))
+    for row in map(int, suspects):
+        cell = str(text.iloc[row]).strip()
         line = _line(row) if lines is None else int(lines[row])
-        raise ValueError(
-            f"Column {col!r} of {name!r} holds {text!r} at line {line}{context(row)}, "
-            f"which is not a number: non-numeric text{_what_text(text)}; every data column "
-            "must hold numbers."
-        )
-    return pd.to_numeric(values.astype(object), errors="coerce").astype(float)
+        if np.isnan(values_[row]):
+            if not _NUMBER.match(cell) or "," in cell:
+                raise ValueError(
+                    f"Column {col!r} of {name!r} holds {_shown(cell)} at line {line}"
+                    f"{context(row)}, which is not a number: non-numeric text"
+                    f"{_what_text(cell)}; every data column must hold numbers."
+                )
+            # a number pandas gave up on (too many digits for an integer)
+            values_[row] = float(cell)
+        if np.isinf(values_[row]):
+            raise _not_finite(col, name, cell, line, context(row))
+    return pd.Series(values_, index=values.index, name=values.name)
 
 
 def _what_text(text) -> str:
@@ -615,6 +693,8 @@ def _what_text(text) -> str:
     text = str(text).strip()
     if _DECIMAL_COMMA.match(text):
         return " (a decimal comma; pass decimal=',' or --decimal ,)"
+    if text.lower() in ("nan", "-nan", "+nan", "na", "n/a", "null", "none"):
+        return " (a missing value; leave the cell empty)"
     try:
         complex(text.replace(" ", ""))
         return " (a complex number; give the real part)"
@@ -630,9 +710,20 @@ def _what_text(text) -> str:
 
 
 def _number_or_nan(text):
-    """A cell of a wide file: a number, or NaN when empty."""
+    """A cell of a wide file: a finite number, or NaN when empty.
+
+    Anything else raises ValueError, leaving the file to pandas' reader and
+    its messages: an infinity, a number beyond a float and what Python reads
+    but a CSV cell does not hold (``1_000``, digits of other scripts)."""
     text = text.strip()
-    return float(text) if text else np.nan
+    if not text:
+        return np.nan
+    if "_" in text or not text.isascii():
+        raise ValueError(text)
+    value = float(text)
+    if not np.isfinite(value):
+        raise ValueError(text)
+    return value
 
 
 def _read_wide(path, header, positions, sep, decimal):
@@ -640,7 +731,8 @@ def _read_wide(path, header, positions, sep, decimal):
 
     With :data:`WIDE_COLUMNS` columns or more, a decimal point and no text
     cell, NumPy's parser reads the file in one 2-D float64 array (empty cells
-    NaN); any other file (or any cell NumPy cannot read) is left to pandas.
+    NaN); any other file (or any cell NumPy cannot read, or reads as an
+    infinity or NaN) is left to pandas.
     """
     if len(header) < WIDE_COLUMNS or decimal != ".":
         return None
@@ -656,6 +748,8 @@ def _read_wide(path, header, positions, sep, decimal):
     )
     try:
         values = np.loadtxt(path, **options)
+        if not np.isfinite(values).all():  # 'inf', 'nan' or 1e400: pandas names them
+            return None
     except (ValueError, UnicodeDecodeError):
         try:  # empty cells are missing values: slower, still linear
             values = np.loadtxt(path, converters=_number_or_nan, **options)
@@ -664,7 +758,7 @@ def _read_wide(path, header, positions, sep, decimal):
     return pd.DataFrame(values, columns=positions, copy=False)
 
 
-def _data_columns(raw, labels, name, lines):
+def _data_columns(raw, labels, name, lines, cell_text):
     """The time and the data columns of ``raw`` as numbers, in time linear in their count.
 
     pandas' reader gives one block per column, and removing a column from a
@@ -673,8 +767,9 @@ def _data_columns(raw, labels, name, lines):
     time: from one 2-D array when the columns share a dtype (the usual case),
     else from the columns one by one, text columns converted to numbers.
 
-    A cell that is not a number raises, naming the column, the line
-    (``lines[row]``) and the test.
+    A cell that is not a finite number raises, naming the column, the line
+    (``lines[row]``) and the test; ``cell_text(column, row)`` is the cell as
+    written in the file, for the message.
     """
     where = lambda row: f" (test {labels.iloc[row]!r})"  # noqa: E731
     names = list(raw.columns)
@@ -686,6 +781,7 @@ def _data_columns(raw, labels, name, lines):
         (dtype,) = data_dtypes
         if dtype == np.float64 or all(dt == dtype for dt in dtypes):
             values = raw.to_numpy(dtype=np.float64 if dtype == np.float64 else dtype)
+            _check_finite(values, list(raw.columns), name, lines, cell_text, where)
             time = pd.Series(values[:, at], name=TIME_LEVEL)
             data = pd.DataFrame(np.delete(values, at, axis=1), columns=names, copy=False)
             return time, data
@@ -693,9 +789,24 @@ def _data_columns(raw, labels, name, lines):
     for col, values in raw.items():
         if not is_numeric_dtype(values.dtype):
             values = _numeric_column(values, col, name, where, lines)
-        columns[col] = values.to_numpy()
+        values = values.to_numpy()
+        _check_finite(values[:, None], [col], name, lines, cell_text, where)
+        columns[col] = values
     time = pd.Series(columns.pop(TIME_LEVEL), name=TIME_LEVEL)
     return time, pd.DataFrame(columns, copy=False)
+
+
+def _check_finite(values, columns, name, lines, cell_text, where):
+    """Raise for the first infinity of the 2-D ``values`` (NaN, an empty cell, is allowed)."""
+    if values.dtype.kind != "f":
+        return
+    infinite = np.isinf(values)
+    if not infinite.any():
+        return
+    k = int(np.flatnonzero(infinite.any(axis=0))[0])
+    row = int(np.flatnonzero(infinite[:, k])[0])
+    col = columns[k]
+    raise _not_finite(col, name, cell_text(col, row), int(lines[row]), where(row))
 
 
 def read_tests_csv(
@@ -744,11 +855,13 @@ def read_tests_csv(
         With the line of the file (the header is line 1) or the column, for:
         an empty file or header, a repeated column name, a missing ``test``
         or ``time_s`` column, a missing test label or time, a value that is
-        not a number, two rows with the same test and time, time that does not
-        increase within a test, a test whose rows are not contiguous, a line
-        longer than ``max_line_bytes``, a quoted field that is never closed, a
-        file that is not UTF-8, a path that is not a regular file (a folder,
-        pipe or device), or an unknown ``time_unit``.
+        not a number (``nan`` included: leave a missing value's cell empty),
+        an infinity (``inf``) or a number too large for a float (``1e400``,
+        a number of 400 digits), two rows with the same test and time, time
+        that does not increase within a test, a test whose rows are not
+        contiguous, a line longer than ``max_line_bytes``, a quoted field
+        that is never closed, a file that is not UTF-8, a path that is not a
+        regular file (a folder, pipe or device), or an unknown ``time_unit``.
 
     Examples
     --------
@@ -875,13 +988,25 @@ def read_tests_csv(
         )
     labels = labels.map(_unneutralise)
 
-    time, data = _data_columns(raw, labels, name, lines)
+    def cell_text(col, row):
+        """The cell of column ``col`` at data row ``row`` as written in the file."""
+        at = header.index(col)
+        return pd.read_csv(path, usecols=[at], dtype=object, **options)[at].iloc[row]
+
+    time, data = _data_columns(raw, labels, name, lines, cell_text)
     time = time.astype(float) * TIME_UNITS[time_unit]
     if time.isna().any():
         row = int(np.flatnonzero(time.isna().to_numpy())[0])
         raise ValueError(
             f"Line {lines[row]} of {name!r} (test {labels.iloc[row]!r}) has no value "
             "in column 'time_s': the time is missing."
+        )
+    if np.isinf(time).any():  # finite in the file's unit, beyond a float in seconds
+        row = int(np.flatnonzero(np.isinf(time).to_numpy())[0])
+        raise ValueError(
+            f"Line {lines[row]} of {name!r} (test {labels.iloc[row]!r}) holds a time too "
+            f"large for a float in seconds ({cell_text(TIME_LEVEL, row).strip()} "
+            f"{time_unit})."
         )
     keys = pd.DataFrame({TEST_LEVEL: labels.to_numpy(), TIME_LEVEL: time.to_numpy()})
     dup = keys.duplicated(keep=False).to_numpy()
