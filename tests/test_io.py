@@ -253,3 +253,196 @@ def test_a_folder_or_pipe_is_not_read(tmp_path):
     os.mkfifo(fifo)
     with pytest.raises(ValueError, match=r"not a regular file \(a pipe or device\)"):
         read_tests_csv(fifo)  # without the check, opening it would wait for a writer
+
+
+# ------------------------------------------------------------------------------
+# What write_tests_csv writes reads back unchanged, or is refused (issue 26, item 7a)
+# ------------------------------------------------------------------------------
+
+AWKWARD_LABELS = ["A", " A ", "A ", "A\nB", "x\r\ny", "A\r", '"q"', "a, b", "\xa0nbsp", "'=x "]
+AWKWARD_NAMES = ["T1", " T1", "T1\nC", "T2\r", '"', "c,d", "\t=x", "x\u2028"]
+
+
+def _awkward_frame(labels=AWKWARD_LABELS, names=AWKWARD_NAMES):
+    n = 2 * len(labels)
+    values = np.arange(n * len(names), dtype=float).reshape(n, len(names)) / 7 - 3
+    index = make_test_index(np.repeat(labels, 2), np.tile([0.0, 60.0], len(labels)))
+    return pd.DataFrame(values, columns=names, index=index)
+
+
+def test_labels_and_names_with_spaces_and_line_breaks_read_back(tmp_path):
+    frame = _awkward_frame()
+    path = write_tests_csv(frame, tmp_path / "awkward.csv")
+    back = read_tests_csv(path)
+    assert back.equals(frame)
+    assert back.index.get_level_values("test").unique().tolist() == AWKWARD_LABELS
+    assert back.columns.tolist() == AWKWARD_NAMES
+    text = path.read_bytes().decode()
+    # quoted where needed, and only there
+    assert text.startswith('test,time_s,T1," T1","T1\nC","T2\r","""","c,d",\'\t=x,"x\u2028"\n')
+    assert '\n" A ",0.0,' in text and "\nA,0.0," in text and '\n"A ",0.0,' in text
+
+
+def test_quoted_labels_read_back_in_a_wide_file(tmp_path):
+    names = [f"c{k}" for k in range(1200)]  # NumPy's parser reads the numbers
+    frame = _awkward_frame(labels=["A\nB", " C ", "D"], names=names)
+    back = read_tests_csv(write_tests_csv(frame, tmp_path / "wide.csv"))
+    assert back.equals(frame)
+
+
+def test_spaces_around_unquoted_cells_are_still_dropped(tmp_path):
+    text = (
+        'test , time_s , T1_C ," T2_C "\n'
+        "A    , 0      , 20.5 , 1\n"
+        "A    , 60     , 21.0 , 2\n"
+        '" B ", 0      , 22.0 , 3\n'
+        '"C"  , 0      , 23.0 , 4\n'
+    )
+    frame = read_tests_csv(write(tmp_path, text))
+    assert frame.index.tolist() == [("A", 0.0), ("A", 60.0), (" B ", 0.0), ("C", 0.0)]
+    assert frame.columns.tolist() == ["T1_C", " T2_C "]
+    assert frame["T1_C"].tolist() == [20.5, 21.0, 22.0, 23.0]
+
+
+def test_line_numbers_count_the_line_breaks_inside_labels(tmp_path):
+    text = 'test,time_s,"T1\nC"\n"A\nB",0,20\n"A\nB",60,21\nC,0,hot\n'
+    with pytest.raises(ValueError, match=r"holds 'hot' at line 7 \(test 'C'\)") as err:
+        read_tests_csv(write(tmp_path, text))
+    assert "\n" not in str(err.value)
+    text = 'test,time_s,T1\n"A\nB",0,20\n"A\nB",0,21\n'
+    with pytest.raises(ValueError, match=r"test 'A\\nB' at time_s 0: lines 2, 4\."):
+        read_tests_csv(write(tmp_path, text, "dup.csv"))
+
+
+def test_a_quote_that_is_never_closed_is_one_error(tmp_path):
+    path = write(tmp_path, 'test,time_s,"T1_C\nA,0,20\n')
+    with pytest.raises(ValueError, match=r'Line 1 of .* quoted field \(opened by "\) is never'):
+        read_tests_csv(path)
+
+
+@pytest.mark.parametrize(
+    "labels, names, match",
+    [
+        (["A", ""], ["T1_C"], r"^Test label '' is empty; "),
+        (["A", "  "], ["T1_C"], r"^Test label '  ' is blank \(only white space\); "),
+        (["\r\n", "B"], ["T1_C"], r"^Test label '\\r\\n' is blank"),
+        (["A", "x\ud800"], ["T1_C"], r"^Test label 'x\\ud800' holds '\\ud800' at position 1, "),
+        (["A"], ["T1_C", ""], r"^The frame's column name '' is empty; "),
+        (["A"], [" \n"], r"^The frame's column name ' \\n' is blank"),
+        (["A"], ["\udcff"], r"^The frame's column name '\\udcff' holds .* lone surrogate"),
+    ],
+)
+def test_labels_and_names_a_file_cannot_give_back_are_refused(tmp_path, labels, names, match):
+    frame = _awkward_frame(labels=labels, names=names)
+    with pytest.raises(ValueError, match=match) as err:
+        write_tests_csv(frame, tmp_path / "out.csv")
+    assert "\n" not in str(err.value)
+    assert list(tmp_path.iterdir()) == []
+
+
+# ------------------------------------------------------------------------------
+# Numbers a float cannot hold, infinities and NaN written as text (issue 26, item 8)
+# ------------------------------------------------------------------------------
+
+BIG = "1" + "0" * 399
+
+
+@pytest.mark.parametrize(
+    "cell, match",
+    [
+        (BIG, r"holds a number too large for a float \(1000…000, 400 digits\) at line 4 "),
+        ("-" + BIG + ".5", r"holds a number too large for a float \(-100…0\.5, 401 digits\) at "),
+        ("9" * 5000, r"holds a number too large for a float \(9999…999, 5,000 digits\) at "),
+        ("1e400", r"holds a number too large for a float \('1e400'\) at line 4 "),
+        ("-1.5E+309", r"holds a number too large for a float \('-1\.5E\+309'\) at line 4 "),
+        ("inf", r"holds 'inf' at line 4 \(test 'A'\), which is not a finite number"),
+        ("-Infinity", r"holds '-Infinity' at line 4 \(test 'A'\), which is not a finite"),
+        ("nan", r"holds 'nan' at line 4 \(test 'A'\), which is not a number: .*leave the cell"),
+    ],
+)
+@pytest.mark.parametrize("layout", ["floats", "integers", "text", "wide"])
+def test_a_cell_beyond_a_float_is_one_error(tmp_path, cell, match, layout):
+    cells = {"floats": ["20.5", "21"], "integers": ["20", "21"], "text": ["20", "21"]}
+    first, second = cells.get(layout, ["20.5", "21"])
+    extra = ",hot" if layout == "text" else ""
+    pad = "".join(f",{k}" for k in range(1000)) if layout == "wide" else ""
+    header = "test,time_s,T1_C,dz_um" + ("".join(f",c{k}" for k in range(1000)) if pad else "")
+    lines = [
+        header + (",note" if extra else ""),
+        f"A,0,{first},0{pad}" + (",1" if extra else ""),
+        f"A,60,{second},1{pad}" + (",2" if extra else ""),
+        f"A,120,{cell},2{pad}" + extra,
+    ]
+    path = write(tmp_path, "\n".join(lines) + "\n")
+    with pytest.raises(ValueError, match=rf"^Column 'T1_C' of '.*data\.csv' {match}") as err:
+        read_tests_csv(path)
+    assert "\n" not in str(err.value)
+
+
+def test_a_time_beyond_a_float_is_one_error(tmp_path):
+    path = write(tmp_path, f"test,time_s,T1_C\nA,0,20\nA,{BIG},21\n")
+    match = r"^Column 'time_s' of .* too large for a float \(1000…000, 400 digits\) at line 3 "
+    with pytest.raises(ValueError, match=match):
+        read_tests_csv(path)
+    path = write(tmp_path, "test,time_s,T1_C\nA,0,20\nA,1e306,21\n", "hours.csv")
+    with pytest.raises(ValueError, match=r"Line 3 .* time too large for a float in seconds"):
+        read_tests_csv(path, time_unit="h")
+
+
+def test_long_numbers_a_float_can_hold_are_read(tmp_path):
+    cells = ["1" + "0" * 300, "0." + "0" * 400 + "1", "2." + "5" * 500, "1" * 25]
+    path = write(
+        tmp_path, "test,time_s,T1_C\n" + "".join(f"A,{k},{c}\n" for k, c in enumerate(cells))
+    )
+    assert read_tests_csv(path)["T1_C"].tolist() == [float(c) for c in cells]
+
+
+def test_write_refuses_infinities(tmp_path):
+    frame = _awkward_frame(labels=["A", "B"], names=["T1_C", "dz_um"])
+    frame.iloc[3, 1] = -np.inf
+    frame.iloc[2, 1] = np.inf
+    match = r"^Column 'dz_um' holds inf in test 'B' at row 2 \(time_s 0\), the first of 2 "
+    with pytest.raises(ValueError, match=match):
+        write_tests_csv(frame, tmp_path / "out.csv")
+    assert list(tmp_path.iterdir()) == []
+    frame.iloc[2:, 1] = np.nan  # a missing value is an empty cell
+    back = read_tests_csv(write_tests_csv(frame, tmp_path / "out.csv"))
+    assert back.equals(frame) and back["dz_um"].isna().tolist() == [False, False, True, True]
+
+
+@pytest.fixture
+def small_model(tmp_path):
+    from greyml.cli import main
+
+    rng = np.random.default_rng(0)
+    rows = [
+        f"{t},{10 * k},{20 + rng.random():.3f},{21 + rng.random():.3f},{rng.random():.3f}"
+        for t in "AB"
+        for k in range(20)
+    ]
+    good = write(tmp_path, "test,time_s,T1_C,T2_C,dz_um\n" + "\n".join(rows) + "\n", "good.csv")
+    model = tmp_path / "m.greyml"
+    args = ["fit", str(good), "--target", "dz_um", "--model", "gmc", "--out", str(model)]
+    assert main([*args, "--quiet"]) == 0
+    rows[4] = rows[4].rsplit(",", 1)[0] + "," + BIG
+    return model, write(tmp_path, "test,time_s,T1_C,T2_C,dz_um\n" + "\n".join(rows) + "\n")
+
+
+@pytest.mark.parametrize("command", ["select", "fit", "predict"])
+def test_commands_name_a_number_beyond_a_float_in_one_line(tmp_path, capsys, small_model, command):
+    from greyml.cli import main
+
+    model, data = small_model
+    argv = {
+        "select": ["select", data, "--target", "dz_um"],
+        "fit": ["fit", data, "--target", "dz_um", "--model", "gmc", "--out", tmp_path / "f.greyml"],
+        "predict": ["predict", model, data, "--out", tmp_path / "p.csv"],
+    }[command]
+    capsys.readouterr()
+    assert main([str(a) for a in argv]) == 2
+    out, err = capsys.readouterr()
+    assert out == "" and err.count("\n") == 1, err
+    assert err.startswith(
+        f"greyml {command}: error: Column 'dz_um' of {str(data)!r} holds a number too large "
+        "for a float (1000…000, 400 digits) at line 6 (test 'A'); "
+    ), err

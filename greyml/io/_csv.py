@@ -13,12 +13,16 @@ skipped, ``;``- or tab-separated files and decimal commas are detected (or
 named with ``sep=`` and ``decimal=``). Text cells that a spreadsheet would run
 as a formula (a test label or column name starting with ``=``, ``+``, ``-``,
 ``@``, a tab or a carriage return) are written with a leading ``'`` and read
-back without it.
+back without it. A label or name with white space around it, a comma, a quote
+or a line break is written in quotes; a quoted cell is read as written, an
+unquoted one without the spaces around it, so that what
+:func:`write_tests_csv` writes reads back unchanged.
 """
 
 from __future__ import annotations
 
-import csv
+import functools
+import itertools
 import os
 import re
 import secrets
@@ -50,6 +54,9 @@ MAX_LINE_BYTES = 16 * 2**20
 #: that grows faster than the column count.
 WIDE_COLUMNS = 1000
 
+#: Rows :func:`write_tests_csv` formats at a time.
+_WRITE_ROWS = 2**16
+
 #: Separators tried when ``sep`` is not given, the usual one first.
 _SEPARATORS = (",", ";", "\t")
 
@@ -59,6 +66,12 @@ _ESCAPED_FORMULA = re.compile(r"^'(?='*[=+\-@\t\r])")
 
 #: A number written with a decimal comma: ``20,5``, ``-0,25``, ``1,5e-3``.
 _DECIMAL_COMMA = re.compile(r"^[+-]?\d*,\d+([eE][+-]?\d+)?$")
+
+#: A number in decimal notation, with a decimal point or comma: ``20``, ``-1.5e3``.
+_NUMBER = re.compile(r"^[+-]?(\d+[.,]?\d*|[.,]\d+)([eE][+-]?\d+)?$")
+
+#: Text of a cell shown whole in a message; a longer one is shortened.
+_SHOWN_CHARS = 40
 
 
 def neutralise_cell(text):
@@ -158,12 +171,12 @@ def check_test_frame(frame, *, what="The frame"):
     for c, dtype in zip(frame.columns, frame.dtypes):
         if pd.api.types.is_complex_dtype(dtype):
             raise ValueError(
-                f"Column '{c}' of {lower} holds complex numbers (dtype {dtype}); every "
+                f"Column {c!r} of {lower} holds complex numbers (dtype {dtype}); every "
                 "data column must hold real numbers."
             )
         if not (pd.api.types.is_numeric_dtype(dtype) and not pd.api.types.is_bool_dtype(dtype)):
             raise ValueError(
-                f"Column '{c}' of {lower} is not numeric (non-numeric dtype {dtype}); every "
+                f"Column {c!r} of {lower} is not numeric (non-numeric dtype {dtype}); every "
                 "data column must hold numbers."
             )
     test_segments(frame)
@@ -174,7 +187,11 @@ def write_tests_csv(frame, path, *, overwrite=False):
     """Write test data to a CSV file.
 
     Floats are written with the shortest representation that reads back to
-    the same double, so :func:`read_tests_csv` returns the same numbers.
+    the same double, so :func:`read_tests_csv` returns the same numbers (NaN,
+    a missing value, as an empty cell). Test labels and column names read
+    back unchanged: one with white space around it, a comma, a quote or a
+    line break is quoted, and one a spreadsheet would run as a formula gets a
+    leading ``'`` (:func:`neutralise_cell`).
 
     Parameters
     ----------
@@ -195,7 +212,10 @@ def write_tests_csv(frame, path, *, overwrite=False):
     FileExistsError
         If ``path`` exists and ``overwrite`` is false.
     ValueError
-        If ``frame`` does not follow the layout.
+        If ``frame`` does not follow the layout, a test label or column name
+        is empty, blank (only white space) or holds a lone surrogate (not
+        UTF-8), or a value is infinite: a file would not give them back.
+        Nothing is written then.
 
     Examples
     --------
@@ -216,9 +236,13 @@ def write_tests_csv(frame, path, *, overwrite=False):
             out[c] = out[c].astype(np.float64)
     out = out.reset_index(level=[n for n in out.index.names if n not in KEYS] or None)
     out = out.reset_index()[[*KEYS, *[c for c in out.columns if c not in KEYS]]]
-    # a label or name a spreadsheet would run as a formula gets a leading '
-    out[TEST_LEVEL] = out[TEST_LEVEL].map(neutralise_cell)
-    out.columns = [neutralise_cell(c) for c in out.columns]
+    _check_writable(out)
+    # a label or name a spreadsheet would run as a formula gets a leading ';
+    # one with spaces around it, a comma, a quote or a line break is quoted
+    header = ",".join(_csv_cell(str(neutralise_cell(c))) for c in out.columns)
+    codes, tests = pd.factorize(out[TEST_LEVEL])
+    cells = np.array([_csv_cell(str(neutralise_cell(t))) for t in tests], dtype=object)[codes]
+    body = out.iloc[:, 1:]
     if path.exists() and not overwrite:
         raise FileExistsError(f"{os.fspath(path)!r} exists; pass overwrite=True to replace it.")
     # written to a file beside path, then renamed: a failure leaves no partial file
@@ -226,7 +250,13 @@ def write_tests_csv(frame, path, *, overwrite=False):
     fd = os.open(temp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
     try:
         with open(fd, "w", newline="", encoding="utf-8") as fh:
-            out.to_csv(fh, index=False, lineterminator="\n")
+            fh.write(header + "\n")
+            for start in range(0, len(body), _WRITE_ROWS):
+                rows = body.iloc[start : start + _WRITE_ROWS].to_csv(
+                    header=False, index=False, lineterminator="\n"
+                )
+                labels = cells[start : start + _WRITE_ROWS]
+                fh.writelines(f"{t},{r}\n" for t, r in zip(labels, rows.split("\n")))
         if overwrite:
             os.replace(temp, path)
         else:
@@ -236,6 +266,63 @@ def write_tests_csv(frame, path, *, overwrite=False):
             os.unlink(temp)
         raise
     return path
+
+
+def _csv_cell(text):
+    """``text`` as a CSV cell: quoted (its quotes doubled) when it holds a comma, a quote
+    or a line break or starts or ends with white space, so that it reads back unchanged."""
+    if text != text.strip() or any(c in text for c in ',"\r\n'):
+        return '"' + text.replace('"', '""') + '"'
+    return text
+
+
+def _text_fault(text):
+    """Why ``text`` cannot be a test label or column name in a CSV file, or ''."""
+    if text == "":
+        return "is empty"
+    if not text.strip():
+        return "is blank (only white space)"
+    try:
+        text.encode("utf-8")
+    except UnicodeEncodeError as exc:
+        return (
+            f"holds {text[exc.start]!r} at position {exc.start}, which UTF-8 cannot encode "
+            "(a lone surrogate)"
+        )
+    return ""
+
+
+def _check_writable(out):
+    """Refuse what a CSV file would not give back: a column name or test label that is
+    empty, blank or not UTF-8, and an infinity (NaN is written as an empty cell)."""
+    for c in out.columns[1:]:
+        fault = _text_fault(str(c))
+        if fault:
+            raise ValueError(
+                f"The frame's column name {c!r} {fault}; a CSV header needs a name that "
+                "reads back as written. Rename the column."
+            )
+    for t in pd.unique(out[TEST_LEVEL]):
+        fault = _text_fault(str(t))
+        if fault:
+            raise ValueError(
+                f"Test label {t!r} {fault}; every row of a CSV file must name its test "
+                "with a label that reads back as written. Rename the test."
+            )
+    for c, dtype in zip(out.columns[1:], out.dtypes.iloc[1:]):
+        if not pd.api.types.is_float_dtype(dtype):
+            continue
+        infinite = np.flatnonzero(np.isinf(out[c].to_numpy(dtype=float)))
+        if infinite.size:
+            row = int(infinite[0])
+            test, time_s = out[TEST_LEVEL].iloc[row], out[TIME_LEVEL].iloc[row]
+            what = f"The {TIME_LEVEL!r} index level" if c == TIME_LEVEL else f"Column {c!r}"
+            more = f", the first of {infinite.size} infinities" if infinite.size > 1 else ""
+            raise ValueError(
+                f"{what} holds {out[c].iloc[row]} in test {test!r} at row {row} (time_s "
+                f"{time_s:g}){more}: a CSV file of tests holds finite numbers (NaN is written "
+                "as an empty cell). Replace or drop the infinities."
+            )
 
 
 def _rename_new(temp, path):
@@ -284,44 +371,135 @@ def _too_long(name, line, max_line_bytes):
     )
 
 
-def _split_line(text, sep, name, line):
-    try:
-        return next(csv.reader([text], delimiter=sep), [])
-    except csv.Error as exc:
-        raise ValueError(f"Line {line} of {name!r} is not well-formed CSV: {exc}.") from None
+@functools.lru_cache(maxsize=8)
+def _field_pattern(sep):
+    """One field of a record and the separator after it (or the record's end).
+
+    Spaces before a field are skipped (as ``skipinitialspace`` does). A field
+    starting with ``"`` is quoted: group 1 is its text with quotes doubled,
+    group 2 what follows the closing quote (a quote followed by a quote is a
+    doubled one, never the closing one); else group 3 is the field. No match:
+    a quoted field without its closing quote."""
+    s = re.escape(sep)
+    return re.compile(rf'[ ]*(?:"([^"]*(?:""[^"]*)*)"(?!")([^{s}]*)|(?!")([^{s}]*))({s}|\Z)', re.S)
+
+
+def _split(text, sep):
+    """The fields of the record ``text`` (its line end removed), or None if a quote is open.
+
+    Each field is ``(text, after)``: ``after`` is None for an unquoted field,
+    else what followed the closing quote. :func:`_value` makes a field a cell.
+    """
+    if '"' not in text:
+        return [(field, None) for field in text.split(sep)]
+    pattern = _field_pattern(sep)
+    fields, at = [], 0
+    while True:
+        match = pattern.match(text, at)
+        if match is None:
+            return None
+        quoted, after, plain, end = match.groups()
+        fields.append((plain, None) if quoted is None else (quoted.replace('""', '"'), after))
+        if not end:
+            return fields
+        at = match.end()
+
+
+def _value(field):
+    """A field as greyml reads it: an unquoted one without the spaces around it, a
+    quoted one as written between its quotes (spaces after the closing quote dropped)."""
+    text, after = field
+    if after is None:
+        return text.strip()
+    return text + after.rstrip()
+
+
+def _parsed(field):
+    """A field as pandas' reader gives it (``skipinitialspace=True``)."""
+    text, after = field
+    return text.lstrip(" ") if after is None else text + after
+
+
+def _records(read, sep, name, max_chars, line=1):
+    """The records of CSV text, blank lines skipped: ``(line, fields)`` each.
+
+    ``read()`` returns the next physical line ('' at the end); ``line`` is
+    the number of the first. A quoted field may hold line breaks, so a record
+    may span lines; ``line`` is the one it starts on (lines counted by
+    ``\\n``)."""
+    while text := read():
+        start = line
+        line += text.count("\n")
+        if not text.strip(" \t\r\n"):
+            continue
+        while (fields := _split(text.rstrip("\r\n"), sep)) is None:
+            more = read()
+            if not more:
+                raise ValueError(
+                    f"Line {start} of {name!r} is not well-formed CSV: a quoted field (opened "
+                    'by ") is never closed.'
+                )
+            text += more
+            line += more.count("\n")
+            if len(text) > max_chars:
+                raise ValueError(
+                    f"Line {start} of {name!r} is not well-formed CSV: a quoted field (opened "
+                    f'by ") is not closed within {max_chars:,} bytes (max_line_bytes).'
+                )
+        yield start, fields
 
 
 def _header(path, sep, max_line_bytes, keys=KEYS):
-    """The header's names, the separator and the first data lines (up to 50).
+    """The header's names, the separator, the header's line count and the first
+    data records (up to 50, as ``(line, fields)``).
 
     ``keys`` are the columns that hold the test labels and the time."""
     name = os.fspath(path)
     try:
         with open(path, newline="", encoding="utf-8-sig") as fh:
-            first = fh.readline(max_line_bytes + 1)
-            data = [fh.readline(max_line_bytes + 1) for _ in range(50)]
+            lines = []  # the lines read so far: each separator tried reads them anew
+
+            def reader():
+                k = 0
+
+                def read():
+                    nonlocal k
+                    if k == len(lines):
+                        lines.append(fh.readline(max_line_bytes + 1))
+                    k += 1
+                    return lines[k - 1]
+
+                return read
+
+            def first(candidate):
+                try:
+                    return next(_records(reader(), candidate, name, max_line_bytes))[1]
+                except ValueError:  # a quote never closed: not this separator
+                    return []
+
+            # the header is the first line (pandas skips one line to reach the data)
+            if not reader()().strip():
+                raise ValueError(f"{name!r} is empty: expected a header line.")
+            if sep is None:
+                sep = ","
+                for candidate in _SEPARATORS:
+                    if all(key in map(_value, first(candidate)) for key in keys):
+                        sep = candidate
+                        break
+            records = _records(reader(), sep, name, max_line_bytes)
+            fields = next(records)[1]
+            data = list(itertools.islice(records, 50))
     except UnicodeDecodeError as exc:
         raise ValueError(
-            f"{name!r} is not UTF-8 text ({exc.reason} at byte {exc.start}); save it as "
-            "UTF-8 CSV."
+            f"{name!r} is not UTF-8 text ({exc.reason} at byte {exc.start}); save it as UTF-8 CSV."
         ) from None
-    if not first.strip():
-        raise ValueError(f"{name!r} is empty: expected a header line.")
-    first = first.rstrip("\r\n")
-    if sep is None:
-        sep = ","
-        for candidate in _SEPARATORS:
-            names = [h.strip() for h in _split_line(first, candidate, name, 1)]
-            if all(key in names for key in keys):
-                sep = candidate
-                break
-    header = [_unneutralise(h.strip()) for h in _split_line(first, sep, name, 1)]
+    header = [_unneutralise(_value(f)) for f in fields]
     seen = set()
     for k, col in enumerate(header):
         if col == "":
             raise ValueError(f"Column {k + 1} of the header of {name!r} has no name.")
         if col in seen:
-            raise ValueError(f"The header of {name!r} names column '{col}' more than once.")
+            raise ValueError(f"The header of {name!r} names column {col!r} more than once.")
         seen.add(col)
     for key in keys:
         if key not in seen:
@@ -339,27 +517,28 @@ def _header(path, sep, max_line_bytes, keys=KEYS):
             f"{name!r} has a '{TEST_LEVEL}' column as well as the test column "
             f"'{keys[0]}' named by test_column; rename one of them."
         )
-    return header, sep, [d.rstrip("\r\n") for d in data if d.strip()]
+    header_lines = 1 + sum(text.count("\n") for text, _ in fields)
+    return header, sep, header_lines, data
 
 
-def _decimal(lines, header, sep, name, decimal, test_key=TEST_LEVEL):
-    """The decimal mark: ``decimal``, or ``","`` when the first data lines use it."""
+def _decimal(records, header, sep, name, decimal, test_key=TEST_LEVEL):
+    """The decimal mark: ``decimal``, or ``","`` when the first data records use it."""
     if decimal is not None:
         if decimal == sep:
             raise ValueError(f"decimal {decimal!r} cannot also be the separator {sep!r}.")
         return decimal
     found = "."
-    for k, text in enumerate(lines):
-        cells = [c.strip() for c in _split_line(text, sep, name, k + 2)]
+    for line, fields in records:
+        cells = [_value(f) for f in fields]
         if len(cells) > len(header):
             hint = ""
-            if sep == "," and len(cells) > len(header):
+            if sep == ",":
                 hint = (
                     "; if its numbers have decimal commas (20,5), save the file with ';' "
                     "as the separator or '.' as the decimal mark"
                 )
             raise ValueError(
-                f"Line {k + 2} of {name!r} has {len(cells)} fields but the header has "
+                f"Line {line} of {name!r} has {len(cells)} fields but the header has "
                 f"{len(header)} (separator {sep!r}){hint}."
             )
         if sep != "," and any(
@@ -369,28 +548,144 @@ def _decimal(lines, header, sep, name, decimal, test_key=TEST_LEVEL):
     return found
 
 
-def _first_bad(values: pd.Series):
-    """Row and text of the first cell that is present but not a number."""
-    text = values.astype(object)
-    present = text.notna() & (text.astype(str).str.strip() != "")
-    numbers = pd.to_numeric(text.where(present), errors="coerce")
-    bad = np.flatnonzero((present & numbers.isna()).to_numpy())
-    return (int(bad[0]), text.iloc[bad[0]]) if bad.size else (None, None)
+class _RowLines:
+    """The line of the file each data row starts on, looked up when a message names it.
+
+    Data row r starts on line r + ``first`` unless blank lines or line breaks
+    inside quoted cells come before it; the first look-up reads the file
+    again to find out (only a message needs it). ``known`` are the lines when
+    found already."""
+
+    def __init__(self, path, sep, name, max_line_bytes, n_rows, first):
+        self.path, self.sep, self.name = path, sep, name
+        self.max_line_bytes, self.n_rows, self.first = max_line_bytes, n_rows, first
+        self.known = None
+
+    def all(self):
+        if self.known is None:
+            starts = []
+            try:
+                with open(self.path, newline="", encoding="utf-8-sig") as fh:
+                    records = _records(fh.readline, self.sep, self.name, self.max_line_bytes)
+                    starts = [line for line, _ in itertools.islice(records, 1, None)]
+            except (OSError, ValueError):
+                pass
+            if len(starts) != self.n_rows:  # not as pandas split it: count the rows
+                starts = range(self.first, self.first + self.n_rows)
+            self.known = np.asarray(starts)
+        return self.known
+
+    def __getitem__(self, row):
+        return int(self.all()[row])
 
 
-def _numeric_column(values: pd.Series, col, name: str, context=lambda row: ""):
-    """A CSV column as floats (empty cells NaN); a cell that is text raises,
-    naming the column, the file, the line and ``context(row)``."""
+def _label_fields(path, sep, name, position, parsed, max_line_bytes):
+    """Test labels as greyml reads them and the line each data row starts on.
+
+    ``parsed`` are the labels as pandas read them (in row order). A quoted
+    label keeps its spaces and line breaks, an unquoted one is stripped.
+    Returns None when the file does not split into the same records (a file
+    pandas reads leniently, such as one with a stray quote): the caller then
+    strips every label."""
+    labels, lines = [], []
+    with open(path, newline="", encoding="utf-8-sig") as fh:
+        records = _records(fh.readline, sep, name, max_line_bytes)
+        next(records, None)  # the header
+        for record, expected in itertools.zip_longest(records, parsed):
+            if record is None or expected is None or len(record[1]) <= position:
+                return None
+            line, fields = record
+            field = fields[position]
+            if _parsed(field) != expected:
+                return None
+            labels.append(_value(field))
+            lines.append(line)
+    if len(labels) != len(parsed):
+        return None
+    return labels, np.asarray(lines)
+
+
+def _shown(text) -> str:
+    """A cell's text for a message: its repr, the middle left out when it is long."""
+    text = str(text)
+    if len(text) <= _SHOWN_CHARS:
+        return repr(text)
+    return f"{text[:24] + '…' + text[-8:]!r} ({len(text):,} characters)"
+
+
+def _not_finite(col, name, text, line, where=""):
+    """The error for a cell holding an infinity or a number beyond a float.
+
+    ``1e400`` or a number of 400 digits is named by its size (the digits are
+    shown shortened): a float reads it as infinity, which the file does not
+    mean."""
+    text = str(text).strip()
+    rule = (
+        "every data column (sensor, input or target) must hold finite numbers, an empty "
+        "cell for a missing value."
+    )
+    if _NUMBER.match(text):
+        digits = sum(c.isdigit() for c in text)
+        shown = repr(text) if len(text) <= 24 else f"{text[:4]}…{text[-3:]}, {digits:,} digits"
+        return ValueError(
+            f"Column {col!r} of {name!r} holds a number too large for a float ({shown}) at "
+            f"line {line}{where}; a float holds at most about 1.8e308, and {rule}"
+        )
+    return ValueError(
+        f"Column {col!r} of {name!r} holds {_shown(text)} at line {line}{where}, which is "
+        f"not a finite number (an infinity); {rule}"
+    )
+
+
+def _as_floats(text: pd.Series) -> pd.Series:
+    """Cells as numbers, NaN where a cell is not one; an integer beyond a float is ±inf.
+
+    pandas reads an integer beyond 64 bits as a Python int, which
+    ``pd.to_numeric`` cannot convert; such a column is converted cell by cell."""
+    try:
+        return pd.to_numeric(text, errors="coerce").astype(float)
+    except OverflowError:
+        pass
+
+    def number(value):
+        if isinstance(value, int):
+            try:
+                return float(value)
+            except OverflowError:
+                return np.inf if value > 0 else -np.inf
+        return pd.to_numeric(pd.Series([value], dtype=object), errors="coerce").iloc[0]
+
+    return pd.Series([number(v) for v in text], index=text.index, dtype=float)
+
+
+def _numeric_column(values: pd.Series, col, name: str, context=lambda row: "", lines=None):
+    """A CSV column as floats (empty cells NaN).
+
+    A cell that is text, an infinity or a number beyond a float raises,
+    naming the column, the file, the line (``lines[row]``, or row + 2) and
+    ``context(row)``. A column pandas read as numbers is returned as it is."""
     if pd.api.types.is_numeric_dtype(values.dtype):
         return values
-    row, text = _first_bad(values)
-    if row is not None:
-        raise ValueError(
-            f"Column '{col}' of {name!r} holds {text!r} at line {_line(row)}{context(row)}, "
-            f"which is not a number: non-numeric text{_what_text(text)}; every data column "
-            "must hold numbers."
-        )
-    return pd.to_numeric(values.astype(object), errors="coerce").astype(float)
+    text = values.astype(object)
+    present = (text.notna() & (text.astype(str).str.strip() != "")).to_numpy()
+    numbers = _as_floats(text.where(present))
+    values_ = numbers.to_numpy(copy=True)
+    suspects = np.flatnonzero((present & np.isnan(values_)) | np.isinf(values_))
+    for row in map(int, suspects):
+        cell = str(text.iloc[row]).strip()
+        line = _line(row) if lines is None else int(lines[row])
+        if np.isnan(values_[row]):
+            if not _NUMBER.match(cell) or "," in cell:
+                raise ValueError(
+                    f"Column {col!r} of {name!r} holds {_shown(cell)} at line {line}"
+                    f"{context(row)}, which is not a number: non-numeric text"
+                    f"{_what_text(cell)}; every data column must hold numbers."
+                )
+            # a number pandas gave up on (too many digits for an integer)
+            values_[row] = float(cell)
+        if np.isinf(values_[row]):
+            raise _not_finite(col, name, cell, line, context(row))
+    return pd.Series(values_, index=values.index, name=values.name)
 
 
 def _what_text(text) -> str:
@@ -398,6 +693,8 @@ def _what_text(text) -> str:
     text = str(text).strip()
     if _DECIMAL_COMMA.match(text):
         return " (a decimal comma; pass decimal=',' or --decimal ,)"
+    if text.lower() in ("nan", "-nan", "+nan", "na", "n/a", "null", "none"):
+        return " (a missing value; leave the cell empty)"
     try:
         complex(text.replace(" ", ""))
         return " (a complex number; give the real part)"
@@ -413,9 +710,20 @@ def _what_text(text) -> str:
 
 
 def _number_or_nan(text):
-    """A cell of a wide file: a number, or NaN when empty."""
+    """A cell of a wide file: a finite number, or NaN when empty.
+
+    Anything else raises ValueError, leaving the file to pandas' reader and
+    its messages: an infinity, a number beyond a float and what Python reads
+    but a CSV cell does not hold (``1_000``, digits of other scripts)."""
     text = text.strip()
-    return float(text) if text else np.nan
+    if not text:
+        return np.nan
+    if "_" in text or not text.isascii():
+        raise ValueError(text)
+    value = float(text)
+    if not np.isfinite(value):
+        raise ValueError(text)
+    return value
 
 
 def _read_wide(path, header, positions, sep, decimal):
@@ -423,7 +731,8 @@ def _read_wide(path, header, positions, sep, decimal):
 
     With :data:`WIDE_COLUMNS` columns or more, a decimal point and no text
     cell, NumPy's parser reads the file in one 2-D float64 array (empty cells
-    NaN); any other file (or any cell NumPy cannot read) is left to pandas.
+    NaN); any other file (or any cell NumPy cannot read, or reads as an
+    infinity or NaN) is left to pandas.
     """
     if len(header) < WIDE_COLUMNS or decimal != ".":
         return None
@@ -439,6 +748,8 @@ def _read_wide(path, header, positions, sep, decimal):
     )
     try:
         values = np.loadtxt(path, **options)
+        if not np.isfinite(values).all():  # 'inf', 'nan' or 1e400: pandas names them
+            return None
     except (ValueError, UnicodeDecodeError):
         try:  # empty cells are missing values: slower, still linear
             values = np.loadtxt(path, converters=_number_or_nan, **options)
@@ -447,7 +758,7 @@ def _read_wide(path, header, positions, sep, decimal):
     return pd.DataFrame(values, columns=positions, copy=False)
 
 
-def _data_columns(raw, labels, name):
+def _data_columns(raw, labels, name, lines, cell_text):
     """The time and the data columns of ``raw`` as numbers, in time linear in their count.
 
     pandas' reader gives one block per column, and removing a column from a
@@ -455,7 +766,12 @@ def _data_columns(raw, labels, name):
     the square of the column count. So the frame is built once, without the
     time: from one 2-D array when the columns share a dtype (the usual case),
     else from the columns one by one, text columns converted to numbers.
+
+    A cell that is not a finite number raises, naming the column, the line
+    (``lines[row]``) and the test; ``cell_text(column, row)`` is the cell as
+    written in the file, for the message.
     """
+    where = lambda row: f" (test {labels.iloc[row]!r})"  # noqa: E731
     names = list(raw.columns)
     at = names.index(TIME_LEVEL)
     del names[at]
@@ -465,17 +781,32 @@ def _data_columns(raw, labels, name):
         (dtype,) = data_dtypes
         if dtype == np.float64 or all(dt == dtype for dt in dtypes):
             values = raw.to_numpy(dtype=np.float64 if dtype == np.float64 else dtype)
+            _check_finite(values, list(raw.columns), name, lines, cell_text, where)
             time = pd.Series(values[:, at], name=TIME_LEVEL)
             data = pd.DataFrame(np.delete(values, at, axis=1), columns=names, copy=False)
             return time, data
-    where = lambda row: f" (test {labels.iloc[row]!r})"  # noqa: E731
     columns = {}
     for col, values in raw.items():
         if not is_numeric_dtype(values.dtype):
-            values = _numeric_column(values, col, name, where)
-        columns[col] = values.to_numpy()
+            values = _numeric_column(values, col, name, where, lines)
+        values = values.to_numpy()
+        _check_finite(values[:, None], [col], name, lines, cell_text, where)
+        columns[col] = values
     time = pd.Series(columns.pop(TIME_LEVEL), name=TIME_LEVEL)
     return time, pd.DataFrame(columns, copy=False)
+
+
+def _check_finite(values, columns, name, lines, cell_text, where):
+    """Raise for the first infinity of the 2-D ``values`` (NaN, an empty cell, is allowed)."""
+    if values.dtype.kind != "f":
+        return
+    infinite = np.isinf(values)
+    if not infinite.any():
+        return
+    k = int(np.flatnonzero(infinite.any(axis=0))[0])
+    row = int(np.flatnonzero(infinite[:, k])[0])
+    col = columns[k]
+    raise _not_finite(col, name, cell_text(col, row), int(lines[row]), where(row))
 
 
 def read_tests_csv(
@@ -488,7 +819,9 @@ def read_tests_csv(
     path : str or path-like
         CSV file with a header; columns ``test``, ``time_s`` and numeric
         data columns. Empty cells are missing values (NaN). A UTF-8
-        byte-order mark (as Excel writes) is skipped.
+        byte-order mark (as Excel writes) is skipped. A quoted test label or
+        column name is read as written between its quotes (spaces and line
+        breaks kept); an unquoted one without the spaces around it.
     time_unit : {"s", "min", "h"}, default="s"
         The unit of the ``time_s`` column in the file; it is converted to
         seconds (the column keeps its name). A file in minutes read as
@@ -522,11 +855,13 @@ def read_tests_csv(
         With the line of the file (the header is line 1) or the column, for:
         an empty file or header, a repeated column name, a missing ``test``
         or ``time_s`` column, a missing test label or time, a value that is
-        not a number, two rows with the same test and time, time that does not
-        increase within a test, a test whose rows are not contiguous, a line
-        longer than ``max_line_bytes``, a file that is not UTF-8, a path that
-        is not a regular file (a folder, pipe or device), or an unknown
-        ``time_unit``.
+        not a number (``nan`` included: leave a missing value's cell empty),
+        an infinity (``inf``) or a number too large for a float (``1e400``,
+        a number of 400 digits), two rows with the same test and time, time
+        that does not increase within a test, a test whose rows are not
+        contiguous, a line longer than ``max_line_bytes``, a quoted field
+        that is never closed, a file that is not UTF-8, a path that is not a
+        regular file (a folder, pipe or device), or an unknown ``time_unit``.
 
     Examples
     --------
@@ -568,7 +903,7 @@ def read_tests_csv(
             f"time_unit must be one of {', '.join(map(repr, TIME_UNITS))} (the unit of the "
             f"'time_s' column in the file); got {time_unit!r}."
         )
-    if sep is not None and (not isinstance(sep, str) or len(sep) != 1 or sep in "\"\r\n"):
+    if sep is not None and (not isinstance(sep, str) or len(sep) != 1 or sep in '"\r\n'):
         raise ValueError(f"sep must be one character, such as ',', ';' or a tab; got {sep!r}.")
     if decimal is not None and decimal not in (".", ","):
         raise ValueError(f"decimal must be '.' or ','; got {decimal!r}.")
@@ -594,13 +929,15 @@ def read_tests_csv(
         raise ValueError(f"{name!r} is {what}; give a CSV file (it is read more than once).")
     _check_line_lengths(path, name, max_line_bytes)
     test_key = TEST_LEVEL if test_column is None else test_column
-    header, sep, first_lines = _header(path, sep, max_line_bytes, (test_key, TIME_LEVEL))
+    header, sep, header_lines, first_records = _header(
+        path, sep, max_line_bytes, (test_key, TIME_LEVEL)
+    )
     if len(header) == len(KEYS):
         raise ValueError(
             f"{name!r} has no data columns (0 features): its header holds only {', '.join(header)}."
         )
-    decimal = _decimal(first_lines, header, sep, name, decimal, test_key)
-    if not first_lines:
+    decimal = _decimal(first_records, header, sep, name, decimal, test_key)
+    if not first_records:
         raise ValueError(f"{name!r} has a header but no rows (0 samples).")
     options = dict(
         sep=sep,
@@ -626,27 +963,50 @@ def read_tests_csv(
         raise ValueError(f"{name!r} is not a well-formed CSV file: {exc}") from None
     except UnicodeDecodeError as exc:
         raise ValueError(
-            f"{name!r} is not UTF-8 text ({exc.reason} at byte {exc.start}); save it as "
-            "UTF-8 CSV."
+            f"{name!r} is not UTF-8 text ({exc.reason} at byte {exc.start}); save it as UTF-8 CSV."
         ) from None
     if raw.empty:
         raise ValueError(f"{name!r} has a header but no rows (0 samples).")
     raw.columns = [header[k] for k in positions]
-    missing = labels.isna() | (labels.astype(str).str.strip() == "")
+    lines = _RowLines(path, sep, name, max_line_bytes, len(labels), 1 + header_lines)
+    labels = labels.astype(object).where(labels.notna(), "").astype(str)
+    stripped = labels.str.strip()
+    if (stripped != labels).any() or labels.str.contains("[\r\n]").any():
+        # a quoted label keeps its spaces; only the file tells which are quoted
+        found = _label_fields(path, sep, name, position, labels.tolist(), max_line_bytes)
+        if found is None:
+            labels = stripped
+        else:
+            labels = pd.Series(found[0], index=labels.index, dtype=object)
+            lines.known = found[1]
+    missing = (stripped == "").to_numpy()
     if missing.any():
-        row = int(np.flatnonzero(missing.to_numpy())[0])
+        row = int(np.flatnonzero(missing)[0])
         raise ValueError(
-            f"Line {_line(row)} of {name!r} (data row {row}) has no test label in column "
-            f"'{test_key}' (a missing test label); every row must name its test."
+            f"Line {lines[row]} of {name!r} (data row {row}) has no test label in column "
+            f"{test_key!r} (a missing test label); every row must name its test."
         )
-    labels = labels.astype(str).str.strip().map(_unneutralise)
-    time, data = _data_columns(raw, labels, name)
+    labels = labels.map(_unneutralise)
+
+    def cell_text(col, row):
+        """The cell of column ``col`` at data row ``row`` as written in the file."""
+        at = header.index(col)
+        return pd.read_csv(path, usecols=[at], dtype=object, **options)[at].iloc[row]
+
+    time, data = _data_columns(raw, labels, name, lines, cell_text)
     time = time.astype(float) * TIME_UNITS[time_unit]
     if time.isna().any():
         row = int(np.flatnonzero(time.isna().to_numpy())[0])
         raise ValueError(
-            f"Line {_line(row)} of {name!r} (test {labels.iloc[row]!r}) has no value "
+            f"Line {lines[row]} of {name!r} (test {labels.iloc[row]!r}) has no value "
             "in column 'time_s': the time is missing."
+        )
+    if np.isinf(time).any():  # finite in the file's unit, beyond a float in seconds
+        row = int(np.flatnonzero(np.isinf(time).to_numpy())[0])
+        raise ValueError(
+            f"Line {lines[row]} of {name!r} (test {labels.iloc[row]!r}) holds a time too "
+            f"large for a float in seconds ({cell_text(TIME_LEVEL, row).strip()} "
+            f"{time_unit})."
         )
     keys = pd.DataFrame({TEST_LEVEL: labels.to_numpy(), TIME_LEVEL: time.to_numpy()})
     dup = keys.duplicated(keep=False).to_numpy()
@@ -659,12 +1019,16 @@ def read_tests_csv(
         ]
         raise ValueError(
             f"{name!r} has duplicate rows for test {labels.iloc[first]!r} at "
-            f"time_s {time.iloc[first]:g}: lines " + ", ".join(str(_line(r)) for r in same) + "."
+            f"time_s {time.iloc[first]:g}: lines " + ", ".join(str(lines[r]) for r in same) + "."
         )
     frame = data
     frame.index = make_test_index(labels.to_numpy(dtype=object), time.to_numpy())
     try:
         test_segments(frame)
     except ValueError as exc:
-        raise ValueError(f"{name!r}: {exc} (row r of the data is line r + 2 of the file)") from None
+        if np.array_equal(lines.all(), np.arange(len(labels)) + 2):
+            where = "row r of the data is line r + 2 of the file"
+        else:
+            where = f"rows count from 0 at the first data row, line {lines[0]} of the file"
+        raise ValueError(f"{name!r}: {exc} ({where})") from None
     return frame
