@@ -403,3 +403,16 @@ def test_held_out_spread_is_the_standard_error_of_the_refits(data):
     cols = _cols_all(model._col_group_, list(range(5)), grams[0].shape[1])
     spread = held_out_spread(grams, cols, 1e-2, pen, [0, 1, 2, 3])
     assert spread == pytest.approx(np.std(rmses, ddof=1) / 2.0, rel=1e-6)
+
+
+def test_an_input_beyond_any_measurement_is_one_line(data):
+    X, y = data
+    huge = X.copy()
+    huge.iloc[5, 0] = 1e300  # spindle_rpm: its square overflows
+    with pytest.raises(
+        ValueError, match=r"column 'spindle_rpm' holds 1e\+300 in test 't0' at row 5"
+    ):
+        ThermalTransferFunction(drivers=["spindle_rpm"]).fit(huge, y)
+    model = _model(max_sensors=2).fit(X, y)
+    with pytest.raises(ValueError, match=r"beyond 1e\+100, which no measurement reaches"):
+        model.predict(huge)

@@ -430,6 +430,8 @@ class ThermalTransferFunction(_TransferReadout, RegressorMixin, BaseEstimator):
         """Validated training data: arrays, tests, inputs, weights and time."""
         Xa, ya, segments = validate_sequences(self, X, y, reset=True)
         names = column_names(self, Xa.shape[1])
+        _check_magnitudes(self, Xa, names, segments)
+        _check_magnitudes(self, ya[:, None], ["the target y"], segments)
         drivers, sensors = self._inputs(names)
         if self.max_sensors is not None and self.max_sensors > len(sensors):
             raise ValueError(
@@ -725,6 +727,7 @@ class ThermalTransferFunction(_TransferReadout, RegressorMixin, BaseEstimator):
         """
         check_is_fitted(self)
         Xa, _, segments = validate_sequences(self, X, reset=False)
+        _check_magnitudes(self, Xa, column_names(self, Xa.shape[1]), segments)
         steps = self._timeline(X, segments, self.gap_limit_s_, self.nominal_step_s_)
         bounds = [(s.start, s.stop) for s in segments]
         given = self._initial_displacements(initial_displacement, segments)
@@ -944,6 +947,26 @@ def _longer_banks(taus, driver_taus, span):
         td = [*td, 3.0 * td[-1]]
         out.append((np.asarray(ts), np.asarray(td)))
     return out
+
+
+#: The largest input a transfer function takes: far beyond any temperature,
+#: speed or displacement, and small enough that its square (a driver's power 2)
+#: and the Gram matrices of its lags stay finite in float64.
+MAX_INPUT = 1e100
+
+
+def _check_magnitudes(model, A, names, segments):
+    """Refuse in one line, naming the column, the test and the row, an input so
+    large that the lag features' squares overflow (a unit error: 1e300 rpm)."""
+    for j, name in enumerate(names):
+        found = first_flagged(np.abs(A[:, j]) > MAX_INPUT, segments)
+        if found:
+            row, test = found
+            what = name if name == "the target y" else f"column {name!r}"
+            raise ValueError(
+                f"{type(model).__name__}: {what} holds {A[row, j]:g} in {test} at row {row}, "
+                f"beyond {MAX_INPUT:g}, which no measurement reaches; check its unit."
+            )
 
 
 def _is_real(value):
