@@ -28,7 +28,15 @@ from sklearn.multioutput import MultiOutputRegressor
 from sklearn.pipeline import FeatureUnion, Pipeline
 from sklearn.preprocessing import MinMaxScaler, StandardScaler
 
-from greyml import AGO, GMC, make_test_index, persist
+from greyml import (
+    AGO,
+    GMC,
+    Compensator,
+    LagFeatures,
+    ThermalTransferFunction,
+    make_test_index,
+    persist,
+)
 from greyml.grey import simulate_gmc
 from greyml.io import write_tests_csv
 from greyml.persist import DEFAULT_MAX_BYTES, load_model, save_model
@@ -320,6 +328,38 @@ def _build(folder):
         folder / "f4.greyml",
         _set(control_={"kind": "scalar", "dtype": "<f4", "value": 1e300}),
     )
+
+    # issue 26: a dynamic model's fitted state, checked before it is used
+    ttf = save_model(
+        ThermalTransferFunction(time_constants=[30.0, 90.0]).fit(X, y), folder / "ttf.greyml"
+    )
+
+    def negative_tau(header):
+        _state(header)["_spec_"][0]["items"][2]["items"][0] = -30.0
+
+    files["26-negative-time-constant"] = _tamper(ttf, folder / "negative.greyml", negative_tau)
+    lags = save_model(
+        Pipeline([("lags", LagFeatures([30.0])), ("ridge", Ridge())]).fit(X, y),
+        folder / "lags.greyml",
+    )
+
+    def bank_of_50000(header):
+        step = _state(header)["steps"][0]["items"][1]["state"]
+        step["time_constants"] = {"kind": "ndarray", "file": "arrays/96.npy"}
+        step["time_constants_"] = {"kind": "ndarray", "file": "arrays/96.npy"}
+
+    files["26-bank-of-50000"] = _tamper(
+        lags,
+        folder / "bank.greyml",
+        bank_of_50000,
+        extra={"arrays/96.npy": _npy(np.linspace(10.0, 1e5, 50_000))},
+    )
+    comp = Compensator(COLUMNS, [(c, 1, 60.0, 1.0) for c in COLUMNS], relative_to_start=True)
+    comp.update({"time_s": 0.0, **dict(zip(COLUMNS, X.iloc[0]))})
+    comp = save_model(comp, folder / "comp.greyml")
+    files["26-compensator-nan-start"] = _tamper(
+        comp, folder / "nan-start.greyml", _set(_start={"kind": "float", "value": "nan"})
+    )
     return data, files
 
 
@@ -602,3 +642,11 @@ def test_a_parameter_outside_its_constraints_is_refused(tmp_path, attributes, ma
     with pytest.raises(ValueError, match=match) as info:
         load_model(bad)
     assert "\n" not in str(info.value) and "gmc-bad.greyml" in str(info.value)
+
+
+def test_26_a_dynamic_models_fitted_state_is_checked_within_the_limit(report):
+    _refused(report["26-negative-time-constant"], "time constant -30.0 s", "not a finite number")
+    _refused(report["26-bank-of-50000"], "50,000 time constants, more than the 1,000")
+    _refused(report["26-compensator-nan-start"], "the state holds a value that is not finite")
+    for label in ("26-negative-time-constant", "26-bank-of-50000", "26-compensator-nan-start"):
+        _small(report[label])
