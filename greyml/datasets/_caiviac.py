@@ -11,7 +11,8 @@ import pandas as pd
 from greyml._sequences import make_test_index
 from greyml.datasets._simulated import _X_y, bunch_from_frame
 from greyml.io import check_test_frame
-from greyml.io._csv import _line, _numeric_column
+from greyml.io._csv_numbers import _numeric_column
+from greyml.io._csv_text import _line
 
 __all__ = ["load_caiviac", "caiviac_candidates"]
 
