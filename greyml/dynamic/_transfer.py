@@ -23,10 +23,8 @@ matrices, so a candidate costs a few small linear solves, not a refit.
 
 from __future__ import annotations
 
-import numbers
 import warnings
-from collections.abc import Mapping
-from dataclasses import dataclass, replace
+from dataclasses import replace
 
 import numpy as np
 from scipy.optimize import minimize
@@ -36,36 +34,37 @@ from sklearn.utils.validation import check_is_fitted
 from greyml._param_validation import Hidden, Integral, Interval, StrOptions
 from greyml._renamed import DEPRECATED
 from greyml._sequences import segment_label
-from greyml._validation import column_names, first_flagged, require_y, validate_sequences
+from greyml._validation import column_names, require_y, validate_sequences
 from greyml.dynamic._gram import (
     _cols_all,
-    design,
-    grams_by_test,
     held_out_scores,
     select_sensors,
     solve_all,
 )
 from greyml.dynamic._time import (
-    MAX_TERMS,
     STATES,
-    Timeline,
-    check_time_constants,
-    timeline,
 )
+from greyml.dynamic._transfer_checks import (  # noqa: F401 (DEFAULT_*: the model's defaults)
+    DEFAULT_ALPHAS,
+    DEFAULT_TIME_CONSTANTS,
+    check_fitted_state,
+    check_magnitudes,
+    check_params,
+    initial_displacements,
+    sample_weights,
+)
+from greyml.dynamic._transfer_design import _TransferDesign
 from greyml.dynamic._transfer_readout import _round_step, _TransferReadout
+from greyml.dynamic._transfer_records import Bank, Data, longer_banks, span
 from greyml.exceptions import WarmStartWarning
 
 __all__ = ["ThermalTransferFunction"]
 
-#: Default time constants of the temperature sensors, in seconds (5, 15, 45, 135 min).
-DEFAULT_TIME_CONSTANTS = (300.0, 900.0, 2700.0, 8100.0)
-#: Ridge penalties tried, per row of the (standardised) design.
-DEFAULT_ALPHAS = tuple(np.logspace(-6, 0, 13))
 #: The values of ``reference``.
 REFERENCES = ("auto", "start", "recording")
 
 
-class ThermalTransferFunction(_TransferReadout, RegressorMixin, BaseEstimator):
+class ThermalTransferFunction(_TransferDesign, _TransferReadout, RegressorMixin, BaseEstimator):
     """Displacement as a sum of each input's first-order thermal responses.
 
     Every input reaches the displacement through a transfer function of its
@@ -325,113 +324,22 @@ class ThermalTransferFunction(_TransferReadout, RegressorMixin, BaseEstimator):
 
     # -- parameters -----------------------------------------------------------
 
-    def _taus(self, name, value, default):
-        if value is None:
-            return np.asarray(default, dtype=float)
-        return check_time_constants(value, f"The {name!r} parameter of {type(self).__name__}")
-
     def _check_params(self):
-        """Check what the constraints cannot say: the entries of the sequences."""
-        name = type(self).__name__
-        fit_taus = isinstance(self.time_constants, str) and self.time_constants == "fit"
-        taus = self._taus(
-            "time_constants", None if fit_taus else self.time_constants, DEFAULT_TIME_CONSTANTS
-        )
-        dtaus = self.driver_time_constants
-        driver_taus = (
-            np.append(taus, 3.0 * taus.max())
-            if dtaus is None
-            else self._taus("driver_time_constants", dtaus, DEFAULT_TIME_CONSTANTS)
-        )
-        powers = tuple(self.driver_powers)
-        if not powers or any(
-            not isinstance(p, numbers.Real) or isinstance(p, bool) or not np.isfinite(p) or p <= 0
-            for p in powers
-        ):
-            raise ValueError(
-                f"The 'driver_powers' parameter of {name} must be a non-empty sequence of "
-                f"finite numbers > 0. Got {self.driver_powers!r} instead."
-            )
-        alphas = np.asarray(DEFAULT_ALPHAS if self.alphas is None else self.alphas, dtype=float)
-        if alphas.ndim != 1 or alphas.size == 0 or not (np.isfinite(alphas) & (alphas > 0)).all():
-            raise ValueError(
-                f"The 'alphas' parameter of {name} must be a non-empty sequence of finite "
-                f"floats > 0. Got {self.alphas!r} instead."
-            )
-        extend = self.time_constants is None and self.driver_time_constants is None
-        return _Settings(
-            taus, driver_taus, fit_taus, powers, alphas, self._reference_asked(), extend
-        )
+        """Check what the constraints cannot say (see :func:`check_params`)."""
+        return check_params(self)
 
-    def _reference_asked(self):
-        """``reference``, or the deprecated ``relative_to_start`` with a FutureWarning."""
-        old = self.relative_to_start
-        if isinstance(old, str) and old == DEPRECATED:
-            return self.reference
-        new = "start" if old else "recording"
-        warnings.warn(
-            f"The 'relative_to_start' parameter of {type(self).__name__} is replaced by "
-            f"'reference' and goes away in the next release; use reference={new!r}.",
-            FutureWarning,
-            stacklevel=4,
-        )
-        return new
+    def _check_fitted_state(self):
+        """The fitted attributes in their domain (see :func:`check_fitted_state`)."""
+        check_fitted_state(self)
 
     # -- data -----------------------------------------------------------------
-
-    def _timeline(self, X, segments, tau_max, nominal=None):
-        return timeline(
-            X,
-            segments,
-            owner=type(self).__name__,
-            tau_max=tau_max,
-            state=self.state,
-            nominal=nominal,
-            default_step=1.0,
-        )
-
-    def _inputs(self, names):
-        drivers = list(self.drivers)
-        for d in drivers:
-            if d not in names:
-                raise ValueError(
-                    f"{type(self).__name__}: the driver {d!r} is not a column of X "
-                    f"(columns: {', '.join(map(str, names))})."
-                )
-        if len(set(drivers)) != len(drivers):
-            raise ValueError(f"{type(self).__name__}: a driver is named twice in {drivers!r}.")
-        sensors = [c for c in names if c not in drivers]
-        return drivers, sensors
-
-    def _spec(self, drivers, sensors, names, powers, taus, driver_taus):
-        """Blocks (column, power, taus) and the group of each: -1 drivers, k sensor k."""
-        spec, groups, labels = [], [], []
-        for d in drivers:
-            for p in powers:
-                spec.append((names.index(d), p, tuple(driver_taus)))
-                groups.append(-1)
-                labels.append((d, p))
-        for k, s in enumerate(sensors):
-            spec.append((names.index(s), 1, tuple(taus)))
-            groups.append(k)
-            labels.append((s, 1))
-        return spec, groups, labels
-
-    def _design(self, x, steps, bounds, spec, groups, reference):
-        """Lag features of the blocks ``spec``; drivers (group -1) start idle without history."""
-        idle = [b for b, g in enumerate(groups) if g == -1]
-        F = design(x, steps.dt, bounds, spec, steps.carried, idle)
-        if reference == "start":
-            for start, stop in bounds:
-                F[start:stop] -= F[start].copy()
-        return F
 
     def _data(self, X, y, sample_weight, settings):
         """Validated training data: arrays, tests, inputs, weights and time."""
         Xa, ya, segments = validate_sequences(self, X, y, reset=True)
         names = column_names(self, Xa.shape[1])
-        _check_magnitudes(self, Xa, names, segments)
-        _check_magnitudes(self, ya[:, None], ["the target y"], segments)
+        check_magnitudes(self, Xa, names, segments)
+        check_magnitudes(self, ya[:, None], ["the target y"], segments)
         drivers, sensors = self._inputs(names)
         if self.max_sensors is not None and self.max_sensors > len(sensors):
             raise ValueError(
@@ -439,13 +347,13 @@ class ThermalTransferFunction(_TransferReadout, RegressorMixin, BaseEstimator):
                 f"more than the {len(sensors)} temperature sensor(s) given "
                 f"({', '.join(sensors) or 'none'})."
             )
-        w = self._weights(sample_weight, Xa.shape[0], segments)
+        w = sample_weights(self, sample_weight, Xa.shape[0], segments)
         tau_max = settings.taus.max()
         if drivers:
             tau_max = max(tau_max, settings.driver_taus.max())
         steps = self._timeline(X, segments, tau_max)
         bounds = [(s.start, s.stop) for s in segments]
-        return _Data(Xa, ya, w, segments, bounds, names, drivers, sensors, steps, float(tau_max))
+        return Data(Xa, ya, w, segments, bounds, names, drivers, sensors, steps, float(tau_max))
 
     @staticmethod
     def _choose_reference(asked, data):
@@ -533,13 +441,13 @@ class ThermalTransferFunction(_TransferReadout, RegressorMixin, BaseEstimator):
                     self._fit_bank(data, settings, y_fit, folds, reference, *b, chosen=base.chosen),
                     path=base.path,
                 )
-                for b in _longer_banks(settings.taus, settings.driver_taus, _span(data))
+                for b in longer_banks(settings.taus, settings.driver_taus, span(data))
             ]
         bank = min(fits, key=lambda f: f.score)  # the first of equal scores: the shortest
         if settings.fit_taus and folds is not None:
             chosen_names = [data.sensors[k] for k in bank.chosen]
-            taus, driver_taus = self._fit_taus(
-                data, chosen_names, settings, y_fit, folds, reference
+            taus, driver_taus = fit_time_constants(
+                self, data, chosen_names, settings, y_fit, folds, reference
             )
             bank = self._fit_bank(
                 data, settings, y_fit, folds, reference, taus, driver_taus, chosen=bank.chosen
@@ -584,7 +492,7 @@ class ThermalTransferFunction(_TransferReadout, RegressorMixin, BaseEstimator):
             cols = _cols_all(col_group, chosen, grams[0].shape[1])
             sc = held_out_scores(grams, cols, settings.alphas, pen, folds)
             alpha, score, path = float(settings.alphas[np.argmin(sc)]), float(sc.min()), []
-        return _Bank(
+        return Bank(
             np.asarray(taus, dtype=float),
             np.asarray(driver_taus, dtype=float),
             spec,
@@ -633,72 +541,6 @@ class ThermalTransferFunction(_TransferReadout, RegressorMixin, BaseEstimator):
             self.step_sizes_[d] = _round_step(float(np.abs(col).max()))
         self.step_sizes_ = {c: self.step_sizes_[c] for c in data.drivers + data.sensors}
 
-    def _weights(self, sample_weight, n, segments):
-        if sample_weight is None:
-            return np.ones(n)
-        w = np.asarray(sample_weight, dtype=float).reshape(-1)
-        if w.shape[0] != n:
-            raise ValueError(
-                f"{type(self).__name__}: sample_weight has {w.shape[0]} values for {n} rows."
-            )
-        bad = first_flagged(~np.isfinite(w) | (w < 0), segments)
-        if bad:
-            r, test = bad
-            raise ValueError(
-                f"{type(self).__name__}: sample_weight of row {r} ({test}) is "
-                f"{w[r]!r}; weights must be finite and >= 0."
-            )
-        if w.sum() <= 0:
-            raise ValueError(
-                f"{type(self).__name__}: every sample_weight is zero; give some rows a "
-                "positive weight."
-            )
-        return w
-
-    @staticmethod
-    def _grams(F, y, w, bounds, reference):
-        """Per-test raw Grams of the design (a ones column last in the recording reference)."""
-        relative = reference == "start"
-        A = F if relative else np.column_stack([F, np.ones(len(F))])
-        pen = np.ones(A.shape[1])
-        if not relative:
-            pen[-1] = 0.0
-        return grams_by_test(A, y, w, bounds), pen
-
-    def _fit_taus(self, data, chosen_names, settings, y, folds, reference):
-        """Variable projection: Nelder–Mead over the log time constants, gains solved inside.
-
-        Only the drivers and the chosen sensors are filtered; the score is the
-        mean held-out RMSE (best penalty) of whole tests.
-        """
-        m = len(settings.taus)
-
-        def unpack(z):
-            return np.sort(np.exp(z[:m])), np.sort(np.exp(z[m:]))
-
-        def objective(z):
-            ts, td = unpack(z)
-            if ts.max() > 1e7 or td.max() > 1e7 or ts.min() < 1.0 or td.min() < 1.0:
-                return np.inf
-            spec, groups, _ = self._spec(
-                data.drivers, chosen_names, data.names, settings.powers, ts, td
-            )
-            F = self._design(data.X, data.steps, data.bounds, spec, groups, reference)
-            grams, pen = self._grams(F, y, data.w, data.bounds, reference)
-            cols = np.arange(grams[0].shape[1])
-            return float(held_out_scores(grams, cols, settings.alphas, pen, folds).min())
-
-        z0 = np.log(np.concatenate([settings.taus, settings.driver_taus]))
-        f0 = objective(z0)
-        result = minimize(
-            objective,
-            z0,
-            method="Nelder-Mead",
-            options={"maxfev": 40 * len(z0), "xatol": 0.02, "fatol": 1e-6 * max(f0, 1e-12)},
-        )
-        best = result.x if result.fun < f0 else z0
-        return unpack(best)
-
     # -- predict --------------------------------------------------------------
 
     def predict(self, X, initial_displacement=None):
@@ -727,10 +569,10 @@ class ThermalTransferFunction(_TransferReadout, RegressorMixin, BaseEstimator):
         """
         check_is_fitted(self)
         Xa, _, segments = validate_sequences(self, X, reset=False)
-        _check_magnitudes(self, Xa, column_names(self, Xa.shape[1]), segments)
+        check_magnitudes(self, Xa, column_names(self, Xa.shape[1]), segments)
         steps = self._timeline(X, segments, self.gap_limit_s_, self.nominal_step_s_)
         bounds = [(s.start, s.stop) for s in segments]
-        given = self._initial_displacements(initial_displacement, segments)
+        given = initial_displacements(self, initial_displacement, segments)
         if not (self.feature_coef_ != 0).any():
             pred = np.full(Xa.shape[0], self.intercept_)
         else:
@@ -754,25 +596,6 @@ class ThermalTransferFunction(_TransferReadout, RegressorMixin, BaseEstimator):
                     stacklevel=2,
                 )
         return pred
-
-    def _initial_displacements(self, value, segments):
-        """``initial_displacement`` as {test position: finite number}."""
-        if value is None:
-            return {}
-        name = type(self).__name__
-        if isinstance(value, Mapping):
-            labels = {str(s.label): i for i, s in enumerate(segments)}
-            out = {}
-            for label, v in value.items():
-                if str(label) not in labels:
-                    raise ValueError(
-                        f"{name}.predict: initial_displacement names the test {label!r}, which "
-                        f"is not in X (its tests: {', '.join(list(labels)[:10])})."
-                    )
-                out[labels[str(label)]] = _finite(v, f"the initial displacement of {label!r}")
-            return out
-        v = _finite(value, "initial_displacement")
-        return dict.fromkeys(range(len(segments)), v)
 
     def compensator(self, *, nominal_step_s=None, row_columns=None):
         """A :class:`greyml.dynamic.Compensator` that runs this model row by row.
@@ -817,166 +640,42 @@ class ThermalTransferFunction(_TransferReadout, RegressorMixin, BaseEstimator):
             row_columns=row_columns,
         )
 
-    def _check_fitted_state(self):
-        """Every fitted attribute in its domain and consistent with the others.
-
-        Run on a model read from a file (:func:`greyml.persist.load_model`),
-        which could hold anything: a negative time constant would make every
-        prediction grow without bound, a block naming a column the model does
-        not have would read the wrong sensor. Raises a one-line ValueError.
-        """
-        if "feature_coef_" not in vars(self):
-            return  # not fitted: nothing but parameters
-        name = type(self).__name__
-        if "gap_limit_s_" not in vars(self) or "reference_" not in vars(self):
-            raise ValueError(
-                f"{name} was saved by an earlier greyml, before it had a reference and a gap "
-                "limit; fit it again."
-            )
-        n_in = int(self.n_features_in_)
-        check_time_constants(self.time_constants_, f"The fitted time_constants_ of {name}")
-        check_time_constants(
-            self.driver_time_constants_, f"The fitted driver_time_constants_ of {name}"
-        )
-        spec = list(self._spec_)
-        width = 0
-        for column, power, taus in spec:
-            if not (isinstance(column, numbers.Integral) and 0 <= column < n_in):
-                raise ValueError(f"{name}: a fitted block reads column {column!r} of {n_in}.")
-            if not (_is_real(power) and np.isfinite(power) and power > 0):
-                raise ValueError(f"{name}: a fitted block has the power {power!r}.")
-            if taus:
-                check_time_constants(taus, f"A fitted block of {name}")
-            width += 1 + len(taus)
-        if width > MAX_TERMS:
-            raise ValueError(
-                f"{name} holds {width:,} terms, more than the {MAX_TERMS:,} a model may hold."
-            )
-        coef = np.asarray(self.feature_coef_, dtype=float)
-        if coef.shape != (width,) or not np.isfinite(coef).all():
-            raise ValueError(
-                f"{name}: feature_coef_ must be {width} finite numbers, one per term of the "
-                f"fitted blocks; it has shape {coef.shape}."
-            )
-        if not (_is_real(self.intercept_) and np.isfinite(self.intercept_)):
-            raise ValueError(f"{name}: the intercept_ {self.intercept_!r} is not finite.")
-        if len(self._groups_) != len(spec) or len(self._labels_) != len(spec):
-            raise ValueError(f"{name}: the fitted blocks and their groups disagree.")
-        if self.reference_ not in ("start", "recording"):
-            raise ValueError(f"{name}: reference_ is {self.reference_!r}.")
-        if not (_is_real(self.gap_limit_s_) and np.isfinite(self.gap_limit_s_)):
-            raise ValueError(f"{name}: gap_limit_s_ is {self.gap_limit_s_!r}.")
-        if self.gap_limit_s_ <= 0:
-            raise ValueError(f"{name}: gap_limit_s_ is {self.gap_limit_s_!r}.")
-        step = self.nominal_step_s_
-        if not (_is_real(step) and (np.isnan(step) or (np.isfinite(step) and step > 0))):
-            raise ValueError(f"{name}: nominal_step_s_ is {step!r}.")
-        if [tuple(t) for t in self.terms_] != [tuple(t) for t in self._terms()]:
-            raise ValueError(f"{name}: terms_ disagree with the fitted blocks and gains.")
-
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()
         tags.input_tags.allow_nan = False
         return tags
 
 
-@dataclass(frozen=True)
-class _Settings:
-    """The checked parameters of one fit."""
+def fit_time_constants(model, data, chosen_names, settings, y, folds, reference):
+    """Variable projection: Nelder–Mead over the log time constants, gains solved inside.
 
-    taus: np.ndarray
-    driver_taus: np.ndarray
-    fit_taus: bool
-    powers: tuple
-    alphas: np.ndarray
-    reference: str
-    extend: bool
+    Only the drivers and the chosen sensors are filtered; the score is the
+    mean held-out RMSE (best penalty) of whole tests.
+    """
+    m = len(settings.taus)
 
+    def unpack(z):
+        return np.sort(np.exp(z[:m])), np.sort(np.exp(z[m:]))
 
-@dataclass(frozen=True)
-class _Data:
-    """The checked training data of one fit."""
-
-    X: np.ndarray
-    y: np.ndarray
-    w: np.ndarray
-    segments: list
-    bounds: list
-    names: list
-    drivers: list
-    sensors: list
-    steps: Timeline
-    gap_limit: float
-
-
-@dataclass(frozen=True)
-class _Bank:
-    """One bank of time constants with the sensors and penalty chosen on it."""
-
-    taus: np.ndarray
-    driver_taus: np.ndarray
-    spec: list
-    groups: list
-    labels: list
-    col_group: np.ndarray
-    grams: tuple
-    pen: np.ndarray
-    chosen: list
-    alpha: float
-    score: float
-    path: list
-
-
-def _span(data):
-    """The longest stretch of time that the lags run through without a restart."""
-    t = np.cumsum(np.nan_to_num(data.steps.dt, nan=0.0))
-    longest, start = 0.0, 0.0
-    for i, (first, stop) in enumerate(data.bounds):
-        if i == 0 or not data.steps.carried[i]:
-            start = t[first]
-        longest = max(longest, t[stop - 1] - start)
-    return longest
-
-
-def _longer_banks(taus, driver_taus, span):
-    """The bank extended by a lag three times slower at a time, while it fits in ``span``."""
-    out = []
-    ts, td = list(taus), list(driver_taus)
-    while 3.0 * ts[-1] <= span:
-        ts = [*ts, 3.0 * ts[-1]]
-        td = [*td, 3.0 * td[-1]]
-        out.append((np.asarray(ts), np.asarray(td)))
-    return out
-
-
-#: The largest input a transfer function takes: far beyond any temperature,
-#: speed or displacement, and small enough that its square (a driver's power 2)
-#: and the Gram matrices of its lags stay finite in float64.
-MAX_INPUT = 1e100
-
-
-def _check_magnitudes(model, A, names, segments):
-    """Refuse in one line, naming the column, the test and the row, an input so
-    large that the lag features' squares overflow (a unit error: 1e300 rpm)."""
-    for j, name in enumerate(names):
-        found = first_flagged(np.abs(A[:, j]) > MAX_INPUT, segments)
-        if found:
-            row, test = found
-            what = name if name == "the target y" else f"column {name!r}"
-            raise ValueError(
-                f"{type(model).__name__}: {what} holds {A[row, j]:g} in {test} at row {row}, "
-                f"beyond {MAX_INPUT:g}, which no measurement reaches; check its unit."
-            )
-
-
-def _is_real(value):
-    return isinstance(value, numbers.Real) and not isinstance(value, bool)
-
-
-def _finite(value, what):
-    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not np.isfinite(value):
-        raise ValueError(
-            f"ThermalTransferFunction.predict: {what} must be a finite number of the "
-            f"target's unit; got {value!r}."
+    def objective(z):
+        ts, td = unpack(z)
+        if ts.max() > 1e7 or td.max() > 1e7 or ts.min() < 1.0 or td.min() < 1.0:
+            return np.inf
+        spec, groups, _ = model._spec(
+            data.drivers, chosen_names, data.names, settings.powers, ts, td
         )
-    return float(value)
+        F = model._design(data.X, data.steps, data.bounds, spec, groups, reference)
+        grams, pen = model._grams(F, y, data.w, data.bounds, reference)
+        cols = np.arange(grams[0].shape[1])
+        return float(held_out_scores(grams, cols, settings.alphas, pen, folds).min())
+
+    z0 = np.log(np.concatenate([settings.taus, settings.driver_taus]))
+    f0 = objective(z0)
+    result = minimize(
+        objective,
+        z0,
+        method="Nelder-Mead",
+        options={"maxfev": 40 * len(z0), "xatol": 0.02, "fatol": 1e-6 * max(f0, 1e-12)},
+    )
+    best = result.x if result.fun < f0 else z0
+    return unpack(best)
