@@ -151,6 +151,8 @@ def test_the_allowlist_holds_every_estimator_by_its_top_level_name():
     greyml_classes = {k for k in ALLOWED_CLASSES if k.startswith("greyml.")}
     others = {"greyml.optimize.CuckooSearch", "greyml.optimize.ParticleSwarm"}
     others.add("greyml.selection.TrainOnOneTest")
+    others.add("greyml.Compensator")  # the runtime object, saved with its state
+    assert greyml.Compensator is ALLOWED_CLASSES["greyml.Compensator"]
     assert greyml_classes == {f"greyml.{name}" for name, _ in estimators} | others
 
 

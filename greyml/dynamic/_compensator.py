@@ -9,9 +9,8 @@ from collections.abc import Mapping
 
 import numpy as np
 import pandas as pd
-from sklearn.base import BaseEstimator
 
-from greyml._param_validation import Interval, Real
+from greyml._param_validation import Interval, Real, validate_parameter_constraints
 from greyml._sequences import TIME_LEVEL
 from greyml.dynamic._compensator_pipeline import pipeline_terms
 from greyml.dynamic._kernels import lag_step
@@ -21,6 +20,18 @@ from greyml.dynamic._time import MAX_TERMS, gap_message
 __all__ = ["Compensator"]
 
 _PREFIX = "Compensator.update:"
+
+#: The constructor's parameters, in order (what get_params gives).
+_PARAMETERS = (
+    "inputs",
+    "terms",
+    "intercept",
+    "relative_to_start",
+    "nominal_step_s",
+    "idle_inputs",
+    "max_step_s",
+    "row_columns",
+)
 
 # per compensator, the last pandas index seen and the positions of time_s and
 # the inputs in it (kept outside the object: an Index is not part of its state)
@@ -51,7 +62,7 @@ def _real(value):
     return isinstance(value, numbers.Real) and not isinstance(value, bool) and math.isfinite(value)
 
 
-class Compensator(BaseEstimator):
+class Compensator:
     """A thermal-error correction computed sample by sample, as a controller runs it.
 
     The correction is a sum of terms, each the input ``x**power`` lagged
@@ -319,8 +330,24 @@ class Compensator(BaseEstimator):
         self.reset()
         return plan
 
+    # -- parameters, as every greyml object gives them ----------------------
+
+    def get_params(self, deep=True):
+        """The parameters given to the constructor, by name.
+
+        Parameters
+        ----------
+        deep : bool, default=True
+            Ignored (a compensator holds no other object).
+
+        Returns
+        -------
+        params : dict
+        """
+        return {name: getattr(self, name) for name in _PARAMETERS}
+
     def set_params(self, **params):
-        """Set parameters (see scikit-learn); the state is reset.
+        """Set parameters by name; the state is reset.
 
         Parameters
         ----------
@@ -330,32 +357,27 @@ class Compensator(BaseEstimator):
         -------
         self : Compensator
         """
-        super().set_params(**params)
+        for name in params:
+            if name not in _PARAMETERS:
+                raise ValueError(
+                    f"Invalid parameter {name!r} for Compensator; its parameters are "
+                    f"{', '.join(_PARAMETERS)}."
+                )
+        for name, value in params.items():
+            setattr(self, name, value)
         self.__dict__.pop("_plan", None)
         self._build()
         return self
 
-    def fit(self, X=None, y=None):
-        """Check the parameters; nothing is learnt (a compensator is its terms).
+    def _validate_params(self):
+        """The constraints of ``_parameter_constraints``, with scikit-learn's messages."""
+        validate_parameter_constraints(
+            self._parameter_constraints, self.get_params(), caller_name=type(self).__name__
+        )
 
-        Present so that scikit-learn's tools and :mod:`greyml.persist` treat a
-        compensator as a ready estimator. The state is reset.
-
-        Parameters
-        ----------
-        X, y : ignored
-
-        Returns
-        -------
-        self : Compensator
-        """
-        self.__dict__.pop("_plan", None)
-        self._build()
-        return self
-
-    def __sklearn_is_fitted__(self):
-        # defined by its parameters: nothing to fit
-        return True
+    def __repr__(self):
+        terms = self.terms if isinstance(self.terms, (list, tuple)) else list(self.terms)
+        return f"Compensator(inputs={list(self.inputs)!r}, {len(terms)} terms)"
 
     # -- state --------------------------------------------------------------
 

@@ -30,6 +30,7 @@ from sklearn.preprocessing import (
     StandardScaler,
 )
 
+from greyml.dynamic import Compensator
 from greyml.optimize import CuckooSearch, ParticleSwarm
 from greyml.selection import TrainOnOneTest
 from greyml.utils.discovery import all_estimators
@@ -70,6 +71,8 @@ ALLOWED_CLASSES = MappingProxyType(
         # its name at the top level (each is exported there), and what they
         # hold as parameters or results
         **{f"greyml.{name}": cls for name, cls in all_estimators()},
+        # the runtime object a controller runs, saved with its state
+        "greyml.Compensator": Compensator,
         "greyml.optimize.CuckooSearch": CuckooSearch,
         "greyml.optimize.ParticleSwarm": ParticleSwarm,
         "greyml.selection.TrainOnOneTest": TrainOnOneTest,
@@ -97,6 +100,10 @@ ALLOWED_CLASSES = MappingProxyType(
     }
 )
 _NAME_OF_CLASS = {cls: name for name, cls in ALLOWED_CLASSES.items()}
+
+#: Objects save_model takes besides estimators: a runtime object with a state
+#: (nothing to fit), saved and loaded like an estimator.
+RUNTIME_CLASSES = (Compensator,)
 
 # type objects (e.g. a ``dtype=np.float64`` parameter): NumPy's scalar types
 # and Python's numbers and strings

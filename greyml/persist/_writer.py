@@ -28,6 +28,7 @@ from greyml.persist._format import (
     _NAME_OF_UFUNC,
     FORMAT_NAME,
     FORMAT_VERSION,
+    RUNTIME_CLASSES,
     _class_path,
     _greyml_version,
 )
@@ -282,12 +283,14 @@ def save_model(estimator, path, *, overwrite=False) -> Path:
     True
     """
     path = Path(path)
-    if not isinstance(estimator, BaseEstimator):
+    runtime = isinstance(estimator, RUNTIME_CLASSES)
+    if not (isinstance(estimator, BaseEstimator) or runtime):
         raise TypeError(
-            f"save_model saves a fitted scikit-learn or greyml estimator; got an object "
-            f"of type {type(estimator).__name__}."
+            f"save_model saves a fitted scikit-learn or greyml estimator, or a "
+            f"Compensator; got an object of type {type(estimator).__name__}."
         )
-    check_is_fitted(estimator)
+    if not runtime:
+        check_is_fitted(estimator)
     if path.is_dir():
         raise IsADirectoryError(f"Cannot save the model to {path}: it is a folder.")
     if path.exists() and not overwrite:

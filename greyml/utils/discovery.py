@@ -34,8 +34,9 @@ def all_estimators(type_filter=None):
             or list of such str, default=None
         Which kind of estimators to return: those with the matching
         scikit-learn mixin (``RegressorMixin``, ``TransformerMixin``, ...), or
-        with any of them for a list. ``None`` returns every estimator, those
-        of no kind (:class:`~greyml.Compensator`) included.
+        with any of them for a list. ``None`` returns every estimator.
+        :class:`~greyml.Compensator` is not one: it is the runtime object a
+        controller runs (``update``), with nothing to fit.
 
     Returns
     -------
