@@ -237,6 +237,9 @@ def save_model(estimator, path, *, overwrite=False) -> Path:
         scikit-learn classes in ``ALLOWED_CLASSES``. From a ``GridSearchCV``,
         save ``best_estimator_``. Other scikit-learn estimators whose state is
         plain attributes can be saved too, but loading them needs ``trusted=``.
+        A :class:`greyml.Compensator` (a runtime object, not an estimator) is
+        saved with its running state, so that a controller resumes where it
+        stopped.
     path : str or path-like
         Where to write. The folder must exist. The suffix is up to you
         (``.greyml`` is a good choice).
