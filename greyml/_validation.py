@@ -22,6 +22,8 @@ __all__ = [
     "column_names",
     "check_unique_columns",
     "check_sampling_interval",
+    "check_magnitudes",
+    "MAX_INPUT",
     "first_flagged",
     "first_non_finite",
     "param_error",
@@ -75,6 +77,37 @@ def first_flagged(mask: np.ndarray, segments) -> tuple[int, str] | None:
         return None
     row = int(rows[0])
     return row, segment_label(segment_of(segments, row))
+
+
+#: The largest magnitude a fitted model takes in its training data: far beyond
+#: any temperature, speed, strain or displacement in any unit, and small enough
+#: that squares (a driver's power 2, Gram matrices, ANFIS's memberships) stay
+#: finite in float64. A larger value is a unit or logging error (1e300 rpm).
+MAX_INPUT = 1e100
+
+
+def check_magnitudes(model, A, names, segments):
+    """Refuse in one line, naming the column, the test and the row, a value
+    beyond :data:`MAX_INPUT` (its squares overflow: a unit or logging error).
+
+    ``A`` is 2-D with one column per entry of ``names``; a name "the target y"
+    is printed as such, any other as ``column 'name'``.
+    """
+    A = np.asarray(A, dtype=float)
+    if A.ndim == 1:
+        A = A[:, None]
+    with np.errstate(invalid="ignore"):
+        big = np.abs(A) > MAX_INPUT
+    if not big.any():
+        return
+    for j in np.flatnonzero(big.any(axis=0)):
+        name = names[j] if names is not None else "the target y"
+        row, test = first_flagged(big[:, j], segments)
+        what = name if name == "the target y" else f"column {name!r}"
+        raise ValueError(
+            f"{type(model).__name__}: {what} holds {A[row, j]:g} in {test} at row {row}, "
+            f"beyond {MAX_INPUT:g}, which no measurement reaches; check its unit."
+        )
 
 
 def first_non_finite(values: np.ndarray) -> tuple[int | None, int]:
@@ -255,6 +288,7 @@ def validate_sequences(
     n_params_msg: str | None = None,
     reject_constant: bool = False,
     static: bool = False,
+    bounded: bool = True,
 ):
     """Validate ``X`` (and ``y``) and find the test boundaries.
 
@@ -264,6 +298,8 @@ def validate_sequences(
     function of the number of columns), counted as rows minus one per test (the
     first sample of each test only starts it). ``static=True`` is for models
     whose rows are independent equations (ANFIS, MLP): every row counts.
+    ``bounded=True`` refuses, when fitting, a value beyond :data:`MAX_INPUT`
+    (a unit or logging error); a plain transform (the AGO) passes False.
     """
     segments = _segments_of(X, y)
     _check_numeric_frame(X)
@@ -297,6 +333,10 @@ def validate_sequences(
     _check_finite(Xa, names, segments, "X")
     if ya is not None:
         _check_finite(ya, None, segments, "y")
+    if reset and bounded:
+        check_magnitudes(estimator, Xa, names, segments)
+        if ya is not None and ya.ndim == 1:
+            check_magnitudes(estimator, ya, ["the target y"], segments)
 
     name = type(estimator).__name__
     for seg in segments:

@@ -166,6 +166,21 @@ CASES = [
         (INF, r"'T1_C'", TEST_A),
         frozenset({"fitted"}),
     ),
+    # -- values no measurement reaches (issue 26 item 7d) ----------------------
+    Case(
+        "huge_in_sensor",
+        "fit",
+        lambda X, y: (_set(X, 40, "T2_C", 1e300), y),
+        (r"1e\+300", T2, TEST_B, r"check its unit"),
+        frozenset({"model"}),
+    ),
+    Case(
+        "huge_in_target",
+        "fit",
+        lambda X, y: (X, _sety(y, 2, -1e200)),
+        (r"-1e\+200", r"target|'dz_um'", TEST_A, r"check its unit"),
+        frozenset({"y", "model"}),
+    ),
     # -- too little data ------------------------------------------------------
     Case("empty", "fit", _empty, (r"0 sample",)),
     Case(

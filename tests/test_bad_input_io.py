@@ -324,14 +324,16 @@ ENTRIES = [
         "correlation",
         _metric(correlation),
         ("y", "model"),
-        accepts={"x_and_y_tests_disagree"},
+        # overflow-free arithmetic: a metric of any finite numbers is a number
+        accepts={"x_and_y_tests_disagree", "huge_in_target"},
         touches_y=True,
     ),
     Entry(
         "nash_sutcliffe",
         _metric(nash_sutcliffe),
         ("y", "model"),
-        accepts={"x_and_y_tests_disagree"},
+        # overflow-free arithmetic: a metric of any finite numbers is a number
+        accepts={"x_and_y_tests_disagree", "huge_in_target"},
         touches_y=True,
     ),
     Entry(

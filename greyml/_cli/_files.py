@@ -98,7 +98,29 @@ def _read(path, csv_options=None):
     """Read a CSV of tests; ``csv_options`` are ``time_unit``, ``sep``, ``decimal``."""
     from greyml.io import read_tests_csv
 
-    return read_tests_csv(path, **(csv_options or {}))
+    frame = read_tests_csv(path, **(csv_options or {}))
+    _check_magnitudes(frame, path)
+    return frame
+
+
+def _check_magnitudes(frame, path):
+    """One line for a cell beyond :data:`MAX_INPUT` (a unit or logging error),
+    naming its column and line, before any command computes with it."""
+    import numpy as np
+
+    from greyml._validation import MAX_INPUT
+
+    columns = [("time_s", frame.index.get_level_values("time_s").to_numpy())]
+    columns += [(c, frame[c].to_numpy()) for c in frame.columns if frame[c].dtype.kind in "fiu"]
+    for name, values in columns:
+        with np.errstate(invalid="ignore"):
+            rows = np.flatnonzero(np.abs(values.astype(float)) > MAX_INPUT)
+        if rows.size:
+            row = int(rows[0])
+            raise ValueError(
+                f"Column {name!r} holds {float(values[row]):g} at {_where(frame, row, path)}, "
+                f"beyond {MAX_INPUT:g}, which no measurement reaches; check its unit."
+            )
 
 
 def _where(frame, row, path):

@@ -16,7 +16,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from greyml._renamed import DEPRECATED
-from greyml._validation import first_flagged
+from greyml._validation import MAX_INPUT, check_magnitudes, first_flagged
 from greyml.dynamic._time import MAX_TERMS, check_time_constants
 from greyml.dynamic._transfer_records import Settings
 
@@ -190,26 +190,6 @@ def check_fitted_state(model):
         raise ValueError(f"{name}: nominal_step_s_ is {step!r}.")
     if [tuple(t) for t in model.terms_] != [tuple(t) for t in model._terms()]:
         raise ValueError(f"{name}: terms_ disagree with the fitted blocks and gains.")
-
-
-#: The largest input a transfer function takes: far beyond any temperature,
-#: speed or displacement, and small enough that its square (a driver's power 2)
-#: and the Gram matrices of its lags stay finite in float64.
-MAX_INPUT = 1e100
-
-
-def check_magnitudes(model, A, names, segments):
-    """Refuse in one line, naming the column, the test and the row, an input so
-    large that the lag features' squares overflow (a unit error: 1e300 rpm)."""
-    for j, name in enumerate(names):
-        found = first_flagged(np.abs(A[:, j]) > MAX_INPUT, segments)
-        if found:
-            row, test = found
-            what = name if name == "the target y" else f"column {name!r}"
-            raise ValueError(
-                f"{type(model).__name__}: {what} holds {A[row, j]:g} in {test} at row {row}, "
-                f"beyond {MAX_INPUT:g}, which no measurement reaches; check its unit."
-            )
 
 
 def _is_real(value):

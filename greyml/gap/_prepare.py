@@ -17,6 +17,7 @@ import pandas as pd
 
 from greyml._sequences import segment_label, test_segments
 from greyml._validation import (
+    MAX_INPUT,
     _upper_first,
     check_sampling_interval,
     first_non_finite,
@@ -173,6 +174,36 @@ def _finite(values, name, index, segments):
             f"{name} has {kind} in {segment_label(seg)} at time_s="
             f"{index.get_level_values('time_s')[row]:g}."
         )
+    with np.errstate(invalid="ignore"):
+        rows = np.flatnonzero(np.abs(values) > MAX_INPUT)
+    if rows.size:
+        row = int(rows[0])
+        raise ValueError(
+            f"{name} holds {values[row]:g} in {segment_label(segment_of(segments, row))} at "
+            f"time_s={index.get_level_values('time_s')[row]:g}, beyond {MAX_INPUT:g}, which "
+            "no measurement reaches; check its unit."
+        )
+
+
+#: A gap whose largest magnitude is below this is nothing to diagnose: far
+#: under any instrument's resolution in any unit, and its squares (the noise
+#: floor's, the fits') underflow in float64.
+MIN_GAP = 1e-100
+
+
+def _check_gap_size(r, target):
+    largest = float(np.max(np.abs(r))) if r.size else 0.0
+    if largest == 0.0:
+        raise ValueError(
+            f"The measured and simulated {target!r} agree exactly in every row: there is "
+            "no gap to diagnose (was the simulation given as the measurement?)."
+        )
+    if largest < MIN_GAP:
+        raise ValueError(
+            f"The gap between the measured and simulated {target!r} is at most "
+            f"{largest:.3g} in every row, below {MIN_GAP:g}: too small to diagnose; "
+            "check the unit of both."
+        )
 
 
 def build_context(real, sim, *, target, ambient, drivers, sensors, fbgs):
@@ -228,6 +259,7 @@ def build_context(real, sim, *, target, ambient, drivers, sensors, fbgs):
     sim_values = _sim_series(sim, real, target)
     _finite(sim_values, f"The simulated target {target!r}", index, segments)
     measured = columns[target]
+    _check_gap_size(measured - sim_values, target)
     amb_name = roles["ambient"][0] if roles["ambient"] else None
     n = len(real)
 

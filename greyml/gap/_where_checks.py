@@ -15,6 +15,7 @@ import pandas as pd
 from greyml._sequences import TEST_LEVEL, TIME_LEVEL, Segment, segment_label
 from greyml._sequences import test_segments as _test_segments  # not collected by pytest
 from greyml._validation import (
+    MAX_INPUT,
     check_sampling_interval,
     check_unique_columns,
     first_non_finite,
@@ -41,6 +42,16 @@ class _Layout:
 def _check_finite(values: np.ndarray, layout: _Layout, what: str) -> None:
     row, count = first_non_finite(values)
     if row is None:
+        with np.errstate(invalid="ignore"):
+            big = np.flatnonzero(np.abs(values) > MAX_INPUT)
+        if big.size:
+            row = int(big[0])
+            where = segment_label(segment_of(layout.segments, row))
+            raise ValueError(
+                f"{what} holds {values[row]:g} in {where} at {TIME_LEVEL}="
+                f"{layout.time[row]:g}, beyond "
+                f"{MAX_INPUT:g}, which no measurement reaches; check its unit."
+            )
         return
     seg = segment_of(layout.segments, row)
     kind = "NaN" if np.isnan(values[row]) else "inf"

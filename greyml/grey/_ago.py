@@ -79,7 +79,7 @@ class AGO(OneToOneFeatureMixin, TransformerMixin, BaseEstimator):
         self : AGO
         """
         self._validate_params()
-        validate_sequences(self, X, reset=True)
+        validate_sequences(self, X, reset=True, bounded=False)
         return self
 
     def transform(self, X):

@@ -89,7 +89,7 @@ class RelativeToStart(OneToOneFeatureMixin, TransformerMixin, BaseEstimator):
                 f"{self.columns!r} instead."
             )
         self._validate_params()
-        Xa, _, _ = validate_sequences(self, X, reset=True)
+        Xa, _, _ = validate_sequences(self, X, reset=True, bounded=False)
         names = column_names(self, Xa.shape[1])
         self.columns_ = [names[j] for j in self._positions(names)]
         return self
