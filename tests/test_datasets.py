@@ -125,6 +125,23 @@ def test_caiviac_layout():
     speeds = frame.groupby(level="test", sort=False)["spindle_rpm"].max().tolist()
     assert speeds == [1250, 2500, 3750, 5000, 3500]
     assert "MIT" in data.license
+    # the file's own column names, so rows read from the file reach a model fitted here
+    assert data.sensors == [f"t{k}_C" for k in range(1, 17)]
+
+
+def test_caiviac_model_takes_rows_read_from_the_file():
+    from greyml import ThermalTransferFunction
+    from greyml.io import read_tests_csv
+
+    data = _caiviac_or_skip()
+    frame = data.frame.loc[["cycle1", "cycle2"]]
+    model = ThermalTransferFunction(drivers=["spindle_rpm"], max_sensors=2, time_constants=[900.0])
+    model.fit(frame[["spindle_rpm", *data.sensors]], frame["ch1_um"])
+    comp = model.compensator(nominal_step_s=15.0)
+    raw = read_tests_csv(caiviac_candidates_file(), test_column="cycle")
+    row = raw.iloc[0][["spindle_rpm", *data.sensors]].to_dict()
+    correction = comp.update({"time_s": raw.index[0][1], **row})
+    assert np.isfinite(correction)
 
 
 def test_caiviac_reference_recording():
@@ -132,7 +149,7 @@ def test_caiviac_reference_recording():
     rec = load_caiviac(reference="recording").frame
     raw = pd.read_csv(caiviac_candidates_file())
     np.testing.assert_array_equal(rec["ch3_um"].to_numpy(), raw["ch3_um"].to_numpy())
-    np.testing.assert_array_equal(rec["T5_C"].to_numpy(), raw["t5_C"].to_numpy())
+    np.testing.assert_array_equal(rec["t5_C"].to_numpy(), raw["t5_C"].to_numpy())
 
 
 def caiviac_candidates_file():

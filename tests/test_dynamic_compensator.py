@@ -161,7 +161,7 @@ def test_caiviac_cycle_streams_as_predict():
     except FileNotFoundError:
         pytest.skip("the CAIVIAC recording (../shared/realdata/caiviac) is absent")
     frame = data.frame
-    columns = ["spindle_rpm"] + [f"T{k}_C" for k in range(1, 17)]
+    columns = ["spindle_rpm"] + [f"t{k}_C" for k in range(1, 17)]
     X, y = frame[columns].copy(), frame["ch1_um"]
     X["spindle_rpm"] /= 1000.0
     cycle = X.index.get_level_values("test")

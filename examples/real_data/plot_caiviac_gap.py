@@ -106,9 +106,9 @@ CALIBRATION_CYCLE = "cycle1"
 #: one row in ROW_STEP (the recording's 15 s step): one row a minute
 ROW_STEP = 4
 #: the data's description: "t4 swings ... like air under a cycling HVAC"
-AIR_STAND_IN = "T4_C"
+AIR_STAND_IN = "t4_C"
 #: sensors whose rise is shown next to ch3
-SHOWN = ("T1_C", "T4_C", "T5_C")
+SHOWN = ("t1_C", "t4_C", "t5_C")
 
 
 def load():
@@ -284,7 +284,7 @@ def plot_cycles(frame, sim, report):
         for e in report.events[report.events["test"] == label].itertuples():
             ax.axvline(e.time_s / 3600, color="C3", lw=0.8, ls=":")
         twin = ax.twinx()
-        twin.plot(hours, cycle["T1_C"] - cycle["T1_C"].iloc[0], color="C2", lw=0.8, ls=":")
+        twin.plot(hours, cycle["t1_C"] - cycle["t1_C"].iloc[0], color="C2", lw=0.8, ls=":")
         twin.set_ylabel("T1 rise (°C)", color="C2", fontsize=8)
         rpm = int(cycle[DRIVER].max())
         title = f"{label}, {rpm} rpm (shaded: spindle on; red dotted: located events)"

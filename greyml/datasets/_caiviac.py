@@ -125,7 +125,8 @@ def load_caiviac(path=None, *, reference="cycle", return_X_y=False, target="ch1_
 
     Each cycle becomes a test labelled ``"cycle1"`` … ``"cycle5"`` with
     ``time_s`` from the cycle's first row. Columns: ``spindle_rpm``,
-    ``T1_C`` … ``T16_C`` (the recording's t1 … t16) and the five displacement
+    ``t1_C`` … ``t16_C`` (the file's names, kept so that a model fitted
+    here takes rows read from the file) and the five displacement
     probes ``ch1_um`` … ``ch5_um``. The upstream data does not say which
     probe measures which axis, so they keep their channel names instead of
     ``dx_um``/``dy_um``/``dz_um``; nor does it say where the temperature
@@ -176,9 +177,9 @@ def load_caiviac(path=None, *, reference="cycle", return_X_y=False, target="ch1_
     start = pd.Series(time).groupby(cycle).transform("min").to_numpy()
     frame = pd.DataFrame({"spindle_rpm": raw["spindle_rpm"].to_numpy(dtype=float)})
     sensors = []
-    for k, col in enumerate(_TEMPS, start=1):
-        frame[f"T{k}_C"] = raw[col].to_numpy(dtype=float)
-        sensors.append(f"T{k}_C")
+    for col in _TEMPS:  # the file's own names, so rows read from it fit a model from here
+        frame[col] = raw[col].to_numpy(dtype=float)
+        sensors.append(col)
     for col in _PROBES:
         values = raw[col].to_numpy(dtype=float)
         if reference == "cycle":
