@@ -55,13 +55,36 @@ def test_huge_cell_is_refused_by_every_command(command, tmp_path, capsys):
     good = _frame()
     model = tmp_path / "m.greyml"
     write_tests_csv(good, tmp_path / "good.csv")
-    assert main(["fit", str(tmp_path / "good.csv"), "--target", "dz_um", "--model", "gmc", "--out", str(model)]) == 0
+    assert (
+        main(
+            [
+                "fit",
+                str(tmp_path / "good.csv"),
+                "--target",
+                "dz_um",
+                "--model",
+                "gmc",
+                "--out",
+                str(model),
+            ]
+        )
+        == 0
+    )
     capsys.readouterr()
     bad = good.copy()
     bad.iloc[70, bad.columns.get_loc("T2_C")] = 3e300  # test 'T2', row 10 of it
     path = write_tests_csv(bad, tmp_path / "bad.csv")
     argv = {
-        "fit": ["fit", path, "--target", "dz_um", "--model", "gmc", "--out", tmp_path / "m2.greyml"],
+        "fit": [
+            "fit",
+            path,
+            "--target",
+            "dz_um",
+            "--model",
+            "gmc",
+            "--out",
+            tmp_path / "m2.greyml",
+        ],
         "select": ["select", path, "--target", "dz_um", "--n-sensors", "1"],
         "predict": ["predict", model, path, "--out", tmp_path / "p.csv"],
         "gap": ["gap", path, tmp_path / "good.csv", "--target", "dz_um", "--sensors", "T1_C,T2_C"],
@@ -121,3 +144,39 @@ def test_cli_gap_on_a_tiny_target(tmp_path, capsys):
     line = _one_line_error(["gap", a, b, "--target", "dz_um", "--json", "-"], capsys)
     assert "too small to diagnose" in line
     assert capsys.readouterr().out == ""
+
+
+def test_predict_refuses_a_correction_beyond_1_mm(tmp_path, capsys):
+    """Issue 26, plausible outputs: 1 mm by default, --max-displacement to change it."""
+    good = _frame()
+    write_tests_csv(good, tmp_path / "good.csv")
+    model = tmp_path / "m.greyml"
+    argv = ["fit", tmp_path / "good.csv", "--target", "dz_um", "--model", "gmc", "--out", model]
+    assert main([str(a) for a in argv]) == 0
+    hot = good.copy()
+    hot[["T1_C", "T2_C"]] *= 1000.0  # a logger in milli-degrees, read as °C
+    path = write_tests_csv(hot, tmp_path / "hot.csv")
+    out = tmp_path / "p.csv"
+    capsys.readouterr()
+    line = _one_line_error(["predict", model, path, "--out", out], capsys)
+    assert re.search(r"predicts -?\d[\d.e+]* for dz_um at line \d+ .* beyond ±1000 ", line), line
+    assert not out.exists()
+    assert (
+        main([str(a) for a in ["predict", model, path, "--out", out, "--max-displacement", "inf"]])
+        == 0
+    )
+    assert out.exists()
+    capsys.readouterr()
+    line = _one_line_error(
+        [
+            "predict",
+            model,
+            tmp_path / "good.csv",
+            "--out",
+            tmp_path / "q.csv",
+            "--max-displacement",
+            "1e-3",
+        ],
+        capsys,
+    )
+    assert "beyond ±0.001" in line

@@ -226,6 +226,17 @@ def _end_options(parser, handler, *, reads_csv=True):
     parser.set_defaults(handler=handler, parser=parser)
 
 
+def _positive_number(text):
+    """A number > 0 (``inf`` allowed: no bound), for bounds such as ``--max-displacement``."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number > 0; got {text!r}") from None
+    if not value > 0:
+        raise argparse.ArgumentTypeError(f"expected a number > 0; got {text!r}")
+    return value
+
+
 def _seconds_list(text):
     """``--time-constants``: comma-separated seconds (each finite and > 0), or ``fit``."""
     if text.strip().lower() == "fit":

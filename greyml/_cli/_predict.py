@@ -67,6 +67,15 @@ def _add_predict_parser(subparsers):
             "every test (VALUE) or of the tests named, for tests that start mid-run"
         ),
     )
+    parser.add_argument(
+        "--max-displacement",
+        type=flags._positive_number,
+        metavar="X",
+        help=(
+            "refuse to write a prediction beyond ±X in the target's unit (default: 1 mm, "
+            "i.e. 1000 for a target in µm or unnamed unit, 1 for a '_mm' target; inf: no bound)"
+        ),
+    )
     flags._end_options(parser, flags._calls(run_predict))
 
 
@@ -174,9 +183,44 @@ def _require_finite_predictions(pred, frame, model, data):
         )
 
 
+#: The largest thermal displacement written by default, in µm: far beyond the
+#: tens of µm a machine tool drifts, so only a broken model or input reaches it.
+MAX_DISPLACEMENT_UM = 1000.0
+
+
+def _displacement_bound(target, given):
+    """``given``, or 1 mm in the unit the target's name ends with (µm unless '_mm')."""
+    if given is not None:
+        return given
+    return 1.0 if str(target).endswith("_mm") else MAX_DISPLACEMENT_UM
+
+
+def _require_plausible_predictions(pred, frame, model, data, bound, target):
+    """Refuse a prediction beyond ``bound``: no honest thermal model moves an axis by that."""
+    import numpy as np
+
+    bad = np.abs(pred) > bound
+    if bad.any():
+        row = int(np.flatnonzero(bad)[0])
+        raise ValueError(
+            f"the model {os.fspath(model)!r} predicts {pred[row]:.6g} for {target} at "
+            f"{_where(frame, row, data)}, beyond ±{bound:g} (1 mm unless --max-displacement "
+            f"says otherwise; {int(bad.sum())} of {bad.size} rows are). Check the inputs' "
+            "units and the model; no compensation written."
+        )
+
+
 @shared_doc(csv_and_quiet=flags._CSV_AND_QUIET_DOC)
 def run_predict(
-    model, data, out, *, force=False, csv_options=None, quiet=False, initial_displacement=None
+    model,
+    data,
+    out,
+    *,
+    force=False,
+    csv_options=None,
+    quiet=False,
+    initial_displacement=None,
+    max_displacement=None,
 ):
     """``greyml predict``: apply a saved model to tests and write the compensation.
 
@@ -197,6 +241,10 @@ def run_predict(
         Grey models and transfer functions: ``"VALUE"`` (every test) or
         ``"TEST=VALUE,..."``, the measured target at the first row of tests
         that start mid-run (passed to the model's ``predict``).
+    max_displacement : float or None, default=None
+        Refuse to write any prediction beyond ± this, in the target's unit;
+        ``None`` is 1 mm (1000 for a target in µm or of unnamed unit, 1 for a
+        column ending in ``_mm``); ``inf`` sets no bound.
 
     Returns
     -------
@@ -206,8 +254,9 @@ def run_predict(
     Raises
     ------
     ValueError
-        Besides bad files and columns: when the model predicts NaN or an
-        infinite value for any row (no compensation file is written then).
+        Besides bad files and columns: when the model predicts NaN, an
+        infinite value or a value beyond ``max_displacement`` for any row (no
+        compensation file is written then).
     """
     import pandas as pd
 
@@ -242,6 +291,8 @@ def run_predict(
         _require_finite_predictions(pred, frame, model, data)
         measured = getattr(_final_step(estimator), "target_name_", None) or "target"
         target = printable(measured)
+        bound = _displacement_bound(measured, max_displacement)
+        _require_plausible_predictions(pred, frame, model, data, bound, target)
         reference = _reference(estimator)
         given = params.get("initial_displacement", {})
         given = given if isinstance(given, dict) else dict.fromkeys(tests)
