@@ -54,6 +54,7 @@ from greyml.dynamic._transfer_checks import (  # noqa: F401 (DEFAULT_*: the mode
     sample_weights,
 )
 from greyml.dynamic._transfer_design import _TransferDesign
+from greyml.dynamic._transfer_intervals import _TransferIntervals
 from greyml.dynamic._transfer_readout import _round_step, _TransferReadout
 from greyml.dynamic._transfer_records import Bank, Data, longer_banks, span
 from greyml.exceptions import WarmStartWarning
@@ -64,7 +65,9 @@ __all__ = ["ThermalTransferFunction"]
 REFERENCES = ("auto", "start", "recording")
 
 
-class ThermalTransferFunction(_TransferDesign, _TransferReadout, RegressorMixin, BaseEstimator):
+class ThermalTransferFunction(
+    _TransferDesign, _TransferReadout, _TransferIntervals, RegressorMixin, BaseEstimator
+):
     """Displacement as a sum of each input's first-order thermal responses.
 
     Every input reaches the displacement through a transfer function of its
@@ -200,6 +203,15 @@ class ThermalTransferFunction(_TransferDesign, _TransferReadout, RegressorMixin,
         the next (the largest time constant of the bank given): a longer one
         inside a test is refused, between tests it restarts the lags, in
         ``fit``, :meth:`predict` and the compensator alike.
+    interval_scale_ : ndarray of shape (2,) or None
+        ``(a, b)`` of the squared scale ``s(t)² = a + b·t`` of the held-out
+        residuals, ``t`` in hours since the displacement was last known (the
+        test's first row); see :meth:`predict_interval`. None when fewer than
+        3 tests were scored.
+    conformity_scores_ : ndarray of shape (n_held_out_rows,) or None
+        The held-out residuals divided by ``s(t)``, sorted: the residuals of
+        refits on all tests but one (sensors chosen again without it), which
+        calibrate :meth:`predict_interval`.
     bank_scores_ : dict
         With the default bank and three tests or more: the mean held-out
         RMSE of each bank tried, keyed by its number of sensor time
@@ -464,6 +476,7 @@ class ThermalTransferFunction(_TransferDesign, _TransferReadout, RegressorMixin,
         self.time_constants_ = np.asarray(bank.taus, dtype=float)
         self.driver_time_constants_ = np.asarray(bank.driver_taus, dtype=float)
         self.gap_limit_s_ = float(data.gap_limit)
+        self._calibrate(data, bank, reference, y_fit, folds, settings.alphas)
         return self
 
     def _fit_bank(self, data, settings, y, folds, reference, taus, driver_taus, chosen=None):

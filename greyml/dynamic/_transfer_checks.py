@@ -190,6 +190,37 @@ def check_fitted_state(model):
         raise ValueError(f"{name}: nominal_step_s_ is {step!r}.")
     if [tuple(t) for t in model.terms_] != [tuple(t) for t in model._terms()]:
         raise ValueError(f"{name}: terms_ disagree with the fitted blocks and gains.")
+    _check_interval_state(model, name)
+
+
+#: The most held-out residuals a saved model may keep for its intervals.
+MAX_CONFORMITY_SCORES = 10_000_000
+
+
+def _check_interval_state(model, name):
+    """The intervals' calibration: both None, or a scale (a > 0, b ≥ 0) and sorted scores."""
+    scale = vars(model).setdefault("interval_scale_", None)
+    scores = vars(model).setdefault("conformity_scores_", None)
+    if scale is None and scores is None:
+        return
+    scale = np.asarray(scale, dtype=float) if scale is not None else np.zeros(0)
+    if scale.shape != (2,) or not np.isfinite(scale).all() or scale[0] <= 0 or scale[1] < 0:
+        raise ValueError(
+            f"{name}: interval_scale_ must be two finite numbers a > 0 and b >= 0; got "
+            f"{model.interval_scale_!r}."
+        )
+    scores = np.asarray(scores, dtype=float) if scores is not None else np.zeros((0, 0))
+    if (
+        scores.ndim != 1
+        or not 0 < scores.size <= MAX_CONFORMITY_SCORES
+        or not np.isfinite(scores).all()
+        or (scores < 0).any()
+        or (np.diff(scores) < 0).any()
+    ):
+        raise ValueError(
+            f"{name}: conformity_scores_ must be 1 to {MAX_CONFORMITY_SCORES:,} finite, "
+            "non-negative numbers in increasing order."
+        )
 
 
 def _is_real(value):

@@ -1,0 +1,89 @@
+"""Prediction intervals calibrated on whole held-out tests (split-conformal kernels).
+
+A thermal model's error is not the same at every row. Where the displacement
+was last known (a test's first row in the "start" reference, or a probe
+reading) it is small, and it grows with the time since, as the unmodelled
+part of the displacement drifts away. The interval's half-width at a time
+``t`` (hours) since the displacement was last known is
+
+    h(t) = q · s(t),    s(t)² = a + b·t,
+
+where ``a`` and ``b`` (≥ 0) are fitted to the squared held-out residuals by
+non-negative least squares, and ``q`` is the conformal quantile of the scaled
+held-out scores ``|e| / s(t)`` (Vovk, Gammerman and Shafer, 2005; with a
+scale, the "normalised" conformity score of Papadopoulos et al., 2011). The
+residuals come from leave-one-test-out refits, so the coverage promise rests
+on whole tests being exchangeable: a test unlike every training test (a new
+speed, a new season) is not covered by it.
+
+Pure array functions: no validation, no estimator.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.optimize import nnls
+
+from greyml.dynamic._gram import solve_all
+
+__all__ = ["conformal_quantile", "held_out_predictions", "scale_fit", "scale_of"]
+
+#: The smallest variance floor, as a share of the residuals' mean square:
+#: keeps ``s(0)`` > 0 where the residuals at the anchor are all 0.
+_FLOOR = 1e-6
+
+
+def held_out_predictions(A, grams, folds, bounds, choose):
+    """Prediction of each held-out test from a model chosen and solved on the others.
+
+    ``A`` is the design (n, p) in the columns of ``grams`` (per-test raw
+    Grams). For each fold ``k``, ``choose(grams_without_k, other_folds)``
+    returns ``(cols, alpha, pen)``: the columns and penalty chosen without
+    test ``k`` (the sensor selection is redone, so the residuals carry its
+    own error, as a refit on the other tests would). The ridge is then solved
+    without test ``k``'s Gram and predicts its rows. Returns {k: ndarray}.
+    """
+    out = {}
+    for k in folds:
+        without = tuple(g.copy() for g in grams)
+        for g in without:
+            g[k] = 0.0
+        cols, alpha, pen = choose(without, [f for f in folds if f != k])
+        G, b, _, sw = without
+        ix = np.ix_(cols, cols)
+        coef = solve_all(
+            G[:, ix[0], ix[1]].sum(axis=0), b[:, cols].sum(axis=0), sw.sum(), [alpha], pen[cols]
+        )[:, 0]
+        start, stop = bounds[k]
+        out[k] = A[start:stop][:, cols] @ coef
+    return out
+
+
+def scale_fit(hours, residuals):
+    """``(a, b)`` of ``s(t)² = a + b·t`` fitted to the squared residuals (both ≥ 0)."""
+    M = np.column_stack([np.ones_like(hours), hours])
+    e2 = residuals**2
+    (a, b), _ = nnls(M, e2)
+    floor = _FLOOR * float(e2.mean()) if e2.size else 0.0
+    return max(float(a), floor, np.finfo(float).tiny), float(b)
+
+
+def scale_of(hours, a, b):
+    """``s(t)`` at ``hours`` since the displacement was last known."""
+    return np.sqrt(a + b * np.maximum(hours, 0.0))
+
+
+def conformal_quantile(scores, coverage):
+    """The split-conformal quantile of ``scores`` at ``coverage``.
+
+    The ``⌈(n+1)·coverage⌉``-th smallest score; ``inf`` when that rank
+    exceeds ``n`` (too few scores for the coverage asked).
+    """
+    scores = np.sort(np.asarray(scores, dtype=float))
+    n = scores.size
+    rank = math.ceil((n + 1) * coverage)
+    if rank > n or n == 0:
+        return math.inf
+    return float(scores[rank - 1])

@@ -1,0 +1,112 @@
+"""Prediction intervals of ThermalTransferFunction (issue 28): hand-computed kernels,
+coverage on new tests of a known process, widths that grow with the time since the
+displacement was known, and one-line errors."""
+
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from greyml import ThermalTransferFunction, make_test_index
+from greyml.dynamic._intervals import conformal_quantile, scale_fit, scale_of
+from greyml.persist import load_model, save_model
+
+STEP = 60.0
+
+
+def test_conformal_quantile_by_hand():
+    scores = np.arange(9.0, 0.0, -1.0)  # 1 … 9, unsorted
+    assert conformal_quantile(scores, 0.9) == 9.0  # rank ceil(10 · 0.9) = 9
+    assert conformal_quantile(scores, 0.5) == 5.0  # rank ceil(5) = 5
+    assert conformal_quantile(scores, 0.95) == math.inf  # rank 10 > 9 scores
+
+
+def test_scale_fit_recovers_a_variance_that_grows_linearly():
+    hours = np.linspace(0.0, 8.0, 200)
+    residuals = np.sqrt(0.25 + 0.5 * hours) * np.where(np.arange(200) % 2, 1.0, -1.0)
+    a, b = scale_fit(hours, residuals)
+    assert a == pytest.approx(0.25, rel=1e-9) and b == pytest.approx(0.5, rel=1e-9)
+    np.testing.assert_allclose(scale_of(hours, a, b), np.abs(residuals), rtol=1e-9)
+
+
+def _tests(labels, seed):
+    """Heating tests; y follows one sensor with a gain, plus a drift that is a random walk
+    from each test's start (an unmodelled slow effect: the error grows with time)."""
+    rng = np.random.default_rng(seed)
+    frames, ys = [], []
+    for label in labels:
+        t = np.arange(0.0, 6 * 3600.0, STEP)
+        rpm = np.where(t < 3 * 3600, rng.uniform(1000, 4000), 0.0)
+        heat = np.zeros(t.size)
+        for k in range(1, t.size):
+            heat[k] = heat[k - 1] + (STEP / 1800.0) * (2e-3 * rpm[k] - heat[k - 1])
+        T1 = 20.0 + heat + 0.01 * rng.standard_normal(t.size)
+        T2 = (
+            20.0 + 0.5 * np.sin(t / 2000.0 + rng.uniform(0, 6)) + 0.01 * rng.standard_normal(t.size)
+        )
+        drift = np.cumsum(0.08 * rng.standard_normal(t.size))
+        y = 2.0 * (T1 - T1[0]) + drift - drift[0]
+        index = make_test_index([label] * t.size, t)
+        frames.append(pd.DataFrame({"spindle_rpm": rpm, "T1_C": T1, "T2_C": T2}, index=index))
+        ys.append(pd.Series(y, index=index, name="dx_um"))
+    return pd.concat(frames), pd.concat(ys)
+
+
+@pytest.fixture(scope="module")
+def fitted():
+    X, y = _tests([f"a{k}" for k in range(8)], seed=1)
+    model = ThermalTransferFunction(
+        drivers=["spindle_rpm"], max_sensors=1, time_constants=[900.0, 2700.0], reference="start"
+    ).fit(X, y)
+    return model
+
+
+def test_intervals_cover_new_tests_of_the_same_process(fitted):
+    X, y = _tests([f"new{k}" for k in range(12)], seed=2)
+    iv = fitted.predict_interval(X, coverage=0.9)
+    np.testing.assert_array_equal(iv[:, 0], fitted.predict(X))
+    inside = (y.to_numpy() >= iv[:, 1]) & (y.to_numpy() <= iv[:, 2])
+    assert 0.82 <= inside.mean() <= 0.97, inside.mean()
+    # the drift is a random walk from each start: the width grows with the time since
+    a, b = fitted.interval_scale_
+    assert b > 0
+    assert fitted.interval_half_width(0.0) < fitted.interval_half_width(6.0)
+    assert (iv[0, 2] - iv[0, 1]) / 2 == pytest.approx(fitted.interval_half_width(0.0))
+
+
+def test_a_wider_coverage_gives_a_wider_interval(fitted):
+    X, _ = _tests(["n"], seed=3)
+    narrow, wide = fitted.predict_interval(X, 0.5), fitted.predict_interval(X, 0.95)
+    assert ((wide[:, 2] - wide[:, 1]) > (narrow[:, 2] - narrow[:, 1])).all()
+
+
+@pytest.mark.parametrize("coverage", [0.0, 1.0, -0.1, "0.9", np.nan])
+def test_bad_coverage_is_one_line(fitted, coverage):
+    X, _ = _tests(["n"], seed=3)
+    with pytest.raises(ValueError, match=r"coverage must be a number in \(0, 1\)"):
+        fitted.predict_interval(X, coverage)
+
+
+def test_too_few_tests_to_calibrate():
+    X, y = _tests(["a", "b"], seed=4)
+    model = ThermalTransferFunction(drivers=["spindle_rpm"], time_constants=[900.0]).fit(X, y)
+    assert model.conformity_scores_ is None
+    with pytest.raises(ValueError, match=r"fewer than 3 tests .* fit it on at least 3 tests"):
+        model.predict_interval(X)
+
+
+def test_intervals_survive_a_save_and_a_tampered_file_is_refused(fitted, tmp_path):
+    X, _ = _tests(["n"], seed=5)
+    path = save_model(fitted, tmp_path / "m.greyml")
+    np.testing.assert_array_equal(load_model(path).predict_interval(X), fitted.predict_interval(X))
+    fitted_bad = load_model(path)
+    fitted_bad.interval_scale_ = np.array([-1.0, 0.0])
+    bad = save_model(fitted_bad, tmp_path / "bad.greyml")
+    with pytest.raises(ValueError, match=r"interval_scale_ must be two finite numbers"):
+        load_model(bad)
+    fitted_bad.interval_scale_ = fitted.interval_scale_
+    fitted_bad.conformity_scores_ = fitted.conformity_scores_[::-1].copy()
+    bad = save_model(fitted_bad, tmp_path / "bad2.greyml")
+    with pytest.raises(ValueError, match=r"conformity_scores_ must be"):
+        load_model(bad)
