@@ -15,6 +15,7 @@ from greyml._sequences import TIME_LEVEL
 from greyml.dynamic._compensator_pipeline import pipeline_terms
 from greyml.dynamic._compensator_plan import build_plan
 from greyml.dynamic._compensator_plan import real as _real
+from greyml.dynamic._compensator_trust import _Trust, filter_from_vars
 from greyml.dynamic._kernels import lag_step
 from greyml.dynamic._time import gap_message
 
@@ -32,6 +33,12 @@ _PARAMETERS = (
     "idle_inputs",
     "max_step_s",
     "row_columns",
+    "uncertainty",
+    "interval_quantile",
+    "tolerance_um",
+    "max_correction_um",
+    "probe_noise_um",
+    "change_sigma",
 )
 
 # per compensator, the last pandas index seen and the positions of time_s and
@@ -59,7 +66,7 @@ def _numbers_only(values, names):
             )
 
 
-class Compensator:
+class Compensator(_Trust):
     """A thermal-error correction computed sample by sample, as a controller runs it.
 
     The correction is a sum of terms, each the input ``x**power`` lagged
@@ -161,6 +168,12 @@ class Compensator:
         "idle_inputs": [list, tuple, np.ndarray],
         "max_step_s": [Interval(Real, 0, None, closed="neither"), None],
         "row_columns": [list, tuple, np.ndarray, None],
+        "uncertainty": [list, tuple, np.ndarray, None],
+        "interval_quantile": [Interval(Real, 0, None, closed="neither")],
+        "tolerance_um": [Interval(Real, 0, None, closed="neither"), None],
+        "max_correction_um": [Interval(Real, 0, None, closed="neither")],
+        "probe_noise_um": [Interval(Real, 0, None, closed="left")],
+        "change_sigma": [Interval(Real, 0, None, closed="neither")],
     }
 
     def __init__(
@@ -174,6 +187,12 @@ class Compensator:
         idle_inputs=(),
         max_step_s=None,
         row_columns=None,
+        uncertainty=None,
+        interval_quantile=1.6448536269514722,
+        tolerance_um=None,
+        max_correction_um=1000.0,
+        probe_noise_um=0.0,
+        change_sigma=3.0,
     ):
         self.inputs = inputs
         self.terms = terms
@@ -183,13 +202,21 @@ class Compensator:
         self.idle_inputs = idle_inputs
         self.max_step_s = max_step_s
         self.row_columns = row_columns
+        self.uncertainty = uncertainty
+        self.interval_quantile = interval_quantile
+        self.tolerance_um = tolerance_um
+        self.max_correction_um = max_correction_um
+        self.probe_noise_um = probe_noise_um
+        self.change_sigma = change_sigma
 
     # -- parameters and the plan -------------------------------------------
 
     def _check_params(self):
         """Check the parameters; return the plan of an update (see :func:`build_plan`)."""
         self._validate_params()
-        return build_plan(self)
+        plan = build_plan(self)
+        self._uncertainty()
+        return plan
 
     def _build(self):
         plan = self._check_params()
@@ -278,6 +305,7 @@ class Compensator:
         self._dt = None
         self._a = None
         self._initial = None if initial_displacement is None else float(initial_displacement)
+        self._reset_trust()
         return self
 
     def _coefficients(self, dt, plan):
@@ -298,13 +326,21 @@ class Compensator:
             ``"T4_C|lag 15 min"``) to its value, and ``"start"`` what is
             subtracted from the sum of the terms: their sum at the first row
             with ``relative_to_start=True``, moved by an initial displacement
-            given to :meth:`reset` (``None`` when nothing is subtracted).
+            given to :meth:`reset` (``None`` when nothing is subtracted), and
+            ``"filter"`` the probe filter's state (its offset, rate and gain,
+            their covariance, the change detector, and the rows remembered
+            for late readings).
         """
         plan = self._plan_or_build()
         lags = None
         if self._lags is not None:
             lags = {label: float(v) for label, v in zip(plan["labels"], self._lags)}  # lags first
-        return {"time_s": self._time, "lags": lags, "start": self._start}
+        return {
+            "time_s": self._time,
+            "lags": lags,
+            "start": self._start,
+            "filter": self._filter_state(),
+        }
 
     @property
     def state_(self):
@@ -323,10 +359,10 @@ class Compensator:
         self : Compensator
         """
         plan = self._plan_or_build()
-        if not isinstance(state, Mapping) or set(state) != {"time_s", "lags", "start"}:
+        if not isinstance(state, Mapping) or set(state) - {"filter"} != {"time_s", "lags", "start"}:
             raise ValueError(
-                "Compensator.set_state needs a dict with the keys 'time_s', 'lags' and "
-                "'start', as get_state returns it."
+                "Compensator.set_state needs a dict with the keys 'time_s', 'lags', "
+                "'start' and 'filter', as get_state returns it."
             )
         if state["time_s"] is None:
             self.reset()
@@ -348,10 +384,18 @@ class Compensator:
             or not (start is None or _real(start))
         ):
             raise ValueError("Compensator.set_state: the state holds a value that is not finite.")
+        before = dict(self.__dict__)
         self.reset()
         self._time = float(state["time_s"])
         self._lags = values
         self._start = None if start is None else float(start)
+        if state.get("filter") is not None:
+            try:
+                self._set_filter_state(state["filter"])
+            except ValueError:
+                self.__dict__.clear()
+                self.__dict__.update(before)  # unchanged, as after any refused input
+                raise
         return self
 
     def _check_fitted_state(self):
@@ -387,6 +431,7 @@ class Compensator:
                 "time_s": time,
                 "lags": dict(zip(labels, values[: len(labels)].tolist())),
                 "start": start,
+                "filter": filter_from_vars(saved),
             }
         )
 
@@ -490,6 +535,7 @@ class Compensator:
             start, stop = plan["span"]
             v[start:stop] **= plan["power"]
         previous = self._time
+        shift = 0.0
         if previous is None:
             lags = v
             lags[: plan["idle"].size][plan["idle"]] = 0.0
@@ -499,6 +545,7 @@ class Compensator:
                 if self.nominal_step_s is None or not math.isfinite(time):
                     self._bad_time(time, previous)
                 dt = self.nominal_step_s
+                shift = previous + dt - time
             elif dt > plan["max_step"]:
                 raise ValueError(
                     gap_message(_PREFIX[:-1], "the stream", dt, time, plan["max_step"])
@@ -516,7 +563,9 @@ class Compensator:
         self._lags = lags
         if self._start is not None:
             total -= self._start
-        return self.intercept + total
+        if shift:
+            self._shift_clock(shift)
+        return self._record(time, self.intercept + total)
 
     def _first_start(self, total):
         """What is subtracted from the sum of the terms from the first row on."""

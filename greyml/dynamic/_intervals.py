@@ -28,7 +28,13 @@ from scipy.optimize import nnls
 
 from greyml.dynamic._gram import solve_all
 
-__all__ = ["conformal_quantile", "held_out_predictions", "scale_fit", "scale_of"]
+__all__ = [
+    "conformal_quantile",
+    "held_out_predictions",
+    "scale_fit",
+    "scale_of",
+    "white_variance",
+]
 
 #: The smallest variance floor, as a share of the residuals' mean square:
 #: keeps ``s(0)`` > 0 where the residuals at the anchor are all 0.
@@ -73,6 +79,20 @@ def scale_fit(hours, residuals):
 def scale_of(hours, a, b):
     """``s(t)`` at ``hours`` since the displacement was last known."""
     return np.sqrt(a + b * np.maximum(hours, 0.0))
+
+
+def white_variance(steps, b, step_s, a):
+    """The white part ``c`` of the residuals' variance, from their one-row steps.
+
+    For a residual that is an offset, a random walk (``b`` per hour) and white
+    noise ``c``, half the mean square step is ``c + b·Δ/2`` (its variogram at
+    one row, Δ in hours). Clipped to [0, a]: the white part cannot exceed the
+    variance at the anchor.
+    """
+    if steps.size == 0 or not np.isfinite(step_s):
+        return 0.0
+    c = 0.5 * float(np.mean(steps**2)) - 0.5 * b * step_s / 3600.0
+    return float(min(max(c, 0.0), a))
 
 
 def conformal_quantile(scores, coverage):

@@ -203,11 +203,12 @@ class ThermalTransferFunction(
         the next (the largest time constant of the bank given): a longer one
         inside a test is refused, between tests it restarts the lags, in
         ``fit``, :meth:`predict` and the compensator alike.
-    interval_scale_ : ndarray of shape (2,) or None
-        ``(a, b)`` of the squared scale ``s(t)² = a + b·t`` of the held-out
+    interval_scale_ : ndarray of shape (3,) or None
+        ``(a, b, c)``: the squared scale ``s(t)² = a + b·t`` of the held-out
         residuals, ``t`` in hours since the displacement was last known (the
-        test's first row); see :meth:`predict_interval`. None when fewer than
-        3 tests were scored.
+        test's first row), and ``c`` (≤ a) the part of ``a`` that is white
+        noise, not an offset (what a probe reading cannot remove); see
+        :meth:`predict_interval`. None when fewer than 3 tests were scored.
     conformity_scores_ : ndarray of shape (n_held_out_rows,) or None
         The held-out residuals divided by ``s(t)``, sorted: the residuals of
         refits on all tests but one (sensors chosen again without it), which
@@ -610,7 +611,15 @@ class ThermalTransferFunction(
                 )
         return pred
 
-    def compensator(self, *, nominal_step_s=None, row_columns=None):
+    def compensator(
+        self,
+        *,
+        nominal_step_s=None,
+        row_columns=None,
+        coverage=0.9,
+        tolerance_um=None,
+        probe_noise_um=0.0,
+    ):
         """A :class:`greyml.dynamic.Compensator` that runs this model row by row.
 
         Streaming a test from its first row (after construction or
@@ -631,6 +640,17 @@ class ThermalTransferFunction(
             The order of the values in an array row (``"time_s"`` and every
             input, in any order); without it only mappings and Series are
             taken.
+        coverage : float, default=0.9
+            Of the interval its :attr:`~greyml.dynamic.Compensator.status`
+            reports (as :meth:`predict_interval`); with probe readings it
+            narrows at each reading (:meth:`~greyml.dynamic.Compensator.observe`).
+            Without a calibration (fewer than 3 tests in ``fit``) the
+            compensator gives no interval.
+        tolerance_um : float, optional
+            A correction is trusted while its interval's half-width is at
+            most this (and the correction plausible).
+        probe_noise_um : float, default=0.0
+            The standard deviation of a probe reading.
 
         Returns
         -------
@@ -651,6 +671,7 @@ class ThermalTransferFunction(
             idle_inputs=[d for d in self.drivers_ if d in inputs],
             max_step_s=self.gap_limit_s_,
             row_columns=row_columns,
+            **self._trust_parameters(coverage, tolerance_um, probe_noise_um),
         )
 
     def __sklearn_tags__(self):

@@ -198,16 +198,22 @@ MAX_CONFORMITY_SCORES = 10_000_000
 
 
 def _check_interval_state(model, name):
-    """The intervals' calibration: both None, or a scale (a > 0, b ≥ 0) and sorted scores."""
+    """The intervals' calibration: both None, or a scale (a, b, c) and sorted scores."""
     scale = vars(model).setdefault("interval_scale_", None)
     scores = vars(model).setdefault("conformity_scores_", None)
     if scale is None and scores is None:
         return
     scale = np.asarray(scale, dtype=float) if scale is not None else np.zeros(0)
-    if scale.shape != (2,) or not np.isfinite(scale).all() or scale[0] <= 0 or scale[1] < 0:
+    if (
+        scale.shape != (3,)
+        or not np.isfinite(scale).all()
+        or scale[0] <= 0
+        or (scale[1:] < 0).any()
+        or scale[2] > scale[0]
+    ):
         raise ValueError(
-            f"{name}: interval_scale_ must be two finite numbers a > 0 and b >= 0; got "
-            f"{model.interval_scale_!r}."
+            f"{name}: interval_scale_ must be three finite numbers a > 0, b >= 0 and "
+            f"0 <= c <= a; got {model.interval_scale_!r}."
         )
     scores = np.asarray(scores, dtype=float) if scores is not None else np.zeros((0, 0))
     if (

@@ -17,6 +17,7 @@ from greyml.dynamic._intervals import (
     held_out_predictions,
     scale_fit,
     scale_of,
+    white_variance,
 )
 
 __all__ = ["elapsed_hours"]
@@ -63,15 +64,17 @@ class _TransferIntervals:
 
         preds = held_out_predictions(A, bank.grams, folds, data.bounds, choose)
         hours_all = elapsed_hours(data.steps.dt, data.bounds)
-        hours, residuals = [], []
+        hours, residuals, steps = [], [], []
         for k, pred in preds.items():
             start, stop = data.bounds[k]
             used = data.w[start:stop] > 0
             hours.append(hours_all[start:stop][used])
             residuals.append((y[start:stop] - pred)[used])
+            steps.append(np.diff(residuals[-1]))
         hours, residuals = np.concatenate(hours), np.concatenate(residuals)
         a, b = scale_fit(hours, residuals)
-        self.interval_scale_ = np.array([a, b])
+        c = white_variance(np.concatenate(steps), b, data.steps.nominal_step_s, a)
+        self.interval_scale_ = np.array([a, b, c])
         self.conformity_scores_ = np.sort(np.abs(residuals) / scale_of(hours, a, b))
 
     def interval_half_width(self, hours, coverage=0.9):
@@ -92,7 +95,7 @@ class _TransferIntervals:
         """
         check_is_fitted(self)
         q = self._quantile(coverage)
-        a, b = self.interval_scale_
+        a, b, _ = self.interval_scale_
         width = q * scale_of(np.asarray(hours, dtype=float), a, b)
         return float(width) if np.ndim(width) == 0 else width
 
@@ -115,6 +118,16 @@ class _TransferIntervals:
                 f"{coverage:g} interval (it needs at least {int(np.ceil(1 / (1 - coverage)))})."
             )
         return q
+
+    def _trust_parameters(self, coverage, tolerance_um, probe_noise_um):
+        """The Compensator's interval parameters at ``coverage`` (none uncalibrated)."""
+        params = {"tolerance_um": tolerance_um, "probe_noise_um": probe_noise_um}
+        if getattr(self, "conformity_scores_", None) is None:
+            return params
+        a, b, c = self.interval_scale_
+        params["uncertainty"] = (float(a - c), float(b), float(c))
+        params["interval_quantile"] = self._quantile(coverage)
+        return params
 
     def predict_interval(self, X, coverage=0.9, initial_displacement=None):
         """Prediction and its ``coverage`` interval for every row, in ``reference_``.
@@ -146,6 +159,6 @@ class _TransferIntervals:
         _, _, segments = validate_sequences(self, X, reset=False)
         steps = self._timeline(X, segments, self.gap_limit_s_, self.nominal_step_s_)
         bounds = [(s.start, s.stop) for s in segments]
-        a, b = self.interval_scale_
+        a, b, _ = self.interval_scale_
         half = q * scale_of(elapsed_hours(steps.dt, bounds), a, b)
         return np.column_stack([pred, pred - half, pred + half])
