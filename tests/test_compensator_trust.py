@@ -1,0 +1,174 @@
+"""Compensator: how far to trust it, probe readings, change detection (issue 28).
+
+Hand-computed Kalman steps on a one-term compensator, the batch interval
+reproduced while streaming, one-line refusals that leave the state as it
+was, a gain change recovered after the detector fires, and a compensator
+saved mid-stream that resumes to the bit.
+"""
+
+import math
+
+import numpy as np
+import pytest
+
+from greyml.dynamic import Compensator
+from greyml.persist import load_model, save_model
+
+Q90 = 1.6448536269514722
+
+
+def _comp(**kw):
+    """y = 2 µm/K of T1 (no lag), an offset uncertain by 2 µm, white noise 1 µm."""
+    base = dict(uncertainty=(4.0, 0.0, 1.0), row_columns=["time_s", "T1_C"])
+    base.update(kw)
+    return Compensator(["T1_C"], [("T1_C", 1, None, 2.0)], **base)
+
+
+def _row(t, temp):
+    return np.array([t, temp])
+
+
+def test_status_before_any_reading_is_the_calibrated_interval():
+    comp = _comp(uncertainty=(3.0, 2.0, 1.0))
+    assert comp.update(_row(0.0, 1.0)) == 2.0
+    s = comp.status
+    assert s.correction == 2.0 and s.half_width == pytest.approx(Q90 * 2.0)  # sqrt(3 + 1)
+    comp.update(_row(7200.0, 1.5))
+    # 2 h later: sqrt(3 + 2·2 + 1)
+    assert comp.status.half_width == pytest.approx(Q90 * math.sqrt(8.0))
+    assert comp.status.trusted and comp.status.plausible
+
+
+def test_one_reading_by_hand():
+    comp = _comp()
+    comp.update(_row(0.0, 1.0))  # model 2
+    comp.update(_row(60.0, 2.0))  # model 4
+    status = comp.observe(60.0, 9.0)  # innovation 5, gain 4 / (4 + 1) = 0.8
+    assert status.correction == pytest.approx(4.0 + 0.8 * 5.0)
+    assert status.half_width == pytest.approx(Q90 * math.sqrt(4.0 * 1.0 / 5.0 + 1.0))
+    # the offset carries on
+    assert comp.update(_row(120.0, 3.0)) == pytest.approx(6.0 + 4.0)
+
+
+def test_a_late_reading_is_placed_between_rows():
+    comp = _comp(uncertainty=(1.0, 0.0, 0.0))  # an exact probe: the offset is the innovation
+    for t, temp in [(0.0, 1.0), (60.0, 2.0), (120.0, 3.0)]:
+        comp.update(_row(t, temp))
+    comp.observe(90.0, 10.0)  # the model at 90 s: 5 (between 4 and 6)
+    assert comp.status.correction == pytest.approx(6.0 + 5.0)
+
+
+def _state(comp):
+    state = comp.get_state()
+    return repr(state)
+
+
+@pytest.mark.parametrize(
+    "time_s, value, match",
+    [
+        (60.0, math.nan, r"measured_um is nan \(reading at time_s = 60.0\)"),
+        (math.inf, 1.0, r"time_s is inf"),
+        (60.0, True, r"measured_um is True"),
+        (180.0, 1.0, r"reading 1 at time_s = 180 s is after the last update \(120 s\)"),
+        (60.0, 5000.0, r"reading 5000 at time_s = 60 s is beyond ±1000"),
+        (30.0, 1.0, r"not after the previous reading \(60 s\)"),
+    ],
+)
+def test_bad_readings_are_one_line_and_change_nothing(time_s, value, match):
+    comp = _comp()
+    for t, temp in [(0.0, 1.0), (60.0, 2.0), (120.0, 3.0)]:
+        comp.update(_row(t, temp))
+    comp.observe(60.0, 4.5)
+    before = _state(comp)
+    with pytest.raises(ValueError, match=match) as info:
+        comp.observe(time_s, value)
+    assert "\n" not in str(info.value)
+    assert _state(comp) == before
+
+
+def test_a_reading_before_the_first_update():
+    with pytest.raises(ValueError, match=r"comes before the first update"):
+        _comp().observe(0.0, 1.0)
+
+
+def test_a_reading_older_than_the_rows_remembered():
+    comp = _comp()
+    for k in range(600):
+        comp.update(_row(60.0 * k, 1.0))
+    with pytest.raises(ValueError, match=r"older than the 512 rows remembered"):
+        comp.observe(60.0, 1.0)
+
+
+def test_a_gain_change_is_detected_and_recovered():
+    """The machine now moves 1.3× what the model says; readings every 10 rows."""
+    comp = _comp(uncertainty=(0.04, 0.0, 0.01))
+    errors = []
+    for k in range(400):
+        temp = 10.0 + 5.0 * math.sin(k / 40.0)
+        truth = 1.3 * 2.0 * temp
+        errors.append(comp.update(_row(60.0 * k, temp)) - truth)
+        if k % 10 == 9:
+            comp.observe(60.0 * k, truth)
+    assert comp.status.changes >= 1
+    assert abs(errors[0]) > 5.0  # 30 % of 20 µm
+    assert max(abs(e) for e in errors[-100:]) < 0.05
+
+
+def test_no_change_detected_on_readings_the_model_predicts():
+    rng = np.random.default_rng(0)
+    comp = _comp(uncertainty=(1.0, 0.0, 1.0))
+    for k in range(2000):
+        comp.update(_row(60.0 * k, 10.0))
+        if k % 10 == 9:
+            comp.observe(60.0 * k, 20.0 + rng.normal(0.0, 1.0))
+    assert comp.status.changes == 0
+
+
+def test_tolerance_sets_the_trust_flag():
+    comp = _comp(tolerance_um=3.0)
+    comp.update(_row(0.0, 1.0))
+    assert comp.status.half_width > 3.0 and not comp.status.trusted
+    comp.observe(0.0, 2.0)
+    assert comp.status.half_width < 3.0 and comp.status.trusted
+
+
+def test_an_implausible_correction_is_flagged():
+    comp = _comp(max_correction_um=10.0)
+    comp.update(_row(0.0, 100.0))
+    assert not comp.status.plausible and not comp.status.trusted
+
+
+def test_saved_mid_stream_resumes_to_the_bit(tmp_path):
+    rows = [_row(60.0 * k, 10.0 + math.sin(k / 9.0)) for k in range(300)]
+    readings = {k: 25.0 + 0.01 * k for k in range(19, 300, 20)}
+
+    def run(comp, ks):
+        out = []
+        for k in ks:
+            out.append(comp.update(rows[k]))
+            if k in readings:
+                comp.observe(60.0 * k, readings[k])
+        return out
+
+    whole = run(_comp(), range(300))
+    first = _comp()
+    run(first, range(150))
+    path = save_model(first, tmp_path / "c.greyml")
+    resumed = run(load_model(path), range(150, 300))
+    np.testing.assert_allclose(resumed, whole[150:], rtol=0, atol=1e-12)
+
+
+def test_a_tampered_filter_is_refused_at_load(tmp_path):
+    comp = _comp()
+    comp.update(_row(0.0, 1.0))
+    comp.observe(0.0, 3.0)
+    comp._fP = np.array([[-1.0, 0, 0], [0, 0, 0], [0, 0, 0]])
+    path = save_model(comp, tmp_path / "bad.greyml")
+    with pytest.raises(ValueError, match=r"probe filter is not valid"):
+        load_model(path)
+
+
+@pytest.mark.parametrize("bad", [(1.0, 2.0), (1.0, -1.0, 0.0), (math.nan, 0.0, 0.0), "abc"])
+def test_bad_uncertainty(bad):
+    with pytest.raises(ValueError, match=r"'uncertainty' parameter of Compensator"):
+        _comp(uncertainty=bad).update(_row(0.0, 1.0))
