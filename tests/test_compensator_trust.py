@@ -18,8 +18,9 @@ Q90 = 1.6448536269514722
 
 
 def _comp(**kw):
-    """y = 2 µm/K of T1 (no lag), an offset uncertain by 2 µm, white noise 1 µm."""
-    base = dict(uncertainty=(4.0, 0.0, 1.0), row_columns=["time_s", "T1_C"])
+    """y = 2 µm/K of T1 (no lag), an offset uncertain by 2 µm that it keeps (a memory
+    of 1e6 h), white noise 1 µm."""
+    base = dict(uncertainty=(4.0, 0.0, 1.0, 4.0, 1e6), row_columns=["time_s", "T1_C"])
     base.update(kw)
     return Compensator(["T1_C"], [("T1_C", 1, None, 2.0)], **base)
 
@@ -29,7 +30,7 @@ def _row(t, temp):
 
 
 def test_status_before_any_reading_is_the_calibrated_interval():
-    comp = _comp(uncertainty=(3.0, 2.0, 1.0))
+    comp = _comp(uncertainty=(3.0, 2.0, 1.0, 3.0, 1e6))
     assert comp.update(_row(0.0, 1.0)) == 2.0
     s = comp.status
     assert s.correction == 2.0 and s.half_width == pytest.approx(Q90 * 2.0)  # sqrt(3 + 1)
@@ -50,8 +51,20 @@ def test_one_reading_by_hand():
     assert comp.update(_row(120.0, 3.0)) == pytest.approx(6.0 + 4.0)
 
 
+def test_the_slow_part_forgets_itself_with_its_memory():
+    # memory 1 h, variance 4: one hour after a reading the offset is down by e
+    comp = _comp(uncertainty=(4.0, 0.0, 0.0, 4.0, 1.0))
+    comp.update(_row(0.0, 1.0))
+    comp.observe(0.0, 7.0)  # an exact reading: the offset is 5
+    assert comp.update(_row(3600.0, 1.0)) == pytest.approx(2.0 + 5.0 / math.e)
+    # its variance returns towards 4: 0 at the reading, 4 (1 - e^-2) an hour on
+    assert comp.status.half_width == pytest.approx(Q90 * math.sqrt(4.0 * (1 - math.exp(-2))))
+
+
 def test_a_late_reading_is_placed_between_rows():
-    comp = _comp(uncertainty=(1.0, 0.0, 0.0))  # an exact probe: the offset is the innovation
+    comp = _comp(
+        uncertainty=(1.0, 0.0, 0.0, 1.0, 1e6)
+    )  # an exact probe: the offset is the innovation
     for t, temp in [(0.0, 1.0), (60.0, 2.0), (120.0, 3.0)]:
         comp.update(_row(t, temp))
     comp.observe(90.0, 10.0)  # the model at 90 s: 5 (between 4 and 6)
@@ -101,7 +114,7 @@ def test_a_reading_older_than_the_rows_remembered():
 
 def test_a_gain_change_is_detected_and_recovered():
     """The machine now moves 1.3× what the model says; readings every 10 rows."""
-    comp = _comp(uncertainty=(0.04, 0.0, 0.01))
+    comp = _comp(uncertainty=(0.04, 0.0, 0.01, 0.04, 1e6))
     errors = []
     for k in range(400):
         temp = 10.0 + 5.0 * math.sin(k / 40.0)
@@ -116,8 +129,8 @@ def test_a_gain_change_is_detected_and_recovered():
 
 def test_no_change_detected_on_readings_the_model_predicts():
     rng = np.random.default_rng(0)
-    comp = _comp(uncertainty=(1.0, 0.0, 1.0))
-    for k in range(2000):
+    comp = _comp(uncertainty=(1.0, 0.0, 1.0, 1.0, 1e6))
+    for k in range(400):  # 40 readings: the CUSUM's false alarms come every ~230 readings
         comp.update(_row(60.0 * k, 10.0))
         if k % 10 == 9:
             comp.observe(60.0 * k, 20.0 + rng.normal(0.0, 1.0))
@@ -168,7 +181,16 @@ def test_a_tampered_filter_is_refused_at_load(tmp_path):
         load_model(path)
 
 
-@pytest.mark.parametrize("bad", [(1.0, 2.0), (1.0, -1.0, 0.0), (math.nan, 0.0, 0.0), "abc"])
+@pytest.mark.parametrize(
+    "bad",
+    [
+        (1.0, 2.0),
+        (1.0, -1.0, 0.0, 1.0, 1.0),
+        (math.nan, 0.0, 0.0, 1.0, 1.0),
+        (1, 0, 0, 1, 0),
+        "abc",
+    ],
+)
 def test_bad_uncertainty(bad):
     with pytest.raises(ValueError, match=r"'uncertainty' parameter of Compensator"):
         _comp(uncertainty=bad).update(_row(0.0, 1.0))

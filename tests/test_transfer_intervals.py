@@ -69,8 +69,8 @@ def test_intervals_cover_new_tests_of_the_same_process(fitted):
     inside = (y.to_numpy() >= iv[:, 1]) & (y.to_numpy() <= iv[:, 2])
     assert 0.82 <= inside.mean() <= 0.97, inside.mean()
     # the drift is a random walk from each start: the width grows with the time since
-    a, b, c = fitted.interval_scale_
-    assert 0 <= c <= a
+    a, b, c, s2, memory_h = fitted.interval_scale_
+    assert 0 <= c <= a and s2 >= 0 and memory_h > 0
     assert b > 0
     assert fitted.interval_half_width(0.0) < fitted.interval_half_width(6.0)
     assert (iv[0, 2] - iv[0, 1]) / 2 == pytest.approx(fitted.interval_half_width(0.0))
@@ -102,9 +102,9 @@ def test_intervals_survive_a_save_and_a_tampered_file_is_refused(fitted, tmp_pat
     path = save_model(fitted, tmp_path / "m.greyml")
     np.testing.assert_array_equal(load_model(path).predict_interval(X), fitted.predict_interval(X))
     fitted_bad = load_model(path)
-    fitted_bad.interval_scale_ = np.array([-1.0, 0.0, 0.0])
+    fitted_bad.interval_scale_ = np.array([-1.0, 0.0, 0.0, 0.0, 1.0])
     bad = save_model(fitted_bad, tmp_path / "bad.greyml")
-    with pytest.raises(ValueError, match=r"interval_scale_ must be three finite numbers"):
+    with pytest.raises(ValueError, match=r"interval_scale_ must be five finite numbers"):
         load_model(bad)
     fitted_bad.interval_scale_ = fitted.interval_scale_
     fitted_bad.conformity_scores_ = fitted.conformity_scores_[::-1].copy()

@@ -38,7 +38,7 @@ _PARAMETERS = (
     "tolerance_um",
     "max_correction_um",
     "probe_noise_um",
-    "change_sigma",
+    "change_threshold",
 )
 
 # per compensator, the last pandas index seen and the positions of time_s and
@@ -173,7 +173,7 @@ class Compensator(_Trust):
         "tolerance_um": [Interval(Real, 0, None, closed="neither"), None],
         "max_correction_um": [Interval(Real, 0, None, closed="neither")],
         "probe_noise_um": [Interval(Real, 0, None, closed="left")],
-        "change_sigma": [Interval(Real, 0, None, closed="neither")],
+        "change_threshold": [Interval(Real, 0, None, closed="neither")],
     }
 
     def __init__(
@@ -192,7 +192,7 @@ class Compensator(_Trust):
         tolerance_um=None,
         max_correction_um=1000.0,
         probe_noise_um=0.0,
-        change_sigma=3.0,
+        change_threshold=5.0,
     ):
         self.inputs = inputs
         self.terms = terms
@@ -207,7 +207,7 @@ class Compensator(_Trust):
         self.tolerance_um = tolerance_um
         self.max_correction_um = max_correction_um
         self.probe_noise_um = probe_noise_um
-        self.change_sigma = change_sigma
+        self.change_threshold = change_threshold
 
     # -- parameters and the plan -------------------------------------------
 

@@ -1,20 +1,26 @@
 """How far to trust a Compensator, and probe readings that correct it.
 
-A mixin of :class:`greyml.dynamic.Compensator`. The model's error is taken
-as an offset that is uncertain at the start (variance ``offset_var``) and
-walks away from where the displacement was last known (variance growing by
-``drift_var`` per hour), plus white noise (``noise_var``): the structure
+A mixin of :class:`greyml.dynamic.Compensator`. Before any reading, the
+model's error at a time ``t`` (hours) since the displacement was last known
+has the variance ``offset_var + growth_var·t + noise_var``: the structure
 :meth:`greyml.ThermalTransferFunction.predict_interval` is calibrated with,
-so that before any reading the compensator's interval is the batch one.
+so that the compensator's interval is the batch one.
 
 A probe reading (:meth:`Compensator.observe`) corrects a small Kalman filter
-on three states: the offset, its rate (µm per hour) and a gain error of the
-model's correction. The rate and the gain start certain (variance 0), so the
-readings move only the offset, until the change detector sees readings
-outside the interval (two of the last three beyond ``change_sigma``
-standard deviations) and recalibrates: the rate and gain become uncertain
-and the next readings estimate them (no refit from scratch). The user can
-force that with :meth:`Compensator.recalibrate`.
+(Kalman, 1960) on three states: the error's slow part (an offset that
+forgets itself with the memory ``memory_h``, towards the variance
+``memory_var``: an Ornstein-Uhlenbeck process, fitted to the held-out
+residuals' variogram), a rate (µm per hour) and a gain error of the model's
+correction. The rate and the gain start certain (variance 0), so readings
+move only the offset, until the change detector fires and recalibrates.
+The detector is a two-sided CUSUM (Page, 1954) of the standardised
+innovations, with the textbook allowance of half a standard deviation:
+it fires when the sum of the readings' excess in one direction passes
+``change_threshold`` (5 standard deviations by default), so a persistent
+small shift fires it as surely as one large jump. On recalibrating, the
+rate and the gain become uncertain and the next readings estimate them (no
+refit from scratch). The user can force that with
+:meth:`Compensator.recalibrate`.
 """
 
 from __future__ import annotations
@@ -30,6 +36,8 @@ __all__ = ["HISTORY", "Status", "filter_from_vars"]
 
 #: Rows remembered for readings that arrive late (e.g. 2 h of 15 s rows).
 HISTORY = 512
+#: The CUSUM's allowance, in standard deviations of the innovation (Page, 1954).
+_ALLOWANCE = 0.5
 #: Variance given to the gain error when recalibrating (a 30 % standard deviation).
 _GAIN_VAR = 0.09
 
@@ -95,7 +103,7 @@ class _Trust:
     # -- parameters -----------------------------------------------------------
 
     def _uncertainty(self):
-        """``(offset_var, drift_var, noise_var)`` checked, or None."""
+        """``(offset_var, growth_var, noise_var, memory_var, memory_h)`` checked, or None."""
         u = self.uncertainty
         if u is None:
             return None
@@ -103,10 +111,16 @@ class _Trust:
             values = [float(v) for v in u]
         except (TypeError, ValueError):
             values = []
-        if len(values) != 3 or not all(map(math.isfinite, values)) or min(values) < 0:
+        if (
+            len(values) != 5
+            or not all(map(math.isfinite, values))
+            or min(values) < 0
+            or values[4] <= 0
+        ):
             raise ValueError(
-                "The 'uncertainty' parameter of Compensator must be three finite numbers >= 0 "
-                f"(offset_var, drift_var_per_h, noise_var); got {u!r}."
+                "The 'uncertainty' parameter of Compensator must be five finite numbers "
+                "(offset_var, growth_var_per_h, noise_var, memory_var >= 0, and memory_h > 0); "
+                f"got {u!r}."
             )
         return tuple(values)
 
@@ -119,7 +133,7 @@ class _Trust:
         self._fP = np.diag([offset_var, 0.0, 0.0])
         self._ft0 = None
         self._adjusted = False
-        self._flags = []
+        self._flags = [0.0, 0.0]  # the CUSUM's sums upwards and downwards
         self._changes = 0
         self._last_reading = None
         self._corr = None
@@ -138,18 +152,39 @@ class _Trust:
         self._hn += 1
         self._model = model
         if self._adjusted:
-            x = self._fx
-            model = model * (1.0 + x[2]) + x[0] + x[1] * (time - self._ft0) / 3600.0
+            model = self._corrected(model, time)
         self._corr = model
         return model
 
-    def _covariance_at(self, time):
-        """The filter's covariance propagated from its time to ``time``."""
-        dh = max(0.0, (time - self._ft0) / 3600.0)
-        F = np.array([[1.0, dh, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
+    def _corrected(self, model, time):
+        """The model's correction with the filter's states carried to ``time``."""
+        x = self._fx
+        dh = (time - self._ft0) / 3600.0
+        return model * (1.0 + x[2]) + x[0] * math.exp(-dh / self._memory_h) + x[1] * dh
+
+    @property
+    def _memory_h(self):
         u = self._uncertainty()
-        Q = np.diag([(u[1] if u else 0.0) * dh, 0.0, 0.0])
-        return F @ self._fP @ F.T + Q, dh
+        return u[4] if u else math.inf
+
+    def _propagated(self, time):
+        """The filter's states and covariance carried from its time to ``time``."""
+        dh = max(0.0, (time - self._ft0) / 3600.0)
+        u = self._uncertainty() or (0.0, 0.0, 0.0, 0.0, math.inf)
+        phi = math.exp(-dh / u[4])
+        F = np.array([[phi, dh, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
+        Q = np.diag([u[3] * (1.0 - phi * phi), 0.0, 0.0])
+        return F @ self._fx, F @ self._fP @ F.T + Q, dh
+
+    def _variance_at(self, time, model):
+        """Variance of the error of the correction given at ``time`` (model part ``model``)."""
+        u = self._uncertainty()
+        if not self._adjusted:  # the batch calibration, from the first row
+            dh = max(0.0, (time - self._ft0) / 3600.0)
+            return u[0] + u[1] * dh + u[2]
+        _, P, _ = self._propagated(time)
+        h = np.array([1.0, 0.0, model])
+        return max(float(h @ P @ h), 0.0) + u[2]
 
     @property
     def status(self):
@@ -161,9 +196,7 @@ class _Trust:
         plausible = abs(corr) <= self.max_correction_um
         half = math.nan
         if u is not None:
-            P, _ = self._covariance_at(self._time)
-            h = np.array([1.0, 0.0, self._model])
-            half = self.interval_quantile * math.sqrt(max(h @ P @ h + u[2], 0.0))
+            half = self.interval_quantile * math.sqrt(self._variance_at(self._time, self._model))
         trusted = plausible and (
             self.tolerance_um is None or (math.isfinite(half) and half <= self.tolerance_um)
         )
@@ -256,10 +289,14 @@ class _Trust:
                 f"previous reading ({self._last_reading:g} s); readings must come in order."
             )
         m = self._model_at(time_s)
-        u = self._uncertainty() or (0.0, 0.0, 0.0)
-        P, dh = self._covariance_at(time_s)
-        x = self._fx.copy()
-        x[0] += x[1] * dh
+        u = self._uncertainty() or (0.0, 0.0, 0.0, 0.0, math.inf)
+        if not self._adjusted:
+            # the first reading: the slow part's prior is the batch variance there
+            dh = max(0.0, (time_s - self._ft0) / 3600.0)
+            x, P = np.zeros(3), self._fP.copy()
+            P[0, 0] = u[0] + u[1] * dh
+        else:
+            x, P, _ = self._propagated(time_s)
         h = np.array([1.0, 0.0, m])
         predicted = m * (1.0 + x[2]) + x[0]
         innovation = z - predicted
@@ -273,19 +310,21 @@ class _Trust:
         self._fx, self._fP, self._ft0 = x, 0.5 * (P + P.T), time_s
         self._adjusted = True
         self._last_reading = time_s
-        self._flags = (self._flags + [abs(innovation) > self.change_sigma * math.sqrt(S)])[-3:]
-        if sum(self._flags) >= 2:
+        z = innovation / math.sqrt(S)
+        up, down = self._flags
+        self._flags = [max(0.0, up + z - _ALLOWANCE), max(0.0, down - z - _ALLOWANCE)]
+        if max(self._flags) > self.change_threshold:
             self.recalibrate(innovation)
         # the last update's correction, with the filter's new state
-        self._corr = self._model * (1.0 + x[2]) + x[0] + x[1] * (self._time - time_s) / 3600.0
+        self._corr = self._corrected(self._model, self._time)
         return self.status
 
     def recalibrate(self, size_um=None):
         """Let the next readings estimate a drift and a gain error (the machine changed).
 
-        The change detector calls this when two of the last three readings
-        fall outside ``change_sigma`` standard deviations; call it yourself
-        after a known change (a crash, a new spindle, a season).
+        The change detector calls this when its CUSUM passes
+        ``change_threshold``; call it yourself after a known change (a crash,
+        a new spindle, a season).
 
         Parameters
         ----------
@@ -299,13 +338,13 @@ class _Trust:
         """
         self._plan_or_build()
         if size_um is None or not real(size_um):
-            u = self._uncertainty() or (0.0, 0.0, 0.0)
+            u = self._uncertainty() or (0.0, 0.0, 0.0, 0.0, math.inf)
             size_um = math.sqrt(max(u[0] + u[2], 0.0)) or 1.0
         size2 = float(size_um) ** 2
         # a drift of that size per hour, and a 30 % gain error, become possible
         self._fP = self._fP + np.diag([size2, size2, _GAIN_VAR])
         self._changes += 1
-        self._flags = []
+        self._flags = [0.0, 0.0]
         return self
 
     # -- saved state ----------------------------------------------------------
@@ -334,7 +373,7 @@ class _Trust:
             P = np.asarray(state["P"], dtype=float)
             ht = np.asarray(state["history_time_s"], dtype=float)
             hm = np.asarray(state["history_model"], dtype=float)
-            flags = [bool(f) for f in state["flags"]]
+            flags = [float(f) for f in state["flags"]]
             changes = state["changes"]
             adjusted = state["adjusted"]
             scalars = [state["t0"], state["last_reading"], state["model"], state["correction"]]
@@ -353,7 +392,8 @@ class _Trust:
             or (np.diff(ht) < 0).any()
             or not (isinstance(changes, int) and not isinstance(changes, bool) and changes >= 0)
             or not isinstance(adjusted, bool)
-            or len(flags) > 3
+            or len(flags) != 2
+            or not all(math.isfinite(f) and f >= 0 for f in flags)
             or not all(v is None or real(v) for v in scalars)
         ):
             raise bad

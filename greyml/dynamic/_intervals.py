@@ -33,7 +33,7 @@ __all__ = [
     "held_out_predictions",
     "scale_fit",
     "scale_of",
-    "white_variance",
+    "variogram_fit",
 ]
 
 #: The smallest variance floor, as a share of the residuals' mean square:
@@ -81,18 +81,37 @@ def scale_of(hours, a, b):
     return np.sqrt(a + b * np.maximum(hours, 0.0))
 
 
-def white_variance(steps, b, step_s, a):
-    """The white part ``c`` of the residuals' variance, from their one-row steps.
+def variogram_fit(series, step_s, max_hours=8.0, n_lags=24):
+    """``(c, s2, memory_h)`` of ``γ(Δ) = c + s2·(1 − exp(−Δ/memory_h))`` fitted to the
+    variogram of the residual ``series`` (one array per test, rows ``step_s`` apart).
 
-    For a residual that is an offset, a random walk (``b`` per hour) and white
-    noise ``c``, half the mean square step is ``c + b·Δ/2`` (its variogram at
-    one row, Δ in hours). Clipped to [0, a]: the white part cannot exceed the
-    variance at the anchor.
+    ``c`` is the white part (what a reading cannot remove), ``s2`` the
+    variance of a slow part that forgets itself with the memory ``memory_h``
+    hours (an Ornstein-Uhlenbeck process). Lags are log-spaced from one row
+    to ``max_hours``; for each memory on a log grid, ``c`` and ``s2`` come
+    from non-negative least squares, and the best fit is kept.
     """
-    if steps.size == 0 or not np.isfinite(step_s):
-        return 0.0
-    c = 0.5 * float(np.mean(steps**2)) - 0.5 * b * step_s / 3600.0
-    return float(min(max(c, 0.0), a))
+    longest = max((len(e) for e in series), default=0)
+    if longest < 3 or not np.isfinite(step_s) or step_s <= 0:
+        return 0.0, 0.0, 1.0
+    top = max(2, min(longest - 1, int(max_hours * 3600.0 / step_s)))
+    lags = np.unique(np.geomspace(1, top, n_lags).astype(int))
+    gamma, used = [], []
+    for lag in lags:
+        d = [e[lag:] - e[:-lag] for e in series if len(e) > lag]
+        if d:
+            d = np.concatenate(d)
+            gamma.append(0.5 * float(np.mean(d**2)))
+            used.append(lag)
+    hours = np.asarray(used, dtype=float) * step_s / 3600.0
+    gamma = np.asarray(gamma)
+    best = (np.inf, 0.0, 0.0, 1.0)
+    for memory in np.geomspace(hours[0] / 2, 100.0 * hours[-1], 60):
+        M = np.column_stack([np.ones_like(hours), 1.0 - np.exp(-hours / memory)])
+        (c, s2), resid = nnls(M, gamma)
+        if resid < best[0]:
+            best = (resid, float(c), float(s2), float(memory))
+    return best[1], best[2], best[3]
 
 
 def conformal_quantile(scores, coverage):

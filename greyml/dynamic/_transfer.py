@@ -27,7 +27,6 @@ import warnings
 from dataclasses import replace
 
 import numpy as np
-from scipy.optimize import minimize
 from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.utils.validation import check_is_fitted
 
@@ -53,10 +52,11 @@ from greyml.dynamic._transfer_checks import (  # noqa: F401 (DEFAULT_*: the mode
     initial_displacements,
     sample_weights,
 )
-from greyml.dynamic._transfer_design import _TransferDesign
+from greyml.dynamic._transfer_design import _TransferDesign, fit_time_constants
 from greyml.dynamic._transfer_intervals import _TransferIntervals
 from greyml.dynamic._transfer_readout import _round_step, _TransferReadout
 from greyml.dynamic._transfer_records import Bank, Data, longer_banks, span
+from greyml.dynamic._transfer_update import _TransferUpdate
 from greyml.exceptions import WarmStartWarning
 
 __all__ = ["ThermalTransferFunction"]
@@ -66,7 +66,12 @@ REFERENCES = ("auto", "start", "recording")
 
 
 class ThermalTransferFunction(
-    _TransferDesign, _TransferReadout, _TransferIntervals, RegressorMixin, BaseEstimator
+    _TransferDesign,
+    _TransferReadout,
+    _TransferIntervals,
+    _TransferUpdate,
+    RegressorMixin,
+    BaseEstimator,
 ):
     """Displacement as a sum of each input's first-order thermal responses.
 
@@ -203,16 +208,23 @@ class ThermalTransferFunction(
         the next (the largest time constant of the bank given): a longer one
         inside a test is refused, between tests it restarts the lags, in
         ``fit``, :meth:`predict` and the compensator alike.
-    interval_scale_ : ndarray of shape (3,) or None
-        ``(a, b, c)``: the squared scale ``s(t)² = a + b·t`` of the held-out
-        residuals, ``t`` in hours since the displacement was last known (the
-        test's first row), and ``c`` (≤ a) the part of ``a`` that is white
-        noise, not an offset (what a probe reading cannot remove); see
-        :meth:`predict_interval`. None when fewer than 3 tests were scored.
+    interval_scale_ : ndarray of shape (5,) or None
+        ``(a, b, c, s2, memory_h)`` of the held-out residuals (refits on all
+        tests but one): ``s(t)² = a + b·t`` their squared scale at ``t``
+        hours since the displacement was last known (the test's first row;
+        ``b = 0`` in the "recording" reference, where no row is known),
+        which :meth:`predict_interval` uses; ``c`` (≤ a) their white part,
+        and ``s2`` and ``memory_h`` the variance and memory (hours) of their
+        slow part, from their variogram, which the compensator's probe
+        filter uses. None when fewer than 3 tests were scored.
     conformity_scores_ : ndarray of shape (n_held_out_rows,) or None
         The held-out residuals divided by ``s(t)``, sorted: the residuals of
         refits on all tests but one (sensors chosen again without it), which
         calibrate :meth:`predict_interval`.
+    normal_gram_, normal_rhs_, normal_weight_ : ndarray, ndarray, float
+        The normal equations of the final solve (the raw Gram matrix of the
+        chosen columns, its right-hand side, the weight of the rows), which
+        :meth:`partial_fit` adds new tests to.
     bank_scores_ : dict
         With the default bank and three tests or more: the mean held-out
         RMSE of each bank tried, keyed by its number of sensor time
@@ -467,11 +479,11 @@ class ThermalTransferFunction(
             )
         cols = _cols_all(bank.col_group, bank.chosen, bank.grams[0].shape[1])
         G, b = bank.grams[0].sum(axis=0), bank.grams[1].sum(axis=0)
+        G, b, sw = G[np.ix_(cols, cols)], b[cols], bank.grams[3].sum()
         coef = np.zeros(bank.grams[0].shape[1])
-        coef[cols] = solve_all(
-            G[np.ix_(cols, cols)], b[cols], bank.grams[3].sum(), [bank.alpha], bank.pen[cols]
-        )[:, 0]
+        coef[cols] = solve_all(G, b, sw, [bank.alpha], bank.pen[cols])[:, 0]
         self._store(data, reference, bank, coef)
+        self._keep_normal_equations(G, b, sw, cols, bank.pen[cols])
         self.bank_scores_ = {len(f.taus): f.score for f in fits} if len(fits) > 1 else {}
         self.selected_sensors_ = [data.sensors[k] for k in bank.chosen]
         self.time_constants_ = np.asarray(bank.taus, dtype=float)
@@ -678,38 +690,3 @@ class ThermalTransferFunction(
         tags = super().__sklearn_tags__()
         tags.input_tags.allow_nan = False
         return tags
-
-
-def fit_time_constants(model, data, chosen_names, settings, y, folds, reference):
-    """Variable projection: Nelder–Mead over the log time constants, gains solved inside.
-
-    Only the drivers and the chosen sensors are filtered; the score is the
-    mean held-out RMSE (best penalty) of whole tests.
-    """
-    m = len(settings.taus)
-
-    def unpack(z):
-        return np.sort(np.exp(z[:m])), np.sort(np.exp(z[m:]))
-
-    def objective(z):
-        ts, td = unpack(z)
-        if ts.max() > 1e7 or td.max() > 1e7 or ts.min() < 1.0 or td.min() < 1.0:
-            return np.inf
-        spec, groups, _ = model._spec(
-            data.drivers, chosen_names, data.names, settings.powers, ts, td
-        )
-        F = model._design(data.X, data.steps, data.bounds, spec, groups, reference)
-        grams, pen = model._grams(F, y, data.w, data.bounds, reference)
-        cols = np.arange(grams[0].shape[1])
-        return float(held_out_scores(grams, cols, settings.alphas, pen, folds).min())
-
-    z0 = np.log(np.concatenate([settings.taus, settings.driver_taus]))
-    f0 = objective(z0)
-    result = minimize(
-        objective,
-        z0,
-        method="Nelder-Mead",
-        options={"maxfev": 40 * len(z0), "xatol": 0.02, "fatol": 1e-6 * max(f0, 1e-12)},
-    )
-    best = result.x if result.fun < f0 else z0
-    return unpack(best)

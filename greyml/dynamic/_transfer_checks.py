@@ -191,6 +191,41 @@ def check_fitted_state(model):
     if [tuple(t) for t in model.terms_] != [tuple(t) for t in model._terms()]:
         raise ValueError(f"{name}: terms_ disagree with the fitted blocks and gains.")
     _check_interval_state(model, name)
+    _check_normal_equations(model, name, width + (0 if model.reference_ == "start" else 1))
+
+
+def _check_normal_equations(model, name, n_total):
+    """partial_fit's normal equations: a symmetric finite Gram on valid columns, or none."""
+    keys = ("normal_gram_", "normal_rhs_", "normal_weight_", "_normal_cols_", "_normal_pen_")
+    present = [k in vars(model) for k in keys]
+    if not any(present):
+        return  # saved before partial_fit existed: it then says fit again
+    bad = ValueError(f"{name}: the saved normal equations (normal_gram_, ...) are not valid.")
+    if not all(present):
+        raise bad
+    try:
+        cols = np.asarray(model._normal_cols_)
+        G = np.asarray(model.normal_gram_, dtype=float)
+        b = np.asarray(model.normal_rhs_, dtype=float)
+        pen = np.asarray(model._normal_pen_, dtype=float)
+        weight = float(model.normal_weight_)
+    except (TypeError, ValueError):
+        raise bad from None
+    k = cols.size
+    if (
+        cols.ndim != 1
+        or cols.dtype.kind not in "iu"
+        or (cols.size and (cols.min() < 0 or cols.max() >= n_total))
+        or np.unique(cols).size != k
+        or G.shape != (k, k)
+        or b.shape != (k,)
+        or pen.shape != (k,)
+        or not (np.isfinite(G).all() and np.isfinite(b).all() and np.isfinite(pen).all())
+        or not np.allclose(G, G.T)
+        or (pen < 0).any()
+        or not (np.isfinite(weight) and weight > 0)
+    ):
+        raise bad
 
 
 #: The most held-out residuals a saved model may keep for its intervals.
@@ -205,15 +240,16 @@ def _check_interval_state(model, name):
         return
     scale = np.asarray(scale, dtype=float) if scale is not None else np.zeros(0)
     if (
-        scale.shape != (3,)
+        scale.shape != (5,)
         or not np.isfinite(scale).all()
         or scale[0] <= 0
         or (scale[1:] < 0).any()
         or scale[2] > scale[0]
+        or scale[4] <= 0
     ):
         raise ValueError(
-            f"{name}: interval_scale_ must be three finite numbers a > 0, b >= 0 and "
-            f"0 <= c <= a; got {model.interval_scale_!r}."
+            f"{name}: interval_scale_ must be five finite numbers (a > 0, b >= 0, "
+            f"0 <= c <= a, s2 >= 0, memory_h > 0); got {model.interval_scale_!r}."
         )
     scores = np.asarray(scores, dtype=float) if scores is not None else np.zeros((0, 0))
     if (

@@ -17,7 +17,7 @@ from greyml.dynamic._intervals import (
     held_out_predictions,
     scale_fit,
     scale_of,
-    white_variance,
+    variogram_fit,
 )
 
 __all__ = ["elapsed_hours"]
@@ -64,17 +64,21 @@ class _TransferIntervals:
 
         preds = held_out_predictions(A, bank.grams, folds, data.bounds, choose)
         hours_all = elapsed_hours(data.steps.dt, data.bounds)
-        hours, residuals, steps = [], [], []
+        hours, residuals = [], []
         for k, pred in preds.items():
             start, stop = data.bounds[k]
             used = data.w[start:stop] > 0
             hours.append(hours_all[start:stop][used])
             residuals.append((y[start:stop] - pred)[used])
-            steps.append(np.diff(residuals[-1]))
+        c, s2, memory_h = variogram_fit(residuals, data.steps.nominal_step_s)
         hours, residuals = np.concatenate(hours), np.concatenate(residuals)
-        a, b = scale_fit(hours, residuals)
-        c = white_variance(np.concatenate(steps), b, data.steps.nominal_step_s, a)
-        self.interval_scale_ = np.array([a, b, c])
+        if reference == "start":
+            a, b = scale_fit(hours, residuals)
+        else:
+            # from the recording's zero the displacement is never known at a row,
+            # so nothing anchors a width that grows: one width for every row
+            a, b = scale_fit(np.zeros_like(hours), residuals)[0], 0.0
+        self.interval_scale_ = np.array([a, b, min(c, a), s2, memory_h])
         self.conformity_scores_ = np.sort(np.abs(residuals) / scale_of(hours, a, b))
 
     def interval_half_width(self, hours, coverage=0.9):
@@ -95,7 +99,7 @@ class _TransferIntervals:
         """
         check_is_fitted(self)
         q = self._quantile(coverage)
-        a, b, _ = self.interval_scale_
+        a, b = self.interval_scale_[:2]
         width = q * scale_of(np.asarray(hours, dtype=float), a, b)
         return float(width) if np.ndim(width) == 0 else width
 
@@ -124,8 +128,8 @@ class _TransferIntervals:
         params = {"tolerance_um": tolerance_um, "probe_noise_um": probe_noise_um}
         if getattr(self, "conformity_scores_", None) is None:
             return params
-        a, b, c = self.interval_scale_
-        params["uncertainty"] = (float(a - c), float(b), float(c))
+        a, b, c, s2, memory_h = (float(v) for v in self.interval_scale_)
+        params["uncertainty"] = (a - c, b, c, s2, memory_h)
         params["interval_quantile"] = self._quantile(coverage)
         return params
 
@@ -159,6 +163,6 @@ class _TransferIntervals:
         _, _, segments = validate_sequences(self, X, reset=False)
         steps = self._timeline(X, segments, self.gap_limit_s_, self.nominal_step_s_)
         bounds = [(s.start, s.stop) for s in segments]
-        a, b, _ = self.interval_scale_
+        a, b = self.interval_scale_[:2]
         half = q * scale_of(elapsed_hours(steps.dt, bounds), a, b)
         return np.column_stack([pred, pred - half, pred + half])
