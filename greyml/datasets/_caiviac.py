@@ -20,7 +20,6 @@ _RELATIVE = Path("..") / "shared" / "realdata" / "caiviac"
 _FILE = "cycles.csv"
 _PROBES = [f"ch{k}_um" for k in range(1, 6)]
 _TEMPS = [f"t{k}_C" for k in range(1, 17)]
-_SPEEDS = {1: 1250, 2: 2500, 3: 3750, 4: 5000, 5: 3500}
 
 
 def caiviac_candidates():
@@ -195,10 +194,12 @@ def load_caiviac(path=None, *, reference="cycle", return_X_y=False, target="ch1_
             f"{os.fspath(file)!r}: {exc} (data row r is line r + 2 of the file)"
         ) from None
     licence = file.with_name("LICENSE.txt")
+    speeds = frame.groupby(level="test", sort=False)["spindle_rpm"].max()
+    hours = (time.max() - time.min()) / 3600.0
     description = (
         "Real heating/cooling recording of a machine tool, CAIVIAC/FL_THERMAL "
-        "(data/data.xlsx, MIT licence), first 40.1 h: five cycles of 4 h spindle "
-        "on at " + ", ".join(f"{v} rpm" for v in _SPEEDS.values()) + " and 4 h off, "
+        f"(data/data.xlsx, MIT licence), {hours:.1f} h: {len(speeds)} cycles of spindle "
+        "on (at " + ", ".join(f"{v:g} rpm" for v in speeds) + ") then off, "
         "15 s sampling. Probe channels ch1/ch2 and ch3/ch4 move together; their "
         "axes and the sensor positions are not documented upstream. Displacements "
         + (
