@@ -280,17 +280,19 @@ def test_replayed_without_readings_equals_predict(capsys, case):
 
 
 def test_replayed_from_a_given_displacement_equals_predict(capsys, case):
+    """The first test after a reset, the last one carried in a recording."""
     folder, new = case["folder"], case["new"]
-    label = new.index.get_level_values("test")[-1]  # carried in a recording
+    labels = new.index.get_level_values("test")
+    given = {labels[0]: 4.25, labels[-1]: -1.5}
     probes = _probes(folder / "last.csv", new.iloc[[-1]])
-    start = ["--initial-displacement", f"{label}=4.25"]
+    start = ["--initial-displacement", ",".join(f"{t}={v}" for t, v in given.items())]
     argv = ["predict", case["model_file"], case["data"], "--out", folder / "s.csv", "--force"]
     _run(capsys, [*argv, *start, "--probe", probes])
     stream = read_tests_csv(folder / "s.csv").iloc[:-1, 0].to_numpy()
-    batch = case["model"].predict(_inputs(new), initial_displacement={label: 4.25})
+    batch = case["model"].predict(_inputs(new), initial_displacement=given)
     np.testing.assert_allclose(stream, batch[:-1], rtol=0, atol=1e-9)
-    first = int(np.flatnonzero(new.index.get_level_values("test") == label)[0])
-    assert stream[first] == pytest.approx(4.25, abs=1e-9)
+    for label, value in given.items():
+        assert stream[int(np.flatnonzero(labels == label)[0])] == pytest.approx(value, abs=1e-9)
 
 
 def test_a_reading_corrects_the_rows_from_its_time_on(capsys, separate, tmp_path):

@@ -167,6 +167,23 @@ def _reanchor(comp, row, value):
     comp.set_state(state)
 
 
+def _unshift(comp):
+    """Measure the correction from the model's own zero again, as ``predict`` does in a
+    carried test after one it started at a given displacement.
+
+    Nothing is learnt or forgotten: the lags and the filter's states stay, and
+    the values the filter remembers (the last correction, the model's values
+    for late readings) move with the reference.
+    """
+    state = comp.get_state()
+    shift, state["start"] = state["start"], None
+    memory = state["filter"]
+    memory["model"] += shift
+    memory["correction"] += shift
+    memory["history_model"] = [m + shift for m in memory["history_model"]]
+    comp.set_state(state)
+
+
 def replay(estimator, X, readings, *, params, coverage, tolerance, bound):
     """Stream ``X`` through the model's compensator and give it the ``readings``.
 
@@ -174,7 +191,8 @@ def replay(estimator, X, readings, *, params, coverage, tolerance, bound):
     decides from the clock and the model's ``state``) starts after a reset,
     at its initial displacement if one is given; a test that continues it
     keeps the lags, and is moved to start at 0 (``reference_="start"``) or at
-    its initial displacement, as ``predict`` moves it.
+    its initial displacement, as ``predict`` moves it (and, without one, is
+    not moved by the one given to the test before it).
 
     Returns
     -------
@@ -187,12 +205,18 @@ def replay(estimator, X, readings, *, params, coverage, tolerance, bound):
 
     final = _final_step(estimator)
     Xt = model_rows(estimator, X)
+    if "time_s" not in list(getattr(getattr(Xt, "index", None), "names", None) or ()):
+        raise ValueError(
+            "--probe: the steps before the model's transfer function drop the rows' test and "
+            "time_s, so its compensator cannot be run along them."
+        )
     comp = final.compensator(
         row_columns=["time_s", *map(str, Xt.columns)],
         coverage=0.9 if coverage is None else coverage,
         tolerance_um=tolerance,
     )
-    # the readings' plausibility bound is the predictions' (--max-displacement)
+    # the readings' plausibility bound is the predictions' (--max-displacement);
+    # set_params also builds it, so that the first reset keeps its displacement
     comp.set_params(max_correction_um=min(bound, np.finfo(float).max))
     times = Xt.index.get_level_values("time_s").to_numpy(dtype=float)
     rows = np.column_stack([times, Xt.to_numpy(dtype=float)])
@@ -223,6 +247,8 @@ def replay(estimator, X, readings, *, params, coverage, tolerance, bound):
             anchor = None
         elif anchor is None and final.reference_ == "start":
             anchor = 0.0
+        elif anchor is None and comp.get_state()["start"] is not None:
+            _unshift(comp)  # the test before was moved to a given displacement
         for k in range(seg.start, seg.stop):
             comp.update(rows[k])
             if k == seg.start and anchor is not None:
