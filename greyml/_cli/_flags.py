@@ -237,6 +237,19 @@ def _positive_number(text):
     return value
 
 
+def _coverage(text):
+    """A share strictly between 0 and 1, for an interval's coverage (``--interval 0.9``)."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = float("nan")
+    if not 0 < value < 1:
+        raise argparse.ArgumentTypeError(
+            f"expected a coverage between 0 and 1 (e.g. 0.9); got {text!r}"
+        )
+    return value
+
+
 def _seconds_list(text):
     """``--time-constants``: comma-separated seconds (each finite and > 0), or ``fit``."""
     if text.strip().lower() == "fit":

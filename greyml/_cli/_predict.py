@@ -44,12 +44,28 @@ is written to a temporary name and renamed, so a failure never leaves a
 partial PRED.csv.
 Test labels a spreadsheet would run as formulas (=, +, -, @) get a leading '.
 
+How far to trust it (a transfer function fitted on 3 tests or more):
+--interval 0.9 adds lower_<target> and upper_<target> beside the prediction:
+the interval calibrated in fit on whole held-out tests, widening with the time
+since the displacement was known (each test's first row). Its coverage holds
+for tests like the training tests, not for a test unlike all of them or a
+machine that has changed. --tolerance UM adds trusted: 1 where the interval's
+half-width is at most UM. --probe PROBES.csv replays probe readings (columns
+test, time_s and the target, in the reference of the prediction; read with
+the same --test-column and --time-unit as DATA.csv): the file is streamed
+through the model's compensator, and each reading corrects the prediction from
+its time on and narrows the interval there; when two of the last three readings
+lie beyond 3 standard deviations, the change detector fires and recalibrates. A reading
+of a test or time that is not in DATA.csv, or out of order, is an error.
+
 Examples:
   greyml simulate --machine vmc --tests IV --out train.csv
   greyml simulate --machine vmc --tests V,VI --out new-tests.csv
   greyml fit train.csv --target dy_um --model anfis-fcm --select 5 --out vmc.greyml
   greyml predict vmc.greyml new-tests.csv --out compensation.csv
   greyml predict gmc.greyml tail.csv --out comp.csv --initial-displacement V=-48.5
+  greyml predict ch1.greyml cycles.csv --test-column cycle --out ch1-pred.csv \\
+      --interval 0.9 --probe probes.csv --tolerance 5
 """
 
 
@@ -75,6 +91,29 @@ def _add_predict_parser(subparsers):
             "refuse to write a prediction beyond ±X in the target's unit (default: 1 mm, "
             "i.e. 1000 for a target in µm or unnamed unit, 1 for a '_mm' target; inf: no bound)"
         ),
+    )
+    trust = parser.add_argument_group(
+        "how far to trust it (a transfer function fitted on 3 tests or more)"
+    )
+    trust.add_argument(
+        "--interval",
+        type=flags._coverage,
+        metavar="COVERAGE",
+        help="also write lower_<target> and upper_<target>: the interval that holds this "
+        "share of rows (e.g. 0.9), calibrated in fit on whole held-out tests",
+    )
+    trust.add_argument(
+        "--probe",
+        metavar="PROBES.csv",
+        help="probe readings to replay: test, time_s and the target column, in the "
+        "reference of the prediction; each corrects the compensation from its time on",
+    )
+    trust.add_argument(
+        "--tolerance",
+        type=flags._positive_number,
+        metavar="UM",
+        help="with --interval: also write trusted (1 where the interval's half-width is "
+        "at most UM, else 0)",
     )
     flags._end_options(parser, flags._calls(run_predict))
 
@@ -221,6 +260,9 @@ def run_predict(
     quiet=False,
     initial_displacement=None,
     max_displacement=None,
+    interval=None,
+    probe=None,
+    tolerance=None,
 ):
     """``greyml predict``: apply a saved model to tests and write the compensation.
 
@@ -231,9 +273,10 @@ def run_predict(
     data : str or path-like
         CSV file of tests with the model's sensor columns.
     out : str or path-like
-        CSV file to write: ``test``, ``time_s``, ``predicted_<target>`` and
-        ``compensation_<target>`` (the negated prediction: the correction to
-        add to the axis position).
+        CSV file to write: ``test``, ``time_s``, ``predicted_<target>``
+        (with ``interval``, ``lower_<target>`` and ``upper_<target>`` next to
+        it), ``compensation_<target>`` (the negated prediction: the correction
+        to add to the axis position) and, with ``tolerance``, ``trusted``.
     force : bool, default=False
         Replace ``out`` if it exists.
     {csv_and_quiet}
@@ -244,7 +287,20 @@ def run_predict(
     max_displacement : float or None, default=None
         Refuse to write any prediction beyond ± this, in the target's unit;
         ``None`` is 1 mm (1000 for a target in µm or of unnamed unit, 1 for a
-        column ending in ``_mm``); ``inf`` sets no bound.
+        column ending in ``_mm``); ``inf`` sets no bound. A probe reading
+        beyond it is refused too.
+    interval : float or None, default=None
+        A coverage in (0, 1): write the bounds of the model's interval
+        (:meth:`greyml.ThermalTransferFunction.predict_interval`, or with
+        ``probe`` the compensator's, which narrows at each reading).
+    probe : str or path-like or None, default=None
+        CSV file of probe readings (``test``, ``time_s`` and the target's
+        column, in the reference of the prediction), replayed through the
+        model's :class:`~greyml.dynamic.Compensator`: each reading corrects
+        the rows from its time on.
+    tolerance : float or None, default=None
+        With ``interval``: write ``trusted``, 1 where the interval's
+        half-width is at most this (in the target's unit), else 0.
 
     Returns
     -------
@@ -256,17 +312,31 @@ def run_predict(
     ValueError
         Besides bad files and columns: when the model predicts NaN, an
         infinite value or a value beyond ``max_displacement`` for any row (no
-        compensation file is written then).
+        compensation file is written then); when ``interval`` or ``probe`` is
+        given for a model that is not a transfer function; for a probe
+        reading of a test or time that is not in ``data``, out of order, or
+        refused by the compensator (one line naming its line, test and time).
     """
+    import numpy as np
     import pandas as pd
 
+    from greyml._cli import _predict_trust as trust
     from greyml._seeds import scores
     from greyml.io import write_tests_csv
 
+    if tolerance is not None and interval is None:
+        raise ValueError(
+            "--tolerance compares the interval's half-width with UM: give its coverage with "
+            "--interval too (e.g. --interval 0.9)."
+        )
     path = _check_output_file(out, force)
-    with _progress(4, quiet) as progress:
+    with _progress(4 + (probe is not None), quiet) as progress:
         progress.step(f"reading the model {os.fspath(model)!r}")
         estimator, load_messages = _load(model)
+        if interval is not None:
+            trust.trust_model(estimator, model, "--interval")
+        if probe is not None:
+            trust.trust_model(estimator, model, "--probe")
         progress.step(f"reading {os.fspath(data)!r}")
         frame = _read(data, csv_options)
         inputs, used = _model_inputs(estimator, model)
@@ -293,31 +363,84 @@ def run_predict(
         target = printable(measured)
         bound = _displacement_bound(measured, max_displacement)
         _require_plausible_predictions(pred, frame, model, data, bound, target)
+        half = replayed = None
+        if probe is not None:
+            readings = trust.read_probes(probe, csv_options, measured, frame, data)
+            progress.step(f"replaying {len(readings)} probe reading(s)")
+            replayed = trust.replay(
+                estimator,
+                X,
+                readings,
+                params=params,
+                coverage=interval,
+                tolerance=tolerance,
+                bound=bound,
+            )
+            pred, half = replayed.prediction, replayed.half_width
+            _require_finite_predictions(pred, frame, model, data)
+            _require_plausible_predictions(pred, frame, model, data, bound, target)
+        elif interval is not None:
+            half = trust.batch_half_width(estimator, X, interval, params)
         reference = _reference(estimator)
         given = params.get("initial_displacement", {})
         given = given if isinstance(given, dict) else dict.fromkeys(tests)
         # every test started at its measured value: the file's own reference
         suffix = "_since_start" if reference == "start" and len(given) < len(tests) else ""
         predicted, compensation = f"predicted_{target}{suffix}", f"compensation_{target}{suffix}"
-        result = pd.DataFrame({predicted: pred, compensation: -pred}, index=frame.index)
+        columns = {predicted: pred}
+        if interval is not None:
+            lower, upper = f"lower_{target}{suffix}", f"upper_{target}{suffix}"
+            columns.update({lower: pred - half, upper: pred + half})
+        columns[compensation] = -pred
+        if tolerance is not None:
+            trusted = replayed.trusted if replayed is not None else half <= tolerance
+            columns["trusted"] = np.asarray(trusted, dtype=int)
+        result = pd.DataFrame(columns, index=frame.index)
         progress.step(f"writing {os.fspath(path)!r}")
         write_tests_csv(result, path, overwrite=force)
     _warn("predict", load_messages)
     _warn("predict", messages)
     hint = _time_unit_hint(frame, data, csv_options)
     _warn("predict", [hint] if hint else [])
+    bounds = "" if interval is None else f", {lower} and {upper} (its {interval:g} interval)"
+    flag = "" if tolerance is None else f" and trusted (half-width at most {tolerance:g})"
     print(
         f"wrote {len(result)} rows of {len(tests)} test(s) to {os.fspath(path)!r}: "
-        f"{predicted} and {compensation} = -{predicted}."
+        f"{predicted}{bounds}{',' if bounds else ' and'} {compensation} = -{predicted}{flag}."
     )
     words = _REFERENCE_WORDS[reference]
     if suffix == "" and reference == "start":
         words = "from the measured value given at each test's first row"
+    if replayed is not None:
+        n = replayed.readings
+        words += (
+            f"; corrected by {n} probe reading{'' if n == 1 else 's'} from "
+            f"{os.fspath(probe)!r} (in the same reference)"
+        )
     print(f"  displacement {words}")
+    if replayed is not None:
+        print(f"  {_detector_words(replayed.changes)}")
     if measured in frame.columns and not frame[measured].isna().any():
-        s = scores(_measured(frame[measured], reference, given), pred)
+        truth = _measured(frame[measured], reference, given)
+        s = scores(truth, pred)
+        held = ""
+        if interval is not None:
+            inside = float(np.mean(np.abs(truth - pred) <= half))
+            held = f"; the interval holds {100 * inside:.1f} % of rows"
         print(
             f"  against the measured {target} in {os.fspath(data)!r}, in the same reference: "
-            f"RMSE {s['RMSE']:.3g}, ±res {s['band']:.3g}, R {s['R']:.3f}, E {s['E']:.3f}"
+            f"RMSE {s['RMSE']:.3g}, ±res {s['band']:.3g}, R {s['R']:.3f}, E {s['E']:.3f}{held}"
         )
     return 0
+
+
+def _detector_words(changes):
+    """What the change detector did while the readings were replayed."""
+    if not changes:
+        return "the change detector did not fire (no reading fell outside the interval twice)"
+    shown = "; ".join(f"test {printable(str(t))!r} at time_s {s:g}" for t, s in changes[:5])
+    more = f" and {len(changes) - 5} more" if len(changes) > 5 else ""
+    times = "once" if len(changes) == 1 else f"{len(changes)} times"
+    return (
+        f"the change detector fired {times} and recalibrated (after the readings at {shown}{more})"
+    )
