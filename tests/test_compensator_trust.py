@@ -194,3 +194,59 @@ def test_a_tampered_filter_is_refused_at_load(tmp_path):
 def test_bad_uncertainty(bad):
     with pytest.raises(ValueError, match=r"'uncertainty' parameter of Compensator"):
         _comp(uncertainty=bad).update(_row(0.0, 1.0))
+
+
+def test_reset_with_an_initial_displacement_before_any_update():
+    comp = _comp()
+    comp.reset(initial_displacement=7.0)
+    assert comp.update(_row(0.0, 100.0)) == 7.0  # not 200: the reset is kept
+    assert comp.update(_row(60.0, 101.0)) == pytest.approx(9.0)
+
+
+def test_start_test_carries_the_lags_and_restarts_the_reference():
+    comp = Compensator(
+        ["T1_C"], [("T1_C", 1, 900.0, 2.0)], relative_to_start=True, row_columns=["time_s", "T1_C"]
+    )
+    for k in range(30):
+        comp.update(_row(60.0 * k, 20.0 + k))
+    lag = comp.state_["lags"]["T1_C|lag 15 min"]
+    assert comp.start_test(_row(1800.0, 50.0)) == 0.0
+    carried = comp.state_["lags"]["T1_C|lag 15 min"]
+    a = math.exp(-60.0 / 900.0)
+    assert carried == pytest.approx(a * lag + (1 - a) * 50.0)  # not restarted at 50
+    assert comp.update(_row(1860.0, 50.0)) == pytest.approx(2.0 * (1 - a) * (50.0 - carried))
+    assert comp.start_test(_row(1920.0, 50.0), initial_displacement=3.0) == 3.0
+    assert isinstance(comp.update(_row(1980.0, 50.0)), float)
+
+
+def test_start_test_restarts_the_interval_at_the_known_displacement():
+    comp = _comp(uncertainty=(3.0, 2.0, 1.0, 3.0, 1e6))
+    comp.update(_row(0.0, 1.0))
+    comp.update(_row(7200.0, 1.0))
+    comp.start_test(_row(7260.0, 1.0))  # recording reference, nothing given: nothing known
+    assert comp.status.half_width == pytest.approx(Q90 * math.sqrt(3.0 + 2.0 * 7260 / 3600 + 1.0))
+    comp.start_test(_row(7320.0, 1.0), initial_displacement=2.0)  # known here
+    assert comp.status.half_width == pytest.approx(Q90 * 2.0)
+
+
+def test_a_reading_without_uncertainty_is_refused():
+    comp = _comp(uncertainty=None)
+    comp.update(_row(0.0, 1.0))
+    with pytest.raises(ValueError, match=r"cannot be weighed: this compensator has no uncertainty"):
+        comp.observe(0.0, 2.0)
+
+
+def test_a_reading_after_set_state_without_rows():
+    comp = _comp()
+    comp.update(_row(0.0, 1.0))
+    state = comp.get_state()
+    del state["filter"]
+    other = _comp().set_state(state)
+    with pytest.raises(ValueError, match=r"no row is remembered since the state was set"):
+        other.observe(0.0, 2.0)
+
+
+def test_no_bound_on_the_correction():
+    comp = _comp(max_correction_um=math.inf)
+    comp.update(_row(0.0, 1e6))
+    assert comp.status.plausible

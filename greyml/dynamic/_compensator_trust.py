@@ -142,6 +142,15 @@ class _Trust:
         self._hm = np.zeros(HISTORY)
         self._hn = 0
 
+    def _anchor_trust(self, time, model):
+        """The displacement is known at ``time`` (a new test's first row): the filter
+        starts anew there; the rows remembered stay, the last one given ``model``."""
+        history = (self._ht.copy(), self._hm.copy(), self._hn)
+        self._reset_trust()
+        self._ht, self._hm, self._hn = history
+        self._hm[(self._hn - 1) % HISTORY] = model
+        self._ft0, self._model, self._corr = time, model, model
+
     def _record(self, time, model):
         """Remember the model's correction at ``time``; return the correction given."""
         if self._ft0 is None:
@@ -153,7 +162,7 @@ class _Trust:
         self._model = model
         if self._adjusted:
             model = self._corrected(model, time)
-        self._corr = model
+        self._corr = model = float(model)
         return model
 
     def _corrected(self, model, time):
@@ -216,6 +225,11 @@ class _Trust:
     def _model_at(self, time_s):
         """The model's correction at ``time_s`` from the rows remembered (linear between)."""
         t, m = self._history()
+        if t.size == 0:
+            raise ValueError(
+                f"{_PREFIX} no row is remembered since the state was set, so the reading at "
+                f"time_s = {time_s:g} s cannot be placed; update with its row first."
+            )
         if time_s < t[0]:
             raise ValueError(
                 f"{_PREFIX} the reading at time_s = {time_s:g} s is older than the "
@@ -273,6 +287,12 @@ class _Trust:
                 f"{_PREFIX} the reading {z:g} at time_s = {time_s:g} s comes before the first "
                 "update; update with the row of that time first."
             )
+        if self._uncertainty() is None:
+            raise ValueError(
+                f"{_PREFIX} the reading {z:g} at time_s = {time_s:g} s cannot be weighed: this "
+                "compensator has no uncertainty (its model was fitted on fewer than 3 tests, "
+                "or give uncertainty=)."
+            )
         if abs(z) > self.max_correction_um:
             raise ValueError(
                 f"{_PREFIX} the reading {z:g} at time_s = {time_s:g} s is beyond "
@@ -301,7 +321,7 @@ class _Trust:
         predicted = m * (1.0 + x[2]) + x[0]
         innovation = z - predicted
         S = float(h @ P @ h) + u[2] + self.probe_noise_um**2
-        if S <= 0:  # no uncertainty at all: the reading is the truth
+        if S <= 0:  # every variance 0: the model is held certain, the reading moves nothing
             S = np.finfo(float).tiny
         K = P @ h / S
         x = x + K * innovation
@@ -316,7 +336,7 @@ class _Trust:
         if max(self._flags) > self.change_threshold:
             self.recalibrate(innovation)
         # the last update's correction, with the filter's new state
-        self._corr = self._corrected(self._model, self._time)
+        self._corr = float(self._corrected(self._model, self._time))
         return self.status
 
     def recalibrate(self, size_um=None):
