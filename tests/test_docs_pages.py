@@ -48,9 +48,9 @@ def test_the_trust_pages_caiviac_numbers_are_the_examples(tmp_path, monkeypatch,
     out = capsys.readouterr().out
     holds = [float(v) for v in re.findall(r"interval holds +([\d.]+) %", out)]
     rmse = [float(v) for v in re.findall(r"RMSE +([\d.]+) µm", out)]
-    fired = re.search(r"change detector fired at ([\d.]+) h, ([\d.]+) h\n", out).groups()
+    fired = re.search(r"change detector fired at ([\d.]+) h from the cycle's start", out)
     page = " ".join((DOCS / "trust.rst").read_text(encoding="utf-8").split())
     assert f"the 90 % interval held {holds[0]:.0f} % of cycle 5's rows" in page
-    assert f"the 90 % interval held {holds[1]:.0f} % of cycle 5's rows" in page
+    assert f"90 % interval held {holds[1]:.0f} % of cycle 5's rows" in page
     assert f"RMSE fell from {rmse[0]:.2f} to {rmse[1]:.2f} µm" in page
-    assert f"it fired twice, after {fired[0]} and {fired[1]} hours" in page
+    assert f"it fired after {fired.group(1)} hours" in page

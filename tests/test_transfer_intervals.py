@@ -67,7 +67,9 @@ def test_intervals_cover_new_tests_of_the_same_process(fitted):
     iv = fitted.predict_interval(X, coverage=0.9)
     np.testing.assert_array_equal(iv[:, 0], fitted.predict(X))
     inside = (y.to_numpy() >= iv[:, 1]) & (y.to_numpy() <= iv[:, 2])
-    assert 0.82 <= inside.mean() <= 0.97, inside.mean()
+    # refits on one test fewer than the model are a little worse than it, so
+    # the calibration errs wide (conservative), not narrow; never all rows
+    assert 0.85 <= inside.mean() <= 0.99, inside.mean()
     # the drift is a random walk from each start: the width grows with the time since
     a, b, c, s2, memory_h = fitted.interval_scale_
     assert 0 <= c <= a and s2 >= 0 and memory_h > 0

@@ -58,7 +58,8 @@ def load():
 # -----------------------------
 # Fitted on cycles 1-4 only; predicting the whole recording carries the lags
 # through them into cycle 5. The interval's half-width grows with the time
-# since each cycle's start (``interval_scale_``: ``s(t)² = a + b·t``).
+# since each cycle's start (``interval_scale_``: ``s(t)² = a + b·t``; from the
+# recording's zero no row is known, so ``b = 0`` and the width is constant).
 def interval_without_readings(model, X, held):
     intervals = model.predict_interval(X, coverage=0.9)[held]
     return intervals[:, 0], intervals[:, 2] - intervals[:, 0]
@@ -150,10 +151,11 @@ else:
         batch, batch_half = interval_without_readings(model, X, held)
         probed, probed_half, probed_fired = stream(model, X, held, hourly(measured))
         fixed, fixed_half, fixed_fired = stream(model, X, held, hourly(changed))
-    a, b, c = model.interval_scale_
+    a, b, c, s2, memory_h = model.interval_scale_
     print(
         f"fitted on cycles 1-4 ({', '.join(model.selected_sensors_)} and the speed; reference "
-        f"{model.reference_!r}); interval scale a = {a:.3g} µm², b = {b:.3g} µm²/h"
+        f"{model.reference_!r}); interval scale a = {a:.3g} µm², b = {b:.3g} µm²/h; "
+        f"after a reading: slow part {s2:.3g} µm² with a memory of {memory_h:.3g} h"
     )
     print("cycle 5, ch1 from the recording's zero (errors are the same in any reference):")
     print(

@@ -54,8 +54,9 @@ half-width is at most UM. --probe PROBES.csv replays probe readings (columns
 test, time_s and the target, in the reference of the prediction; read with
 the same --test-column and --time-unit as DATA.csv): the file is streamed
 through the model's compensator, and each reading corrects the prediction from
-its time on and narrows the interval there; when two of the last three readings
-lie beyond 3 standard deviations, the change detector fires and recalibrates. A reading
+its time on and narrows the interval there; when the readings stray from the
+model persistently (a CUSUM passing 5 standard deviations), the change detector
+fires and recalibrates. A reading
 of a test or time that is not in DATA.csv, or out of order, is an error.
 
 Examples:

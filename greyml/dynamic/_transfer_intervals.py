@@ -49,13 +49,18 @@ class _TransferIntervals:
         A = F if reference == "start" else np.column_stack([F, np.ones(len(F))])
         n_total = bank.grams[0].shape[1]
 
+        # the sensors and the penalty are chosen again without each test, the
+        # penalty on every other value of the grid (half the cost; the residuals
+        # of a choice that saw the test would be too small)
+        grid = np.asarray(alphas, dtype=float)[::2]
+
         def choose(grams, other_folds):
             chosen, alpha, _, _ = select_sensors(
                 grams,
                 bank.pen,
                 bank.col_group,
                 data.sensors,
-                alphas,
+                grid,
                 other_folds if len(other_folds) >= 2 else None,
                 self.max_sensors,
                 self.selection,
