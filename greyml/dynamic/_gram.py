@@ -113,6 +113,16 @@ def solve_all(G, b, sw, alphas, pen):
         lam, V = np.linalg.eigh(Gn)
         lam = np.maximum(lam, 0.0)
         coefs = V @ ((V.T @ bn)[:, None] / (lam[:, None] + alphas[None, :] * sw))
+    elif pen[-1] == 0 and (pen[:-1] > 0).all() and Gn[-1, -1] > 0:
+        # an unpenalised intercept, last: eliminated exactly (the ridge on the
+        # centred columns), then one eigendecomposition serves every alpha
+        g, s0 = Gn[:-1, -1], Gn[-1, -1]
+        Gc = Gn[:-1, :-1] - np.outer(g, g) / s0
+        bc = bn[:-1] - g * (bn[-1] / s0)
+        lam, V = np.linalg.eigh(Gc)
+        lam = np.maximum(lam, 0.0)
+        beta = V @ ((V.T @ bc)[:, None] / (lam[:, None] + alphas[None, :] * sw))
+        coefs = np.vstack([beta, (bn[-1] - g @ beta) / s0])
     else:
         coefs = np.column_stack([_ridge(Gn, bn, a * sw, pen) for a in alphas])
     return coefs / scale[:, None]
