@@ -83,3 +83,23 @@ def test_chunked_even_runs_stay_bit_equal(monkeypatch):
     monkeypatch.setattr(kernels, "_CHUNK_VALUES", 2 * 4096)  # 4096 samples per call
     lags, _ = lag_filter(x, dt, taus, bounds, carry=True)
     np.testing.assert_array_equal(lags, expected)
+
+
+def test_solve_all_with_a_free_intercept_equals_the_direct_ridge():
+    """The intercept eliminated exactly (one eigendecomposition for every penalty)
+    gives the solution of the bordered ridge system, penalty by penalty."""
+    from greyml.dynamic._gram import _ridge, _standardised, solve_all
+
+    rng = np.random.default_rng(0)
+    A = rng.normal(size=(200, 6)) * [1, 10, 0.1, 5, 2, 3] + 3
+    A = np.column_stack([A, np.ones(200)])
+    y = A[:, :6] @ [1.0, -0.2, 4.0, 0.5, 0.0, 1.5] + 7.0 + rng.normal(size=200)
+    G, b = A.T @ A, A.T @ y
+    pen = np.r_[np.ones(6), 0.0]
+    alphas = np.logspace(-6, 0, 7)
+    Gn, bn, scale = _standardised(G, b, 200.0, pen)
+    direct = np.column_stack([_ridge(Gn, bn, a * 200.0, pen) for a in alphas]) / scale[:, None]
+    np.testing.assert_allclose(solve_all(G, b, 200.0, alphas, pen), direct, rtol=1e-9, atol=1e-11)
+    # the smallest penalty recovers least squares: the coefficients and the intercept
+    ls = np.linalg.lstsq(A, y, rcond=None)[0]
+    np.testing.assert_allclose(solve_all(G, b, 200.0, [0.0], pen)[:, 0], ls, rtol=1e-8)
