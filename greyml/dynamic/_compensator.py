@@ -17,7 +17,7 @@ from greyml.dynamic._compensator_limits import _Limits, output_from_vars
 from greyml.dynamic._compensator_pipeline import pipeline_terms
 from greyml.dynamic._compensator_plan import build_plan
 from greyml.dynamic._compensator_plan import real as _real
-from greyml.dynamic._compensator_rows import forget_positions, read_row
+from greyml.dynamic._compensator_rows import bad_time, bad_value, forget_positions, read_row
 from greyml.dynamic._compensator_trust import _Trust, filter_from_vars
 from greyml.dynamic._kernels import lag_step
 from greyml.dynamic._output import limit_output
@@ -535,7 +535,7 @@ class Compensator(_Limits, _Trust):
         v = row[plan["index"]]
         if plan["power"].size:
             if plan["fractional"].size and (v[plan["fractional"]] < 0).any():
-                return self._bad_value(time, row, plan)
+                return bad_value(self, time, row, plan)
             start, stop = plan["span"]
             v[start:stop] **= plan["power"]
         previous = self._time
@@ -545,16 +545,18 @@ class Compensator(_Limits, _Trust):
             dt = time - previous
             if not dt > 0:
                 if self.nominal_step_s is None or not math.isfinite(time):
-                    self._bad_time(time, previous)
+                    bad_time(time, previous)
                 dt = self.nominal_step_s
                 shift = previous + dt - time
             elif dt > plan["max_step"]:
+                if not math.isfinite(time):
+                    bad_time(time, previous)
                 raise ValueError(
                     gap_message(_PREFIX[:-1], "the stream", dt, time, plan["max_step"])
                     + " Call reset() to start anew after a pause."
                 )
         if plan["check_all"] and not np.isfinite(row).all():
-            return self._bad_value(time, row, plan)
+            return bad_value(self, time, row, plan)
         if previous is None:
             lags = v
             lags[: plan["idle"].size][plan["idle"]] = 0.0
@@ -564,7 +566,7 @@ class Compensator(_Limits, _Trust):
             lags = lag_step(self._lags, v, self._a)
         total = float(plan["weight"] @ lags)
         if not math.isfinite(total) or not math.isfinite(time):
-            return self._bad_value(time, row, plan)
+            return bad_value(self, time, row, plan)
         if previous is None:
             self._start = self._first_start(total)
         self._time = time
@@ -589,41 +591,64 @@ class Compensator(_Limits, _Trust):
             return self.intercept + total - self._initial
         return total if self.relative_to_start else None
 
-    def _bad_time(self, time, previous):
-        if not math.isfinite(time):
-            raise ValueError(f"{_PREFIX} time_s is {time!r}; it must be a finite number.")
-        what = "repeats" if time == previous else "goes back"
-        raise ValueError(
-            f"{_PREFIX} time_s {what} from {previous:g} to {time:g} s; rows must come in "
-            "increasing time (or give nominal_step_s= to read a restarting clock as the "
-            "next test of the same recording)."
-        )
+    # -- to a controller -----------------------------------------------------
 
-    def _bad_value(self, time, row, plan):
-        """Refuse the row in one line, or hold the last output for a missing input."""
-        if not math.isfinite(time):
-            self._bad_time(time, self._time)
-        bad = np.flatnonzero(~np.isfinite(row[1:]))
-        if bad.size:
-            if self.on_missing == "hold":
-                return self._hold()
-            j = int(bad[0])
-            raise ValueError(
-                f"{_PREFIX} input {plan['names'][j]!r} is {float(row[j + 1])!r} at time_s = "
-                f"{time:g} s."
-            )
-        start, stop = plan["span"]
-        for k, power in zip(range(start, stop), plan["power"]):
-            j = int(plan["index"][k]) - 1
-            if power != round(power) and row[j + 1] < 0:
-                raise ValueError(
-                    f"{_PREFIX} input {plan['names'][j]!r} is negative ({float(row[j + 1])!r}) "
-                    f"at time_s = {time:g} s, and a term takes it to the power {power:g}, which "
-                    "is not a real number."
-                )
-        raise ValueError(
-            f"{_PREFIX} the correction overflows at time_s = {time:g} s (a power of an "
-            "input too large); scale the inputs."
+    def export(
+        self, language, path, *, name="greyml_compensator", description=None, overwrite=False
+    ):
+        """Write this compensator as C, IEC 61131-3 Structured Text or JSON.
+
+        Every export computes what :meth:`update` does (the lags, the
+        reference, the order of checks, the clamp, quantum, rate limit and
+        hold-last-value policy) and, with an ``uncertainty``, what
+        :meth:`observe` and :attr:`status` do; each starts with a comment
+        naming the model, the inputs in order with their units, the
+        reference, the time step it assumes and the greyml version. Names
+        from the model reach the code only as identifiers made of letters,
+        digits and single underscores (``x_`` and the name's letters), and in
+        comments as a short run of harmless characters. Read more in
+        :ref:`export`.
+
+        Parameters
+        ----------
+        language : {"c", "st", "json"}
+            ``"c"``: one self-contained C99 file (a state struct,
+            ``<name>_init``, ``<name>_reset``, ``<name>_update`` and, with an
+            ``uncertainty``, ``<name>_observe``, ``<name>_recalibrate``,
+            ``<name>_half_width`` and ``<name>_trusted``); ``"st"``: a
+            Structured Text ``FUNCTION_BLOCK`` (TwinCAT 3 / CODESYS);
+            ``"json"``: the coefficients, limits, state layout and units, with
+            its own schema and version.
+        path : str or path-like
+            The file to write (written beside it and renamed: a failure
+            leaves none).
+        name : str, default="greyml_compensator"
+            The function and function block name: a letter, then letters,
+            digits and single underscores, at most 31 characters.
+        description : str, optional
+            The model, in words, for the header (only harmless characters are
+            kept).
+        overwrite : bool, default=False
+            Replace ``path`` if it exists.
+
+        Returns
+        -------
+        path : pathlib.Path
+
+        Examples
+        --------
+        >>> import os, tempfile
+        >>> from greyml.dynamic import Compensator
+        >>> comp = Compensator(["T1_C"], [("T1_C", 1, 900.0, 10.0)], quantum_um=0.1)
+        >>> with tempfile.TemporaryDirectory() as d:
+        ...     text = comp.export("c", os.path.join(d, "z.c"), name="axis_z").read_text()
+        >>> "int axis_z_update(axis_z_state *s, double time_s" in text
+        True
+        """
+        from greyml.dynamic._export import export_compensator
+
+        return export_compensator(
+            self, language, path, name=name, description=description, overwrite=overwrite
         )
 
     # -- from a fitted pipeline ---------------------------------------------

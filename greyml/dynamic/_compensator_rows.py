@@ -1,4 +1,4 @@
-"""Reading a Compensator's row: a mapping, a pandas Series or an array, checked.
+"""Reading a Compensator's row (a mapping, a pandas Series or an array), and refusing one.
 
 A row becomes the float array ``(time_s, *inputs)``; a value that is not a real
 number (a bool, bytes, text, a date) is refused in one line, since it would
@@ -7,6 +7,7 @@ otherwise become a number and move the axis by it.
 
 from __future__ import annotations
 
+import math
 import numbers
 import weakref
 from collections.abc import Mapping
@@ -16,7 +17,7 @@ import pandas as pd
 
 from greyml._sequences import TIME_LEVEL
 
-__all__ = ["forget_positions", "read_row"]
+__all__ = ["bad_time", "bad_value", "forget_positions", "read_row"]
 
 _PREFIX = "Compensator.update:"
 
@@ -50,12 +51,12 @@ def _numbers_only(values, names):
             )
 
 
-def read_row(self, row, plan):
+def read_row(comp, row, plan):
     """The row as an array ``(time_s, *inputs)`` from a mapping, a Series or an array."""
     names = plan["names"]
     if isinstance(row, pd.Series):
         index = row.index
-        seen, positions = _SERIES_POSITIONS.get(self, (None, None))
+        seen, positions = _SERIES_POSITIONS.get(comp, (None, None))
         if row.dtype.kind not in "fiu":
             if index.has_duplicates:
                 twice = index[index.duplicated()][0]
@@ -69,7 +70,7 @@ def read_row(self, row, plan):
             if (positions < 0).any():
                 missing = [TIME_LEVEL, *names][int(np.flatnonzero(positions < 0)[0])]
                 raise ValueError(f"{_PREFIX} the row has no {missing!r}.")
-            _SERIES_POSITIONS[self] = (index, positions)
+            _SERIES_POSITIONS[comp] = (index, positions)
         try:
             return row.to_numpy(dtype=float)[positions]
         except (TypeError, ValueError):
@@ -104,3 +105,42 @@ def read_row(self, row, plan):
             f"got shape {values.shape}."
         )
     return values[order["take"]]
+
+
+def bad_time(time, previous):
+    """Refuse a time that is not finite or not later than the previous row's, in one line."""
+    if not math.isfinite(time):
+        raise ValueError(f"{_PREFIX} time_s is {time!r}; it must be a finite number.")
+    what = "repeats" if time == previous else "goes back"
+    raise ValueError(
+        f"{_PREFIX} time_s {what} from {previous:g} to {time:g} s; rows must come in "
+        "increasing time (or give nominal_step_s= to read a restarting clock as the "
+        "next test of the same recording)."
+    )
+
+
+def bad_value(comp, time, row, plan):
+    """Refuse the row in one line, or hold the last output for a missing input."""
+    if not math.isfinite(time):
+        bad_time(time, comp._time)
+    bad = np.flatnonzero(~np.isfinite(row[1:]))
+    if bad.size:
+        if comp.on_missing == "hold":
+            return comp._hold()
+        j = int(bad[0])
+        raise ValueError(
+            f"{_PREFIX} input {plan['names'][j]!r} is {float(row[j + 1])!r} at time_s = {time:g} s."
+        )
+    start, stop = plan["span"]
+    for k, power in zip(range(start, stop), plan["power"]):
+        j = int(plan["index"][k]) - 1
+        if power != round(power) and row[j + 1] < 0:
+            raise ValueError(
+                f"{_PREFIX} input {plan['names'][j]!r} is negative ({float(row[j + 1])!r}) "
+                f"at time_s = {time:g} s, and a term takes it to the power {power:g}, which "
+                "is not a real number."
+            )
+    raise ValueError(
+        f"{_PREFIX} the correction overflows at time_s = {time:g} s (a power of an "
+        "input too large); scale the inputs."
+    )
