@@ -524,7 +524,10 @@ def write_c(p):
     if p.hold:
         missing = f"            s->held = 1;\n            return {M}_HELD;"
     else:
-        missing = f"            return {M}_ERR_VALUE;"
+        missing = (
+            "            (void)s; /* refused: no state changes */\n"
+            f"            return {M}_ERR_VALUE;"
+        )
     stage = _stage_c(p)
     source = _TEMPLATE.substitute(
         P=p.name,
