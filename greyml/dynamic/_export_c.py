@@ -56,7 +56,10 @@ def header_lines(p, language, call):
     for j, v in enumerate(p.inputs):
         lines.append(f"  {j:3d}  {v.identifier:<32s} {v.comment} ({v.unit})")
     lines += [
-        f"Output: the correction for the axis in um (micrometres); {call}.",
+        "Output: the thermal displacement the model predicts, in um (micrometres), after the "
+        "limits below; the axis offset that compensates it is usually its negative (greyml "
+        "predict writes compensation = -prediction): check the sign on the machine.",
+        f"Use: {call}.",
         f"Reference: {p.reference}.",
         f"Time: {p.time_step}.",
         f"Limits: {p.limits_text()}.",
@@ -559,6 +562,6 @@ def write_c(p):
     )
     call = (
         f"{p.name}_init once, {p.name}_update at every row (time_s and the inputs), "
-        f"write *output_um to the axis"
+        "*output_um is the output"
     )
     return _header(p, header_lines(p, "C99", call)) + source

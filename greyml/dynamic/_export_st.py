@@ -15,22 +15,13 @@ from __future__ import annotations
 from string import Template
 
 from greyml.dynamic._export_c import header_lines, wrap
+from greyml.dynamic._export_st_filter import finite, literal, observe_block
 from greyml.dynamic._output import QUANTA_MAX, QUANTUM_TOLERANCE
 from greyml.dynamic._program import STATUS_CODES
 
 __all__ = ["write_st"]
 
-_MAX_REAL = "1.7976931348623157E308"
 _TYPES = {"real": "LREAL", "int": "DINT", "bool": "BOOL"}
-
-
-def _real(x):
-    """An LREAL literal that reads back as exactly ``x``: IEC wants a digit after a point."""
-    text = repr(float(x)).upper()
-    mantissa, e, exponent = text.partition("E")
-    if "." not in mantissa:
-        mantissa += ".0"
-    return mantissa + e + exponent
 
 
 def _list(values, fmt, per_line=4):
@@ -41,10 +32,6 @@ def _list(values, fmt, per_line=4):
 
 def _bool(v):
     return "TRUE" if v else "FALSE"
-
-
-def _finite(x):
-    return f"(ABS({x}) <= {_MAX_REAL})"
 
 
 def _state_declarations(p):
@@ -86,7 +73,7 @@ def _stage_st(p):
     """Step (7): the output stage (:func:`greyml.dynamic._output.limit_output`)."""
     lines = []
     if p.clamp_um is not None:
-        c = _real(p.clamp_um)
+        c = literal(p.clamp_um)
         lines += [
             f"        IF value > {c} THEN",
             f"            value := {c};",
@@ -94,7 +81,7 @@ def _stage_st(p):
             f"            value := -{c};",
             "        END_IF;",
         ]
-    rate = None if p.rate_limit_um_s is None else _real(p.rate_limit_um_s)
+    rate = None if p.rate_limit_um_s is None else literal(p.rate_limit_um_s)
     if p.quantum_um is None:
         if rate is not None:
             lines += [
@@ -111,12 +98,12 @@ def _stage_st(p):
             ]
         lines += ["        st_last := value;", "        st_output_um := value;"]
         return "\n".join(lines)
-    q = _real(p.quantum_um)
+    q = literal(p.quantum_um)
     lines += [
         "        (* whole quanta, halves away from zero; TRUNC of a number >= 0 is its floor *)",
         f"        m := ABS(value) / {q} + 0.5;",
-        f"        IF m > {_real(QUANTA_MAX)} THEN",
-        f"            m := {_real(QUANTA_MAX)};",
+        f"        IF m > {literal(QUANTA_MAX)} THEN",
+        f"            m := {literal(QUANTA_MAX)};",
         "        END_IF;",
         "        count := DINT_TO_LREAL(TRUNC(m));",
         "        IF value < 0.0 THEN",
@@ -137,7 +124,7 @@ def _stage_st(p):
             "        END_IF;",
             "        d := count - st_last;",
             "        m := ABS(d);",
-            f"        allowed := st_credit_um / {q} + {_real(QUANTUM_TOLERANCE)};",
+            f"        allowed := st_credit_um / {q} + {literal(QUANTUM_TOLERANCE)};",
             "        IF allowed < m THEN",
             "            m := allowed;",
             "        END_IF;",
@@ -310,229 +297,6 @@ ${status_outputs}
 )
 
 
-def _observe_st(p):
-    """Observe and Recalibrate (Compensator.observe's filter), and the outputs of
-    the interval (``HalfWidthUm``, ``Trusted``, ``Changes``); '' and '' without one."""
-    if p.trust is None:
-        return "", ""
-    t = p.trust
-    tolerance = "TRUE" if p.tolerance_um is None else f"HalfWidthUm <= {_real(p.tolerance_um)}"
-    return Template(
-        r"""IF Observe THEN
-    ProbeStatus := 0;
-    IF NOT (${finite_probe_time} AND ${finite_probe}) OR NOT st_started THEN
-        ProbeStatus := ERR_READING;
-    ELSIF ABS(ProbeUm) > ${max_correction} OR ProbeTimeS > st_time_s THEN
-        ProbeStatus := ERR_READING;
-    ELSIF st_has_reading AND ProbeTimeS <= st_last_reading THEN
-        ProbeStatus := ERR_READING;
-    END_IF;
-    IF ProbeStatus = 0 THEN
-        oldest := 0;
-        IF st_hcount >= HISTORY THEN
-            oldest := st_hpos;
-        END_IF;
-        IF ProbeTimeS < st_ht[oldest] THEN
-            ProbeStatus := ERR_READING;
-        END_IF;
-    END_IF;
-    IF ProbeStatus = 0 THEN
-        (* the model's correction at ProbeTimeS, linear between the rows remembered *)
-        m := st_hm[(st_hpos + HISTORY - 1) MOD HISTORY];
-        found := FALSE;
-        FOR k := 0 TO HISTORY - 2 DO
-            IF NOT found AND k + 1 < st_hcount THEN
-                j0 := (oldest + k) MOD HISTORY;
-                j1 := (oldest + k + 1) MOD HISTORY;
-                IF ProbeTimeS < st_ht[j1] THEN
-                    slope := (st_hm[j1] - st_hm[j0]) / (st_ht[j1] - st_ht[j0]);
-                    m := slope * (ProbeTimeS - st_ht[j0]) + st_hm[j0];
-                    found := TRUE;
-                END_IF;
-            END_IF;
-        END_FOR;
-        IF NOT st_adjusted THEN
-            (* the first reading: the slow part's prior is the batch variance there *)
-            dh := (ProbeTimeS - st_ft0) / 3600.0;
-            IF dh < 0.0 THEN
-                dh := 0.0;
-            END_IF;
-            FOR k := 0 TO 2 DO
-                fx[k] := 0.0;
-            END_FOR;
-            FOR k := 0 TO 8 DO
-                fp[k] := st_fp[k];
-            END_FOR;
-            fp[0] := ${offset_var} + ${growth_var} * dh;
-        ELSE
-            propTime := ProbeTimeS;
-${propagate}
-        END_IF;
-        h[0] := 1.0;
-        h[1] := 0.0;
-        h[2] := m;
-        predicted := m * (1.0 + fx[2]) + fx[0];
-        innovation := ProbeUm - predicted;
-        hph := (fp[0] + m * fp[6]) + (fp[2] + m * fp[8]) * m;
-        sv := hph + ${noise_var} + ${probe_var};
-        IF sv <= 0.0 THEN
-            sv := 2.2250738585072014E-308; (* no uncertainty at all: the reading is the truth *)
-        END_IF;
-        FOR k := 0 TO 2 DO
-            ph[k] := fp[3 * k] * h[0] + fp[3 * k + 1] * h[1] + fp[3 * k + 2] * h[2];
-            kg[k] := ph[k] / sv;
-            fx[k] := fx[k] + kg[k] * innovation;
-        END_FOR;
-        FOR k := 0 TO 2 DO
-            FOR j := 0 TO 2 DO
-                IF k = j THEN
-                    ikh[3 * k + j] := 1.0 - kg[k] * h[j];
-                ELSE
-                    ikh[3 * k + j] := 0.0 - kg[k] * h[j];
-                END_IF;
-            END_FOR;
-        END_FOR;
-        FOR k := 0 TO 2 DO
-            FOR j := 0 TO 2 DO
-                am[3 * k + j] := ikh[3 * k] * fp[j] + ikh[3 * k + 1] * fp[3 + j]
-                    + ikh[3 * k + 2] * fp[6 + j];
-            END_FOR;
-        END_FOR;
-        FOR k := 0 TO 2 DO
-            FOR j := 0 TO 2 DO
-                pn[3 * k + j] := kg[k] * kg[j] * (sv - hph) + am[3 * k] * ikh[3 * j]
-                    + am[3 * k + 1] * ikh[3 * j + 1] + am[3 * k + 2] * ikh[3 * j + 2];
-            END_FOR;
-        END_FOR;
-        FOR k := 0 TO 2 DO
-            st_fx[k] := fx[k];
-            FOR j := 0 TO 2 DO
-                st_fp[3 * k + j] := 0.5 * (pn[3 * k + j] + pn[3 * j + k]);
-            END_FOR;
-        END_FOR;
-        st_ft0 := ProbeTimeS;
-        st_has_ft0 := TRUE;
-        st_adjusted := TRUE;
-        st_has_reading := TRUE;
-        st_last_reading := ProbeTimeS;
-        (* the change detector: a two-sided CUSUM of the standardised innovations *)
-        zs := innovation / SQRT(sv);
-        st_flags[0] := st_flags[0] + zs - ${allowance};
-        st_flags[1] := st_flags[1] - zs - ${allowance};
-        FOR k := 0 TO 1 DO
-            IF st_flags[k] < 0.0 THEN
-                st_flags[k] := 0.0;
-            END_IF;
-        END_FOR;
-        IF st_flags[0] > ${threshold} OR st_flags[1] > ${threshold} THEN
-            recalSize := innovation;
-${recalibrate}
-        END_IF;
-        dh := (st_time_s - st_ft0) / 3600.0;
-        st_correction_um := st_model_um * (1.0 + st_fx[2]) + st_fx[0] * EXP(-dh / MEMORY_H)
-            + st_fx[1] * dh;
-    END_IF;
-END_IF;
-IF Recalibrate THEN
-    recalSize := SQRT(${offset_var} + ${noise_var});
-    IF recalSize = 0.0 THEN
-        recalSize := 1.0;
-    END_IF;
-${recalibrate_outer}
-END_IF;
-"""
-    ).substitute(
-        finite_probe_time=_finite("ProbeTimeS"),
-        finite_probe=_finite("ProbeUm"),
-        max_correction=_real(p.max_correction_um),
-        offset_var=_real(t.offset_var),
-        growth_var=_real(t.growth_var_per_h),
-        noise_var=_real(t.noise_var),
-        probe_var=_real(t.probe_noise_um**2),
-        allowance=_real(t.allowance),
-        threshold=_real(t.change_threshold),
-        propagate=_propagate_st("            "),
-        recalibrate=_recalibrate_st("            "),
-        recalibrate_outer=_recalibrate_st("    "),
-    ), _status_st(p, tolerance)
-
-
-def _recalibrate_st(indent):
-    """Compensator.recalibrate(recalSize): drift and gain become uncertain."""
-    lines = """st_fp[0] := st_fp[0] + recalSize * recalSize;
-st_fp[4] := st_fp[4] + recalSize * recalSize;
-st_fp[8] := st_fp[8] + GAIN_VAR;
-st_changes := st_changes + 1;
-st_flags[0] := 0.0;
-st_flags[1] := 0.0;"""
-    return "\n".join(indent + line for line in lines.split("\n"))
-
-
-def _propagate_st(indent):
-    """fx, fp := the filter carried from its time to propTime (F x, F P F' + Q)."""
-    lines = """dh := (propTime - st_ft0) / 3600.0;
-IF dh < 0.0 THEN
-    dh := 0.0;
-END_IF;
-phi := EXP(-dh / MEMORY_H);
-ff[0] := phi; ff[1] := dh; ff[2] := 0.0;
-ff[3] := 0.0; ff[4] := 1.0; ff[5] := 0.0;
-ff[6] := 0.0; ff[7] := 0.0; ff[8] := 1.0;
-FOR k := 0 TO 2 DO
-    fx[k] := ff[3 * k] * st_fx[0] + ff[3 * k + 1] * st_fx[1] + ff[3 * k + 2] * st_fx[2];
-    FOR j := 0 TO 2 DO
-        am[3 * k + j] := ff[3 * k] * st_fp[j] + ff[3 * k + 1] * st_fp[3 + j]
-            + ff[3 * k + 2] * st_fp[6 + j];
-    END_FOR;
-END_FOR;
-FOR k := 0 TO 2 DO
-    FOR j := 0 TO 2 DO
-        fp[3 * k + j] := am[3 * k] * ff[3 * j] + am[3 * k + 1] * ff[3 * j + 1]
-            + am[3 * k + 2] * ff[3 * j + 2];
-    END_FOR;
-END_FOR;
-fp[0] := fp[0] + MEMORY_VAR * (1.0 - phi * phi);"""
-    return "\n".join(indent + line for line in lines.split("\n"))
-
-
-def _status_st(p, tolerance):
-    """HalfWidthUm, Trusted and Changes, at every call."""
-    t = p.trust
-    return Template(
-        r"""HalfWidthUm := 0.0;
-Trusted := FALSE;
-IF st_started THEN
-    IF NOT st_adjusted THEN
-        dh := (st_time_s - st_ft0) / 3600.0;
-        IF dh < 0.0 THEN
-            dh := 0.0;
-        END_IF;
-        variance := ${offset_var} + ${growth_var} * dh + ${noise_var};
-    ELSE
-        propTime := st_time_s;
-${propagate}
-        m := st_model_um;
-        hph := (fp[0] + m * fp[6]) + (fp[2] + m * fp[8]) * m;
-        IF hph < 0.0 THEN
-            hph := 0.0;
-        END_IF;
-        variance := hph + ${noise_var};
-    END_IF;
-    HalfWidthUm := ${quantile} * SQRT(variance);
-    Trusted := Plausible AND ${tolerance};
-END_IF;
-Changes := st_changes;
-"""
-    ).substitute(
-        offset_var=_real(t.offset_var),
-        growth_var=_real(t.growth_var_per_h),
-        noise_var=_real(t.noise_var),
-        quantile=_real(t.interval_quantile),
-        propagate=_propagate_st("        "),
-        tolerance=tolerance,
-    )
-
-
 def _declarations(p):
     """The function block's interface, state, scratch variables and constants."""
     n_terms, n_lags, n_inputs = len(p.terms), p.n_lags, len(p.inputs)
@@ -557,8 +321,8 @@ def _declarations(p):
             "    Recalibrate : BOOL; (* TRUE: let the next readings estimate drift and gain *)",
         ]
     outputs = [
-        "    OutputUm : LREAL; (* write this to the axis offset, um *)",
-        "    CorrectionUm : LREAL; (* the correction before the limits, um *)",
+        "    OutputUm : LREAL; (* the predicted displacement after the limits, um *)",
+        "    CorrectionUm : LREAL; (* the predicted displacement before the limits, um *)",
         "    Status : DINT; (* of the last row: 0 taken, 1 held, < 0 refused *)",
         "    Held : BOOL; (* the last row had a missing input: OutputUm is the one before *)",
         "    Started : BOOL; (* a row was taken since the start or Reset *)",
@@ -631,16 +395,16 @@ def _declarations(p):
         + _list([t.input for t in terms], str, 16)
         + ";",
         f"    POWER : ARRAY[0..{max(n_terms, 1) - 1}] OF LREAL := "
-        + _list([t.power for t in terms], _real)
+        + _list([t.power for t in terms], literal)
         + ";",
         f"    FRACTIONAL : ARRAY[0..{max(n_terms, 1) - 1}] OF BOOL := "
         + _list([t.fractional for t in terms], _bool, 8)
         + ";",
         f"    WEIGHT : ARRAY[0..{max(n_terms, 1) - 1}] OF LREAL := "
-        + _list([t.weight for t in terms], _real)
+        + _list([t.weight for t in terms], literal)
         + ";",
         f"    TAU : ARRAY[0..{max(n_lags, 1) - 1}] OF LREAL := "
-        + _list([t.tau_s for t in lags] or [1.0], _real)
+        + _list([t.tau_s for t in lags] or [1.0], literal)
         + ";",
         f"    IDLE : ARRAY[0..{max(n_lags, 1) - 1}] OF BOOL := "
         + _list([t.idle for t in lags], _bool, 8)
@@ -649,9 +413,9 @@ def _declarations(p):
     if trust:
         constants += [
             f"    HISTORY : DINT := {p.trust.history};",
-            f"    MEMORY_H : LREAL := {_real(p.trust.memory_h)};",
-            f"    MEMORY_VAR : LREAL := {_real(p.trust.memory_var)};",
-            f"    GAIN_VAR : LREAL := {_real(p.trust.gain_var)};",
+            f"    MEMORY_H : LREAL := {literal(p.trust.memory_h)};",
+            f"    MEMORY_VAR : LREAL := {literal(p.trust.memory_var)};",
+            f"    GAIN_VAR : LREAL := {literal(p.trust.gain_var)};",
         ]
     return "\n".join(
         [
@@ -679,14 +443,15 @@ def write_st(p):
     else:
         restart = (
             "                (* the next piece of the recording: its clock starts anew *)\n"
-            f"                dt := {_real(p.nominal_step_s)};\n"
+            f"                dt := {literal(p.nominal_step_s)};\n"
             "                shift := st_time_s + dt - TimeS;"
         )
     gap = (
         ""
         if p.max_step_s is None
         else (
-            f"\n            ELSIF dt > {_real(p.max_step_s)} THEN\n                code := ERR_GAP;"
+            f"\n            ELSIF dt > {literal(p.max_step_s)} THEN\n"
+            "                code := ERR_GAP;"
         )
     )
     if p.hold:
@@ -694,27 +459,27 @@ def write_st(p):
     else:
         missing = "            code := ERR_VALUE;"
     copy = "\n".join(f"xin[{j}] := {v.identifier};" for j, v in enumerate(p.inputs))
-    observe, status = _observe_st(p)
+    observe, status = observe_block(p)
     body = _BODY.substitute(
         copy_inputs=copy,
-        finite_xin=_finite("xin[j]"),
-        finite_time=_finite("TimeS"),
-        finite_total=_finite("total"),
+        finite_xin=finite("xin[j]"),
+        finite_time=finite("TimeS"),
+        finite_total=finite("total"),
         reset=_reset_body(p),
         restart=restart,
         gap=gap,
         missing=missing,
-        intercept=_real(p.intercept),
+        intercept=literal(p.intercept),
         relative=_bool(p.relative_to_start),
         record=_record_st(p),
         stage=_stage_st(p),
         observe=observe,
-        max_correction=_real(p.max_correction_um),
+        max_correction=literal(p.max_correction_um),
         status_outputs=status,
     )
     call = (
         f"call {p.name} every cycle; set Execute on a cycle that brings a new row (time_s "
-        "must increase), and write OutputUm to the axis offset"
+        "must increase); OutputUm is the output"
     )
     lines = wrap(header_lines(p, "IEC 61131-3 Structured Text", call))
     header = "(*\n" + "\n".join(f"  {line}".rstrip() for line in lines) + "\n*)\n"
