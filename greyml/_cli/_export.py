@@ -78,7 +78,8 @@ def _add_export_parser(subparsers):
 
 
 def _compensator(model_path):
-    """The compensator a model file holds or gives, and the model in words.
+    """The compensator a model file holds or gives, the model in words, and the
+    warnings loading it raised.
 
     A file that is not a greyml model, or holds neither a compensator nor a
     transfer function, is a ValueError with one line naming the file.
