@@ -132,6 +132,12 @@ def _to_csv(frame, path):
     return str(path)
 
 
+def _real(X, y):
+    """The measurement that the valid target, given as the simulation, falls 10 % short of
+    (a measurement equal to the simulation in every row is no gap, and is refused)."""
+    return _table(X, y / 0.9)
+
+
 def _sim(y):
     """A simulation 10 % off the measured target, on the measured rows."""
     return (0.9 * y).to_frame()
@@ -417,14 +423,14 @@ def test_bad_input(entry, case, tmp_path, capsys, request):
         "tmp": tmp_path,
         "capsys": capsys,
         "sim": _sim(y),
-        "real": _table(X, y),
+        "real": _real(X, y),
         "pred": _pred(y),
     }
     if entry.name == "greyml predict":
         ctx["model"] = request.getfixturevalue("fitted_model")
     if entry.name.startswith("greyml gap"):
         ctx["sim_csv"] = _to_csv(_sim(y), tmp_path / "sim_valid.csv")
-        ctx["real_csv"] = _to_csv(_table(X, y), tmp_path / "real_valid.csv")
+        ctx["real_csv"] = _to_csv(_real(X, y), tmp_path / "real_valid.csv")
     Xb, yb = case.corrupt(X, y)
     capsys.readouterr()
     try:
@@ -1453,12 +1459,26 @@ CLI_CASES = [
     ),
     (
         "select-n-too-many",
-        lambda tmp: ["select", _to_csv(REAL, tmp / "d.csv"), "--target", TARGET, "--n-sensors", "9"],
+        lambda tmp: [
+            "select",
+            _to_csv(REAL, tmp / "d.csv"),
+            "--target",
+            TARGET,
+            "--n-sensors",
+            "9",
+        ],
         r"--n-sensors 9.*3 candidate",
     ),
     (
         "select-n-zero",
-        lambda tmp: ["select", _to_csv(REAL, tmp / "d.csv"), "--target", TARGET, "--n-sensors", "0"],
+        lambda tmp: [
+            "select",
+            _to_csv(REAL, tmp / "d.csv"),
+            "--target",
+            TARGET,
+            "--n-sensors",
+            "0",
+        ],
         r"--n-sensors.*at least 1",
     ),
     (
@@ -1644,12 +1664,12 @@ def test_valid_calls_are_quick_and_clean(tmp_path, capsys):
         "tmp": tmp_path,
         "capsys": capsys,
         "sim": _sim(y),
-        "real": _table(X, y),
+        "real": _real(X, y),
         "pred": _pred(y),
     }
     ctx["model"] = None
     ctx["sim_csv"] = _to_csv(_sim(y), tmp_path / "sim_valid.csv")
-    ctx["real_csv"] = _to_csv(_table(X, y), tmp_path / "real_valid.csv")
+    ctx["real_csv"] = _to_csv(_real(X, y), tmp_path / "real_valid.csv")
     for entry in ENTRIES:
         if entry.name == "greyml predict":
             continue
