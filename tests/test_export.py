@@ -268,3 +268,33 @@ def _frame():
     frame = X.iloc[:, :3].copy()
     frame["y"] = y
     return frame
+
+
+def test_an_infinite_bound_is_written_as_no_bound(tmp_path):
+    # max_correction_um, tolerance_um and change_threshold as bounds that nothing passes
+    # (the Compensator's constraints refuse them today; an export must not write 'inf')
+    import dataclasses
+
+    from greyml.dynamic._export import LANGUAGES
+
+    comp = Compensator(["T1_C"], [("T1_C", 1, 600.0, 1.0)], uncertainty=(1.0, 0.1, 0.1, 1.0, 2.0))
+    program = describe(comp, name="unbounded")
+    program = dataclasses.replace(
+        program,
+        max_correction_um=math.inf,
+        tolerance_um=math.inf,
+        trust=dataclasses.replace(program.trust, change_threshold=math.inf),
+    )
+    data = json.loads(LANGUAGES["json"](program))
+    assert data["max_correction_um"] is None and data["tolerance_um"] is None
+    st_text = LANGUAGES["st"](program)
+    assert "inf" not in _strip_comments(st_text, "st").lower().replace("initial", "")
+    assert "ABS(ProbeUm) > 1.7976931348623157E308" in st_text
+    c_text = LANGUAGES["c"](program)
+    assert "fabs(measured_um) > HUGE_VAL" in c_text
+    if compiler() is None:
+        return
+    (tmp_path / "unbounded.c").write_text(c_text)
+    subprocess.run(
+        [compiler(), *C_FLAGS, "-c", "unbounded.c"], cwd=tmp_path, check=True, capture_output=True
+    )

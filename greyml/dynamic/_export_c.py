@@ -10,6 +10,7 @@ probe filter's ring), nothing is allocated, and only ``<math.h>`` is used.
 
 from __future__ import annotations
 
+import math
 import textwrap
 from string import Template
 
@@ -20,8 +21,14 @@ __all__ = ["write_c"]
 
 
 def _real(x):
-    """A double literal that reads back as exactly ``x`` (shortest round trip)."""
-    text = repr(float(x))
+    """A double literal that reads back as exactly ``x`` (shortest round trip); an
+    infinite bound is ``HUGE_VAL`` of ``<math.h>``."""
+    x = float(x)
+    if math.isinf(x):
+        return "HUGE_VAL" if x > 0 else "(-HUGE_VAL)"
+    if math.isnan(x):
+        raise ValueError("Compensator.export: a number to write is NaN.")
+    text = repr(x)
     return text if any(c in text for c in ".en") else text + ".0"
 
 

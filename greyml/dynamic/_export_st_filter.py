@@ -9,6 +9,7 @@ parts of :mod:`greyml.dynamic._export_st` use.
 
 from __future__ import annotations
 
+import math
 from string import Template
 
 __all__ = ["finite", "literal", "observe_block"]
@@ -17,9 +18,14 @@ _MAX_REAL = "1.7976931348623157E308"
 
 
 def literal(x):
-    """An LREAL literal that reads back as exactly ``x``: IEC wants a digit after a point."""
-    text = repr(float(x)).upper()
-    mantissa, e, exponent = text.partition("E")
+    """An LREAL literal that reads back as exactly ``x`` (IEC wants a digit after a
+    point); an infinite bound is the largest LREAL, which every finite number is within."""
+    x = float(x)
+    if math.isinf(x):
+        return _MAX_REAL if x > 0 else "-" + _MAX_REAL
+    if math.isnan(x):
+        raise ValueError("Compensator.export: a number to write is NaN.")
+    mantissa, e, exponent = repr(x).upper().partition("E")
     if "." not in mantissa:
         mantissa += ".0"
     return mantissa + e + exponent

@@ -239,7 +239,7 @@ class Program:
         """The JSON export (strict JSON: no NaN or infinity)."""
         trust = None
         if self.trust is not None:
-            trust = {k: getattr(self.trust, k) for k in self.trust.__dataclass_fields__}
+            trust = {k: _bound(getattr(self.trust, k)) for k in self.trust.__dataclass_fields__}
         return {
             "schema": SCHEMA,
             "schema_version": SCHEMA_VERSION,
@@ -275,8 +275,8 @@ class Program:
                 "quanta_max": QUANTA_MAX,
                 "quantum_tolerance": QUANTUM_TOLERANCE,
             },
-            "max_correction_um": self.max_correction_um,
-            "tolerance_um": self.tolerance_um,
+            "max_correction_um": _bound(self.max_correction_um),
+            "tolerance_um": _bound(self.tolerance_um),
             "probe_filter": trust,
             "status_codes": {k: {"code": c, "meaning": m} for k, (c, m) in STATUS_CODES.items()},
             "state": [
@@ -291,6 +291,11 @@ class Program:
             ],
             "algorithm": ALGORITHM,
         }
+
+
+def _bound(value):
+    """A number for JSON: None (null) for no bound or an infinite one."""
+    return None if value is None or math.isinf(value) else value
 
 
 #: The computation in words, step by step (the JSON carries it; C and ST spell it out).
