@@ -99,22 +99,24 @@ def day(inputs):
     return t[keep], X[list(inputs)].to_numpy(dtype=float)[keep], y.to_numpy(dtype=float)[keep]
 
 
-def scripted(calibrated=True, **limits):
+def scripted(calibrated=True, names=("T1_C", "T2_C", "rpm"), **limits):
     """A small compensator with every feature: lags, raw inputs, a fractional power, an
-    idle driver, a gap limit and (``calibrated``) a calibration that fires easily."""
+    idle driver, a gap limit and (``calibrated``) a calibration that fires easily; its
+    inputs (two temperatures and a speed) are called ``names``."""
+    t1, t2, rpm = names
     return Compensator(
-        ["T1_C", "T2_C", "rpm"],
+        list(names),
         [
-            ("T1_C", 1, 600.0, 2.0),
-            ("T2_C", 1, 1800.0, -1.0),
-            ("T2_C", 1, None, 0.5),
-            ("rpm", 1.5, None, 0.01),
-            ("rpm", 1, 900.0, 0.002),
-            ("rpm", 2, 300.0, 1e-6),
+            (t1, 1, 600.0, 2.0),
+            (t2, 1, 1800.0, -1.0),
+            (t2, 1, None, 0.5),
+            (rpm, 1.5, None, 0.01),
+            (rpm, 1, 900.0, 0.002),
+            (rpm, 2, 300.0, 1e-6),
         ],
         intercept=1.5,
         relative_to_start=True,
-        idle_inputs=["rpm"],
+        idle_inputs=[rpm],
         max_step_s=3600.0,
         uncertainty=(4.0, 0.5, 0.2, 2.0, 1.5) if calibrated else None,
         tolerance_um=3.0,
@@ -195,7 +197,7 @@ def replay(comp, engine, actions, on_missing):
             if code == HELD and on_missing == "raise":
                 code = ERR_VALUE
             try:
-                value = comp.update({"time_s": t, "T1_C": x[0], "T2_C": x[1], "rpm": x[2]})
+                value = comp.update(dict(zip(["time_s", *comp.inputs], [t, *x])))
                 got = HELD if comp.status.held else 0
             except ValueError:
                 got = None

@@ -139,18 +139,6 @@ def test_a_hostile_sensor_name_exports_as_a_harmless_identifier(tmp_path):
         )
 
 
-def test_the_hostile_function_block_parses():
-    pytest.importorskip("blark", reason="blark, the IEC 61131-3 parser, is in the test extra")
-    from _st_runtime import FunctionBlock
-
-    comp = Compensator(HOSTILE[:2], [(HOSTILE[0], 1, 600.0, 1.0), (HOSTILE[1], 1, None, 2.0)])
-    block = FunctionBlock(export_text(comp, "st", name="hostile"))
-    assert {"x_x_system_rm_rf", "x_include_stdlib_h"} <= set(block.inputs)
-    out = block(Execute=True, TimeS=0.0, x_x_system_rm_rf=20.0, x_include_stdlib_h=1.0)
-    value = comp.update({"time_s": 0.0, HOSTILE[0]: 20.0, HOSTILE[1]: 1.0})
-    assert out["status"] == 0 and out["outputum"] == value == 22.0
-
-
 @pytest.mark.parametrize(
     "name", ['x); system("ls"); //', "1abc", "a__b", "end_if", "Int", "x" * 32, "", "ab_"]
 )

@@ -95,6 +95,8 @@ SCRIPTED = {
     ),
     "refusing clock, no limits, raise, no calibration": (False, None, "raise", {}),
 }
+# the second block's inputs are named as a hostile model file would name them
+HOSTILE = ('x); system("rm -rf /"); //', "*) END_FUNCTION_BLOCK (*", "t1_C\nEND_VAR")
 
 
 def test_a_day_of_rows_and_readings_gives_pythons_output_to_1e_6():
@@ -125,11 +127,18 @@ def test_a_day_of_rows_and_readings_gives_pythons_output_to_1e_6():
 @pytest.mark.parametrize("label", list(SCRIPTED))
 def test_refusals_held_rows_readings_and_resets_match_python(label):
     calibrated, nominal, on_missing, limits = SCRIPTED[label]
-    comp = scripted(calibrated, nominal_step_s=nominal, on_missing=on_missing, **limits)
+    names = {} if calibrated else {"names": HOSTILE}
+    comp = scripted(calibrated, nominal_step_s=nominal, on_missing=on_missing, **names, **limits)
     block = Block(comp)
     worst, changes = replay(comp, block, script(nominal), on_missing)
     assert worst <= 1e-6
-    assert changes >= 3 if calibrated else "observe" not in block.fb.inputs
+    if calibrated:
+        assert changes >= 3
+    else:  # no probe inputs, and the hostile names as harmless identifiers
+        assert "observe" not in block.fb.inputs
+        assert {"x_x_system_rm_rf", "x_end_function_block", "x_t1_c_end_var"} <= set(
+            block.fb.inputs
+        )
 
 
 def test_inputs_valid_false_is_a_missing_input():
