@@ -18,6 +18,9 @@ Usage
                --out MODEL.file [--n-sensors N] [--cluster-on ...] [--sensors A,B]
                [--train-tests A,B] [--random-state N] [--force]
     greyml predict MODEL.file DATA.csv --out PRED.csv [--force] [--initial-displacement V]
+    greyml export MODEL.file --language {c,st,json} --out FILE [--name NAME]
+                  [--rate-limit UM_S] [--quantum UM] [--clamp UM] [--on-missing hold|raise]
+                  [--force]
     greyml --version
 
 Every command takes ``--quiet`` (no progress on standard error; progress is

@@ -186,6 +186,7 @@ def test_bad_rows():
         ["T1_C", "rpm"],
         [("T1_C", 1, 900.0, 1.0), ("rpm", 1, None, 1.0)],
         row_columns=["time_s", "T1_C", "rpm"],
+        on_missing="raise",  # a NaN input refused (the default holds the last output)
     )
     comp.update({"time_s": 0.0, "T1_C": 20.0, "rpm": 1.0})
     before = comp.get_state()

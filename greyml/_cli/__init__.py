@@ -1,8 +1,8 @@
 """The ``greyml`` command line, one module per subcommand (see :mod:`greyml.cli`).
 
 - :mod:`greyml._cli._parser`: the argument parser and :func:`main`;
-- :mod:`greyml._cli._demo`, ``_simulate``, ``_select``, ``_fit``, ``_predict``
-  and ``_gap``: each subcommand's flags, help text and work;
+- :mod:`greyml._cli._demo`, ``_simulate``, ``_select``, ``_fit``, ``_predict``,
+  ``_export`` and ``_gap``: each subcommand's flags, help text and work;
 - :mod:`greyml._cli._flags` (argument types and the one-line usage errors),
   :mod:`greyml._cli._printing` (progress, warnings, text safe for a terminal),
   :mod:`greyml._cli._files` (reading CSV tests, checking columns and output

@@ -357,6 +357,13 @@ _COMMANDS = {
         "Apply a model saved by greyml fit to new tests and write the predicted "
         "thermal error and the compensation value of every row to a CSV file.",
     ),
+    "export": (
+        "write a saved compensator as C, Structured Text or JSON for a controller",
+        "Write the compensator of a saved transfer function (or a saved Compensator) "
+        "as a C99 file, an IEC 61131-3 Structured Text function block or JSON, with "
+        "the controller's rate limit, quantum, clamp and hold-last-value policy "
+        "(greyml.Compensator.export).",
+    ),
     "gap": (
         "diagnose the gap between measured tests and a simulation",
         "Locate the gap between measured tests and a simulation of them (by test, "

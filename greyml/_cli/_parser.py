@@ -12,6 +12,7 @@ import sys
 # it needs when it runs).
 from greyml import __version__
 from greyml._cli._demo import _add_demo_parser
+from greyml._cli._export import _add_export_parser
 from greyml._cli._fit import _add_fit_parser
 from greyml._cli._flags import (
     EXIT_ERROR,
@@ -80,6 +81,7 @@ def build_parser():
     _add_select_parser(subparsers)
     _add_fit_parser(subparsers)
     _add_predict_parser(subparsers)
+    _add_export_parser(subparsers)
     _add_gap_parser(subparsers)
     return parser
 

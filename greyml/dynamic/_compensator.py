@@ -3,20 +3,24 @@
 from __future__ import annotations
 
 import math
-import numbers
-import weakref
 from collections.abc import Mapping
 
 import numpy as np
-import pandas as pd
 
-from greyml._param_validation import Interval, Real, validate_parameter_constraints
-from greyml._sequences import TIME_LEVEL
+from greyml._param_validation import (
+    Interval,
+    Real,
+    StrOptions,
+    validate_parameter_constraints,
+)
+from greyml.dynamic._compensator_limits import _Limits, output_from_vars
 from greyml.dynamic._compensator_pipeline import pipeline_terms
 from greyml.dynamic._compensator_plan import build_plan
 from greyml.dynamic._compensator_plan import real as _real
+from greyml.dynamic._compensator_rows import bad_time, bad_value, forget_positions, read_row
 from greyml.dynamic._compensator_trust import _Trust, filter_from_vars
 from greyml.dynamic._kernels import lag_step
+from greyml.dynamic._output import limit_output
 from greyml.dynamic._time import gap_message
 
 __all__ = ["Compensator"]
@@ -39,34 +43,14 @@ _PARAMETERS = (
     "max_correction_um",
     "probe_noise_um",
     "change_threshold",
+    "rate_limit_um_s",
+    "quantum_um",
+    "clamp_um",
+    "on_missing",
 )
 
-# per compensator, the last pandas index seen and the positions of time_s and
-# the inputs in it (kept outside the object: an Index is not part of its state)
-_SERIES_POSITIONS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
-
-def _numbers_only(values, names):
-    """Refuse, in one line, a value of a row that is not a real number.
-
-    A bool, bytes, text, a date or a duration would otherwise become a
-    number (``True`` is 1, ``b"21"`` is 21, a datetime64 is its count of
-    seconds since 1970) and move the axis by it. ``names`` (or the keys) say
-    which entries to check.
-    """
-    for key in names if names is not None else values:
-        value = values[key]
-        if isinstance(value, (bool, np.bool_)) or not isinstance(
-            value, (numbers.Real, np.integer, np.floating)
-        ):
-            kind = type(value).__name__
-            where = f"position {key}" if names is None else repr(key)
-            raise ValueError(
-                f"{_PREFIX} the row's {where} is {value!r} (a {kind}), not a real number."
-            )
-
-
-class Compensator(_Trust):
+class Compensator(_Limits, _Trust):
     """A thermal-error correction computed sample by sample, as a controller runs it.
 
     The correction is a sum of terms, each the input ``x**power`` lagged
@@ -121,6 +105,27 @@ class Compensator(_Trust):
         in any order (other names are skipped). Without it an array row is
         refused, since nothing could tell a wrong order; a mapping or a
         Series is always read by name.
+    uncertainty, interval_quantile, tolerance_um, max_correction_um, probe_noise_um
+        How far to trust the correction and how probe readings correct it
+        (with ``change_threshold``, the change detector's): see
+        :attr:`status` and :meth:`observe` (a
+        :meth:`greyml.ThermalTransferFunction.compensator` sets them from its
+        calibration).
+    rate_limit_um_s : float, optional
+        The output moves by at most this many µm per second of the rows'
+        clock (the step the lags take); it starts at 0 and ramps (see Notes).
+    quantum_um : float, optional
+        The output is a whole number of this many µm (the controller's unit,
+        e.g. 0.1), the correction rounded to the nearest (halves away from
+        zero); with a rate limit it moves a whole number of quanta at a time.
+    clamp_um : float, optional
+        The output is at most this far from 0 (with a quantum, a whole number
+        of quanta).
+    on_missing : {"hold", "raise"}, default="hold"
+        A row whose input is NaN or infinite (a sensor missing): ``"hold"``
+        gives the last output again, leaves the state as it was and says so
+        in :attr:`status` (``held``); ``"raise"`` refuses it with one line.
+        A time that is not a finite number is always refused.
 
     Attributes
     ----------
@@ -139,6 +144,15 @@ class Compensator(_Trust):
     the time since the previous row. A step that is longer than a time
     constant is bridged as if the input had been held (``LagFeatures``
     refuses steps longer than its largest time constant inside a test).
+
+    :meth:`update` returns the output a controller writes to the axis: the
+    correction (with probe readings, if any) clamped, quantised and rate
+    limited, in that order (:func:`greyml.dynamic._output.limit_output`); with
+    none of the three it is the correction. The output starts at 0 (nothing
+    written to the axis yet) and :meth:`reset` keeps it: with a rate limit
+    the first row after either holds it, and the output ramps from there
+    instead of jumping. :meth:`export` writes the same computation as C,
+    IEC 61131-3 Structured Text or JSON.
 
     The state (:meth:`get_state`, :meth:`set_state`) is plain numbers, and
     :func:`greyml.persist.save_model` saves a compensator with its state, so
@@ -174,6 +188,10 @@ class Compensator(_Trust):
         "max_correction_um": [Interval(Real, 0, math.inf, closed="right")],
         "probe_noise_um": [Interval(Real, 0, None, closed="left")],
         "change_threshold": [Interval(Real, 0, None, closed="neither")],
+        "rate_limit_um_s": [Interval(Real, 0, None, closed="neither"), None],
+        "quantum_um": [Interval(Real, 0, None, closed="neither"), None],
+        "clamp_um": [Interval(Real, 0, None, closed="neither"), None],
+        "on_missing": [StrOptions({"hold", "raise"})],
     }
 
     def __init__(
@@ -193,6 +211,10 @@ class Compensator(_Trust):
         max_correction_um=1000.0,
         probe_noise_um=0.0,
         change_threshold=5.0,
+        rate_limit_um_s=None,
+        quantum_um=None,
+        clamp_um=None,
+        on_missing="hold",
     ):
         self.inputs = inputs
         self.terms = terms
@@ -208,6 +230,10 @@ class Compensator(_Trust):
         self.max_correction_um = max_correction_um
         self.probe_noise_um = probe_noise_um
         self.change_threshold = change_threshold
+        self.rate_limit_um_s = rate_limit_um_s
+        self.quantum_um = quantum_um
+        self.clamp_um = clamp_um
+        self.on_missing = on_missing
 
     # -- parameters and the plan -------------------------------------------
 
@@ -216,12 +242,15 @@ class Compensator(_Trust):
         self._validate_params()
         plan = build_plan(self)
         self._uncertainty()
+        plan["limits"] = self._checked_limits()
+        plan["limited"] = any(v is not None for v in plan["limits"])
         return plan
 
     def _build(self):
         plan = self._check_params()
         self._plan = plan
-        _SERIES_POSITIONS.pop(self, None)
+        forget_positions(self)
+        self._reset_output()
         self.reset()
         return plan
 
@@ -281,7 +310,8 @@ class Compensator(_Trust):
 
         Its lags start at rest at that row's values (at 0 for
         ``idle_inputs``), as batch ``predict`` starts a test without the rows
-        before it.
+        before it. The output is kept (it is what the axis has): with a rate
+        limit the next row holds it and the output ramps from there.
 
         Parameters
         ----------
@@ -307,6 +337,8 @@ class Compensator(_Trust):
         self._dt = None
         self._a = None
         self._initial = None if initial_displacement is None else float(initial_displacement)
+        self._credit = 0.0
+        self._held = False
         self._reset_trust()
         return self
 
@@ -369,7 +401,10 @@ class Compensator(_Trust):
             given to :meth:`reset` (``None`` when nothing is subtracted), and
             ``"filter"`` the probe filter's state (its offset, rate and gain,
             their covariance, the change detector, and the rows remembered
-            for late readings).
+            for late readings), and ``"output"`` the output stage's:
+            ``"output_um"`` the last output, ``"credit_um"`` what the rate
+            limit still allows (with a quantum), ``"held"`` whether the last
+            row was held for a missing input.
         """
         plan = self._plan_or_build()
         lags = None
@@ -380,6 +415,7 @@ class Compensator(_Trust):
             "lags": lags,
             "start": self._start,
             "filter": self._filter_state(),
+            "output": self._output_state(),
         }
 
     @property
@@ -399,13 +435,19 @@ class Compensator(_Trust):
         self : Compensator
         """
         plan = self._plan_or_build()
-        if not isinstance(state, Mapping) or set(state) - {"filter"} != {"time_s", "lags", "start"}:
+        if not isinstance(state, Mapping) or set(state) - {"filter", "output"} != {
+            "time_s",
+            "lags",
+            "start",
+        }:
             raise ValueError(
                 "Compensator.set_state needs a dict with the keys 'time_s', 'lags', "
-                "'start' and 'filter', as get_state returns it."
+                "'start', 'filter' and 'output', as get_state returns it."
             )
+        before = dict(self.__dict__)
         if state["time_s"] is None:
             self.reset()
+            self._set_output(state, plan, before)
             return self
         lags = state["lags"]
         labels = plan["labels"]
@@ -424,19 +466,25 @@ class Compensator(_Trust):
             or not (start is None or _real(start))
         ):
             raise ValueError("Compensator.set_state: the state holds a value that is not finite.")
-        before = dict(self.__dict__)
         self.reset()
         self._time = float(state["time_s"])
         self._lags = values
         self._start = None if start is None else float(start)
-        if state.get("filter") is not None:
-            try:
-                self._set_filter_state(state["filter"])
-            except ValueError:
-                self.__dict__.clear()
-                self.__dict__.update(before)  # unchanged, as after any refused input
-                raise
+        self._set_output(state, plan, before)
         return self
+
+    def _set_output(self, state, plan, before):
+        """The probe filter and the output stage from ``state`` (checked), if given;
+        on a refusal, the attributes ``before``, as after any refused input."""
+        try:
+            if state.get("filter") is not None:
+                self._set_filter_state(state["filter"])
+            if state.get("output") is not None:
+                self._set_output_state(state["output"], plan["limits"])
+        except ValueError:
+            self.__dict__.clear()
+            self.__dict__.update(before)
+            raise
 
     def _check_fitted_state(self):
         """Rebuild the update plan from the terms, and check the running state.
@@ -455,6 +503,9 @@ class Compensator(_Trust):
             self.__dict__.pop(key, None)
         plan = self._build()  # checks the parameters, the number of terms, and resets
         if time is None:
+            self.set_state(
+                {"time_s": None, "lags": None, "start": None, "output": output_from_vars(saved)}
+            )
             return
         labels = plan["labels"]
         try:
@@ -472,6 +523,7 @@ class Compensator(_Trust):
                 "lags": dict(zip(labels, values[: len(labels)].tolist())),
                 "start": start,
                 "filter": filter_from_vars(saved),
+                "output": output_from_vars(saved),
             }
         )
 
@@ -483,63 +535,15 @@ class Compensator(_Trust):
 
     # -- one sample ---------------------------------------------------------
 
-    def _read(self, row, plan):
-        """The row as an array ``(time_s, *inputs)`` from a mapping, a Series or an array."""
-        names = plan["names"]
-        if isinstance(row, pd.Series):
-            index = row.index
-            seen, positions = _SERIES_POSITIONS.get(self, (None, None))
-            if row.dtype.kind not in "fiu":
-                if index.has_duplicates:
-                    twice = index[index.duplicated()][0]
-                    raise ValueError(f"{_PREFIX} the row names {twice!r} more than once.")
-                _numbers_only(row.to_dict(), [v for v in (TIME_LEVEL, *names) if v in index])
-            if index is not seen:
-                if index.has_duplicates:
-                    twice = index[index.duplicated()][0]
-                    raise ValueError(f"{_PREFIX} the row names {twice!r} more than once.")
-                positions = index.get_indexer([TIME_LEVEL, *names])
-                if (positions < 0).any():
-                    missing = [TIME_LEVEL, *names][int(np.flatnonzero(positions < 0)[0])]
-                    raise ValueError(f"{_PREFIX} the row has no {missing!r}.")
-                _SERIES_POSITIONS[self] = (index, positions)
-            try:
-                return row.to_numpy(dtype=float)[positions]
-            except (TypeError, ValueError):
-                raise ValueError(f"{_PREFIX} the row holds a value that is not a number.") from None
-        if isinstance(row, Mapping):
-            try:
-                values = [row[TIME_LEVEL], *(row[v] for v in names)]
-            except KeyError as exc:
-                raise ValueError(f"{_PREFIX} the row has no {exc.args[0]!r}.") from None
-            _numbers_only(dict(zip([TIME_LEVEL, *names], values)), [TIME_LEVEL, *names])
-            try:
-                return np.asarray(values, dtype=float)
-            except (TypeError, ValueError):
-                raise ValueError(f"{_PREFIX} the row holds a value that is not a number.") from None
-        order = plan["row"]
-        if order is None:
-            raise ValueError(
-                f"{_PREFIX} an array row has no names, so a wrong order cannot be told; pass "
-                "a mapping or a Series by name, or declare the order of array rows with "
-                f"row_columns= (e.g. {[TIME_LEVEL, *names][:4]})."
-            )
-        given = np.asarray(row)
-        if given.dtype.kind not in "fiu":
-            _numbers_only(dict(enumerate(given.reshape(-1).tolist())), None)
-        try:
-            values = np.asarray(row, dtype=float)
-        except (TypeError, ValueError):
-            raise ValueError(f"{_PREFIX} the row holds a value that is not a number.") from None
-        if values.shape != (order["size"],):
-            raise ValueError(
-                f"{_PREFIX} an array row must hold the {order['size']} values of row_columns; "
-                f"got shape {values.shape}."
-            )
-        return values[order["take"]]
-
     def update(self, row):
-        """Take one row and return the correction.
+        """Take one row and return the output for the axis.
+
+        The checks run in this order, in every export too: an input taken
+        to a fractional power must not be negative; ``time_s`` must be finite
+        and later than the previous row's (or start the next piece, with
+        ``nominal_step_s``), by at most ``max_step_s``; every input must be
+        finite (else, with ``on_missing="hold"``, the last output again); the
+        correction must be finite. A refused or held row changes no state.
 
         Parameters
         ----------
@@ -549,7 +553,9 @@ class Compensator(_Trust):
 
         Returns
         -------
-        correction : float
+        output : float
+            The correction, clamped, quantised and rate limited as the
+            parameters say (the correction itself with none of them).
         """
         try:
             plan = self._plan
@@ -564,39 +570,43 @@ class Compensator(_Trust):
         ):
             row = row[order["take"]]  # the fast path of a controller
         else:
-            row = self._read(row, plan)
+            row = read_row(self, row, plan)
         time = float(row[0])
-        if plan["check_all"] and not np.isfinite(row).all():
-            self._bad_value(time, row, plan)
         v = row[plan["index"]]
         if plan["power"].size:
             if plan["fractional"].size and (v[plan["fractional"]] < 0).any():
-                self._bad_value(time, row, plan)
+                return bad_value(self, time, row, plan)
             start, stop = plan["span"]
             v[start:stop] **= plan["power"]
         previous = self._time
         shift = 0.0
-        if previous is None:
-            lags = v
-            lags[: plan["idle"].size][plan["idle"]] = 0.0
-        else:
+        dt = None
+        if previous is not None:
             dt = time - previous
             if not dt > 0:
                 if self.nominal_step_s is None or not math.isfinite(time):
-                    self._bad_time(time, previous)
+                    bad_time(time, previous)
                 dt = self.nominal_step_s
                 shift = previous + dt - time
             elif dt > plan["max_step"]:
+                if not math.isfinite(time):
+                    bad_time(time, previous)
                 raise ValueError(
                     gap_message(_PREFIX[:-1], "the stream", dt, time, plan["max_step"])
                     + " Call reset() to start anew after a pause."
                 )
+        if plan["check_all"] and not np.isfinite(row).all():
+            return bad_value(self, time, row, plan)
+        if previous is None:
+            lags = v
+            lags[: plan["idle"].size][plan["idle"]] = 0.0
+        else:
             if dt != self._dt:
                 self._coefficients(dt, plan)
             lags = lag_step(self._lags, v, self._a)
         total = float(plan["weight"] @ lags)
         if not math.isfinite(total) or not math.isfinite(time):
-            self._bad_value(time, row, plan)
+            return bad_value(self, time, row, plan)
         if previous is None:
             self._start = self._first_start(total)
         self._time = time
@@ -605,7 +615,15 @@ class Compensator(_Trust):
             total -= self._start
         if shift:
             self._shift_clock(shift)
-        return self._record(time, self.intercept + total)
+        value = self._record(time, self.intercept + total)
+        self._held = False
+        if not plan["limited"]:
+            self._output = self._last = value
+            return value
+        self._output, self._last, self._credit = limit_output(
+            value, dt, self._last, self._credit, *plan["limits"]
+        )
+        return self._output
 
     def _first_start(self, total):
         """What is subtracted from the sum of the terms from the first row on."""
@@ -613,38 +631,64 @@ class Compensator(_Trust):
             return self.intercept + total - self._initial
         return total if self.relative_to_start else None
 
-    def _bad_time(self, time, previous):
-        if not math.isfinite(time):
-            raise ValueError(f"{_PREFIX} time_s is {time!r}; it must be a finite number.")
-        what = "repeats" if time == previous else "goes back"
-        raise ValueError(
-            f"{_PREFIX} time_s {what} from {previous:g} to {time:g} s; rows must come in "
-            "increasing time (or give nominal_step_s= to read a restarting clock as the "
-            "next test of the same recording)."
-        )
+    # -- to a controller -----------------------------------------------------
 
-    def _bad_value(self, time, row, plan):
-        if not math.isfinite(time):
-            self._bad_time(time, self._time)
-        bad = np.flatnonzero(~np.isfinite(row[1:]))
-        if bad.size:
-            j = int(bad[0])
-            raise ValueError(
-                f"{_PREFIX} input {plan['names'][j]!r} is {float(row[j + 1])!r} at time_s = "
-                f"{time:g} s."
-            )
-        start, stop = plan["span"]
-        for k, power in zip(range(start, stop), plan["power"]):
-            j = int(plan["index"][k]) - 1
-            if power != round(power) and row[j + 1] < 0:
-                raise ValueError(
-                    f"{_PREFIX} input {plan['names'][j]!r} is negative ({float(row[j + 1])!r}) "
-                    f"at time_s = {time:g} s, and a term takes it to the power {power:g}, which "
-                    "is not a real number."
-                )
-        raise ValueError(
-            f"{_PREFIX} the correction overflows at time_s = {time:g} s (a power of an "
-            "input too large); scale the inputs."
+    def export(
+        self, language, path, *, name="greyml_compensator", description=None, overwrite=False
+    ):
+        """Write this compensator as C, IEC 61131-3 Structured Text or JSON.
+
+        Every export computes what :meth:`update` does (the lags, the
+        reference, the order of checks, the clamp, quantum, rate limit and
+        hold-last-value policy) and, with an ``uncertainty``, what
+        :meth:`observe` and :attr:`status` do; each starts with a comment
+        naming the model, the inputs in order with their units, the
+        reference, the time step it assumes and the greyml version. Names
+        from the model reach the code only as identifiers made of letters,
+        digits and single underscores (``x_`` and the name's letters), and in
+        comments as a short run of harmless characters. Read more in
+        :ref:`export`.
+
+        Parameters
+        ----------
+        language : {"c", "st", "json"}
+            ``"c"``: one self-contained C99 file (a state struct,
+            ``<name>_init``, ``<name>_reset``, ``<name>_update`` and, with an
+            ``uncertainty``, ``<name>_observe``, ``<name>_recalibrate``,
+            ``<name>_half_width`` and ``<name>_trusted``); ``"st"``: a
+            Structured Text ``FUNCTION_BLOCK`` (TwinCAT 3 / CODESYS);
+            ``"json"``: the coefficients, limits, state layout and units, with
+            its own schema and version.
+        path : str or path-like
+            The file to write (written beside it and renamed: a failure
+            leaves none).
+        name : str, default="greyml_compensator"
+            The function and function block name: a letter, then letters,
+            digits and single underscores, at most 31 characters.
+        description : str, optional
+            The model, in words, for the header (only harmless characters are
+            kept).
+        overwrite : bool, default=False
+            Replace ``path`` if it exists.
+
+        Returns
+        -------
+        path : pathlib.Path
+
+        Examples
+        --------
+        >>> import os, tempfile
+        >>> from greyml.dynamic import Compensator
+        >>> comp = Compensator(["T1_C"], [("T1_C", 1, 900.0, 10.0)], quantum_um=0.1)
+        >>> with tempfile.TemporaryDirectory() as d:
+        ...     text = comp.export("c", os.path.join(d, "z.c"), name="axis_z").read_text()
+        >>> "int axis_z_update(axis_z_state *s, double time_s" in text
+        True
+        """
+        from greyml.dynamic._export import export_compensator
+
+        return export_compensator(
+            self, language, path, name=name, description=description, overwrite=overwrite
         )
 
     # -- from a fitted pipeline ---------------------------------------------

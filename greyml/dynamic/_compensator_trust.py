@@ -42,7 +42,9 @@ _ALLOWANCE = 0.5
 _GAIN_VAR = 0.09
 
 Status = namedtuple(
-    "Status", "time_s correction half_width trusted plausible changes", module=__name__
+    "Status",
+    "time_s correction half_width trusted plausible changes output held",
+    module=__name__,
 )
 Status.__doc__ = """What the last update gave and how far to trust it.
 
@@ -58,6 +60,13 @@ plausible : bool
     The correction is within ``max_correction_um``.
 changes : int
     How many times the change detector fired (and recalibrated).
+output : float
+    What the last update gave the axis: the correction clamped, quantised and
+    rate limited (0 before any).
+held : bool
+    The last update had a missing input (NaN or infinite) and gave the
+    output before it again; its row changed no state (``time_s`` is the last
+    row taken).
 """
 
 _PREFIX = "Compensator.observe:"
@@ -200,7 +209,9 @@ class _Trust:
         """:class:`Status` of the last update: correction, half-width, trust."""
         u = self._uncertainty()
         if self._time is None or self._corr is None:
-            return Status(self._time, None, math.nan, False, False, self._changes)
+            return Status(
+                self._time, None, math.nan, False, False, self._changes, self._output, self._held
+            )
         corr = self._corr
         plausible = abs(corr) <= self.max_correction_um
         half = math.nan
@@ -209,7 +220,16 @@ class _Trust:
         trusted = plausible and (
             self.tolerance_um is None or (math.isfinite(half) and half <= self.tolerance_um)
         )
-        return Status(self._time, corr, half, bool(trusted), bool(plausible), self._changes)
+        return Status(
+            self._time,
+            corr,
+            half,
+            bool(trusted),
+            bool(plausible),
+            self._changes,
+            self._output,
+            self._held,
+        )
 
     # -- readings -------------------------------------------------------------
 

@@ -1,0 +1,493 @@
+"""A Compensator as an IEC 61131-3 Structured Text function block, from its :class:`Program`.
+
+The TwinCAT 3 / CODESYS dialect, without object-oriented extensions: one
+``FUNCTION_BLOCK`` whose inputs say what a call does (``Reset``, then
+``Execute`` to take a row, then ``Observe`` and ``Recalibrate`` for a probe
+reading), with the arithmetic and the order of checks of the C export and of
+:meth:`greyml.dynamic.Compensator.update`, everything in ``LREAL`` (64-bit, as
+Python's floats). Every loop runs over a constant; a number that is not finite
+is told by ``ABS(x) <= 1.7976931348623157E308`` (false for NaN and infinity)
+since IEC 61131-3 has no ``isnan``.
+"""
+
+from __future__ import annotations
+
+from string import Template
+
+from greyml.dynamic._export_c import header_lines, wrap
+from greyml.dynamic._export_st_filter import finite, literal, observe_block
+from greyml.dynamic._output import QUANTA_MAX, QUANTUM_TOLERANCE
+from greyml.dynamic._program import STATUS_CODES
+
+__all__ = ["write_st"]
+
+_TYPES = {"real": "LREAL", "int": "DINT", "bool": "BOOL"}
+
+
+def _list(values, fmt, per_line=4):
+    items = [fmt(v) for v in values] or [fmt(0)]
+    lines = [", ".join(items[i : i + per_line]) for i in range(0, len(items), per_line)]
+    return "[\n        " + ",\n        ".join(lines) + "\n    ]"
+
+
+def _bool(v):
+    return "TRUE" if v else "FALSE"
+
+
+def _state_declarations(p):
+    lines = []
+    for v in p.state:
+        kind = _TYPES[v.kind]
+        if v.length > 1 or v.name == "lag":
+            kind = f"ARRAY[0..{max(v.length, 1) - 1}] OF {kind}"
+        unit = f" ({v.unit})" if v.unit else ""
+        lines.append(f"    st_{v.name} : {kind}; (* {v.meaning}{unit} *)")
+    return "\n".join(lines)
+
+
+def _reset_body(p):
+    """Every state variable back to 0, but the output (what the axis has)."""
+    zero = {"real": "0.0", "int": "0", "bool": "FALSE"}
+    lines = []
+    for v in p.state:
+        if v.name in ("output_um", "last"):
+            continue
+        if v.length > 1 or v.name == "lag":
+            lines += [
+                f"    FOR k := 0 TO {max(v.length, 1) - 1} DO",
+                f"        st_{v.name}[k] := {zero[v.kind]};",
+                "    END_FOR;",
+            ]
+        else:
+            lines.append(f"    st_{v.name} := {zero[v.kind]};")
+    lines += [
+        "    st_has_initial := UseInitial;",
+        "    IF UseInitial THEN",
+        "        st_initial := InitialUm;",
+        "    END_IF;",
+    ]
+    return "\n".join(lines)
+
+
+def _stage_st(p):
+    """Step (7): the output stage (:func:`greyml.dynamic._output.limit_output`)."""
+    lines = []
+    if p.clamp_um is not None:
+        c = literal(p.clamp_um)
+        lines += [
+            f"        IF value > {c} THEN",
+            f"            value := {c};",
+            f"        ELSIF value < -{c} THEN",
+            f"            value := -{c};",
+            "        END_IF;",
+        ]
+    rate = None if p.rate_limit_um_s is None else literal(p.rate_limit_um_s)
+    if p.quantum_um is None:
+        if rate is not None:
+            lines += [
+                "        allowed := 0.0;",
+                "        IF hasDt THEN",
+                f"            allowed := {rate} * dt;",
+                "        END_IF;",
+                "        IF value < st_last - allowed THEN",
+                "            value := st_last - allowed;",
+                "        END_IF;",
+                "        IF value > st_last + allowed THEN",
+                "            value := st_last + allowed;",
+                "        END_IF;",
+            ]
+        lines += ["        st_last := value;", "        st_output_um := value;"]
+        return "\n".join(lines)
+    q = literal(p.quantum_um)
+    lines += [
+        "        (* whole quanta, halves away from zero; TRUNC of a number >= 0 is its floor *)",
+        f"        m := ABS(value) / {q} + 0.5;",
+        f"        IF m > {literal(QUANTA_MAX)} THEN",
+        f"            m := {literal(QUANTA_MAX)};",
+        "        END_IF;",
+        "        count := DINT_TO_LREAL(TRUNC(m));",
+        "        IF value < 0.0 THEN",
+        "            count := -count;",
+        "        END_IF;",
+    ]
+    if rate is not None:
+        lines += [
+            "        IF hasDt THEN",
+            f"            cap := {rate} * dt;",
+            f"            IF cap < {q} THEN",
+            f"                cap := {q};",
+            "            END_IF;",
+            f"            st_credit_um := st_credit_um + {rate} * dt;",
+            "            IF st_credit_um > cap THEN",
+            "                st_credit_um := cap;",
+            "            END_IF;",
+            "        END_IF;",
+            "        d := count - st_last;",
+            "        m := ABS(d);",
+            f"        allowed := st_credit_um / {q} + {literal(QUANTUM_TOLERANCE)};",
+            "        IF allowed < m THEN",
+            "            m := allowed;",
+            "        END_IF;",
+            "        m := DINT_TO_LREAL(TRUNC(m));",
+            "        IF d > 0.0 THEN",
+            "            count := st_last + m;",
+            "        ELSE",
+            "            count := st_last - m;",
+            "        END_IF;",
+            f"        st_credit_um := st_credit_um - m * {q};",
+            "        IF st_credit_um < 0.0 THEN",
+            "            st_credit_um := 0.0;",
+            "        END_IF;",
+        ]
+    lines += ["        st_last := count;", f"        st_output_um := count * {q};"]
+    return "\n".join(lines)
+
+
+def _record_st(p):
+    """Step (6): the probe filter's record of the row, or the model's correction as it is."""
+    if p.trust is None:
+        return "        st_model_um := value;\n        st_correction_um := value;"
+    return """        IF shift <> 0.0 THEN
+            (* the rows' clock restarted (a new piece): move the filter's times with it *)
+            IF st_has_ft0 THEN
+                st_ft0 := st_ft0 - shift;
+            END_IF;
+            IF st_has_reading THEN
+                st_last_reading := st_last_reading - shift;
+            END_IF;
+            FOR k := 0 TO HISTORY - 1 DO
+                st_ht[k] := st_ht[k] - shift;
+            END_FOR;
+        END_IF;
+        IF NOT st_has_ft0 THEN
+            st_ft0 := TimeS;
+            st_has_ft0 := TRUE;
+        END_IF;
+        st_ht[st_hpos] := TimeS;
+        st_hm[st_hpos] := value;
+        st_hpos := (st_hpos + 1) MOD HISTORY;
+        IF st_hcount < HISTORY THEN
+            st_hcount := st_hcount + 1;
+        END_IF;
+        st_model_um := value;
+        IF st_adjusted THEN
+            dh := (TimeS - st_ft0) / 3600.0;
+            value := value * (1.0 + st_fx[2]) + st_fx[0] * EXP(-dh / MEMORY_H)
+                + st_fx[1] * dh;
+        END_IF;
+        st_correction_um := value;"""
+
+
+_BODY = Template(
+    r"""
+(* what a call does: Reset, then Execute (a row), then Observe and Recalibrate *)
+missing := NOT InputsValid;
+${copy_inputs}
+FOR j := 0 TO N_INPUTS - 1 DO
+    IF NOT ${finite_xin} THEN
+        missing := TRUE;
+    END_IF;
+END_FOR;
+IF Reset THEN
+${reset}
+END_IF;
+IF Execute THEN
+    code := 0;
+    refuse := FALSE;
+    hasDt := FALSE;
+    dt := 0.0;
+    shift := 0.0;
+    total := 0.0;
+    (* (1) a negative input to a fractional power (a missing input is never negative) *)
+    FOR k := 0 TO N_TERMS - 1 DO
+        IF FRACTIONAL[k] AND InputsValid AND xin[INPUT[k]] < 0.0 THEN
+            refuse := TRUE;
+        END_IF;
+    END_FOR;
+    (* (2) the time *)
+    IF NOT refuse THEN
+        IF NOT ${finite_time} THEN
+            code := ERR_TIME;
+        ELSIF st_started THEN
+            hasDt := TRUE;
+            dt := TimeS - st_time_s;
+            IF NOT (dt > 0.0) THEN
+${restart}${gap}
+            END_IF;
+        END_IF;
+    END_IF;
+    (* (3) every input finite *)
+    IF NOT refuse AND code = 0 AND missing THEN
+        refuse := TRUE;
+    END_IF;
+    (* (4) the lags and their weighted sum *)
+    IF NOT refuse AND code = 0 THEN
+        FOR k := 0 TO N_TERMS - 1 DO
+            IF POWER[k] = 1.0 THEN
+                v[k] := xin[INPUT[k]];
+            ELSE
+                v[k] := EXPT(xin[INPUT[k]], POWER[k]);
+            END_IF;
+            IF NOT st_started THEN
+                lagNew[k] := v[k];
+                IF k < N_LAGS THEN
+                    IF IDLE[k] THEN
+                        lagNew[k] := 0.0;
+                    END_IF;
+                END_IF;
+            ELSIF k < N_LAGS THEN
+                a := EXP(-dt / TAU[k]);
+                lagNew[k] := (1.0 - a) * v[k] + a * st_lag[k];
+            ELSE
+                lagNew[k] := v[k];
+            END_IF;
+            total := total + WEIGHT[k] * lagNew[k];
+        END_FOR;
+        IF NOT ${finite_total} THEN
+            refuse := TRUE;
+        END_IF;
+    END_IF;
+    IF refuse THEN
+        IF NOT ${finite_time} THEN
+            code := ERR_TIME;
+        ELSIF missing THEN
+${missing}
+        ELSE
+            code := ERR_VALUE;
+        END_IF;
+    ELSIF code = 0 THEN
+        (* (5) the reference *)
+        IF NOT st_started THEN
+            IF st_has_initial THEN
+                st_has_start := TRUE;
+                st_start := ${intercept} + total - st_initial;
+            ELSE
+                st_has_start := ${relative};
+                st_start := 0.0;
+                IF ${relative} THEN
+                    st_start := total;
+                END_IF;
+            END_IF;
+        END_IF;
+        FOR k := 0 TO N_TERMS - 1 DO
+            st_lag[k] := lagNew[k];
+        END_FOR;
+        IF st_has_start THEN
+            total := total - st_start;
+        END_IF;
+        (* (6) the model's correction, and the probe filter's *)
+        value := ${intercept} + total;
+${record}
+        st_started := TRUE;
+        st_time_s := TimeS;
+        st_held := FALSE;
+        (* (7) the output stage *)
+${stage}
+    END_IF;
+    Status := code;
+END_IF;
+${observe}
+OutputUm := st_output_um;
+CorrectionUm := st_correction_um;
+Held := st_held;
+Started := st_started;
+Plausible := st_started AND ABS(st_correction_um) <= ${max_correction};
+${status_outputs}
+"""
+)
+
+
+def _declarations(p):
+    """The function block's interface, state, scratch variables and constants."""
+    n_terms, n_lags, n_inputs = len(p.terms), p.n_lags, len(p.inputs)
+    trust = p.trust is not None
+    inputs = [
+        "    Execute : BOOL; (* TRUE: take the row of TimeS and the inputs below *)",
+        "    TimeS : LREAL; (* the row's time, s *)",
+    ]
+    for v in p.inputs:
+        inputs.append(f"    {v.identifier} : LREAL; (* {v.comment}, {v.unit} *)")
+    inputs += [
+        "    InputsValid : BOOL := TRUE; (* FALSE: an input is missing, as a NaN would be *)",
+        "    Reset : BOOL; (* TRUE: forget the state first; the output is kept *)",
+        "    UseInitial : BOOL; (* with Reset: the displacement at the next row is InitialUm *)",
+        "    InitialUm : LREAL; (* um *)",
+    ]
+    if trust:
+        inputs += [
+            "    Observe : BOOL; (* TRUE: take the probe reading (after the row, if any) *)",
+            "    ProbeTimeS : LREAL; (* when it was measured, s, on the rows' clock *)",
+            "    ProbeUm : LREAL; (* the measured displacement, um *)",
+            "    Recalibrate : BOOL; (* TRUE: let the next readings estimate drift and gain *)",
+        ]
+    outputs = [
+        "    OutputUm : LREAL; (* the predicted displacement after the limits, um *)",
+        "    CorrectionUm : LREAL; (* the predicted displacement before the limits, um *)",
+        "    Status : DINT; (* of the last row: 0 taken, 1 held, < 0 refused *)",
+        "    Held : BOOL; (* the last row had a missing input: OutputUm is the one before *)",
+        "    Started : BOOL; (* a row was taken since the start or Reset *)",
+        "    Plausible : BOOL; (* CorrectionUm within max_correction_um *)",
+    ]
+    if trust:
+        outputs += [
+            "    ProbeStatus : DINT; (* of the last reading: 0 taken, -4 refused *)",
+            "    HalfWidthUm : LREAL; (* of the interval at the last row, um (0 before one) *)",
+            "    Trusted : BOOL; (* plausible, and HalfWidthUm within tolerance_um *)",
+            "    Changes : DINT; (* how many times the change detector fired *)",
+        ]
+    scratch = [
+        f"    xin : ARRAY[0..{n_inputs - 1 if n_inputs else 0}] OF LREAL;",
+        f"    v : ARRAY[0..{max(n_terms, 1) - 1}] OF LREAL;",
+        f"    lagNew : ARRAY[0..{max(n_terms, 1) - 1}] OF LREAL;",
+        "    k : DINT;",
+        "    j : DINT;",
+        "    code : DINT;",
+        "    refuse : BOOL;",
+        "    missing : BOOL;",
+        "    hasDt : BOOL;",
+        "    dt : LREAL;",
+        "    shift : LREAL;",
+        "    total : LREAL;",
+        "    value : LREAL;",
+        "    a : LREAL;",
+        "    m : LREAL;",
+        "    count : LREAL;",
+        "    cap : LREAL;",
+        "    d : LREAL;",
+        "    allowed : LREAL;",
+    ]
+    if trust:
+        scratch += [
+            "    dh : LREAL;",
+            "    phi : LREAL;",
+            "    propTime : LREAL;",
+            "    oldest : DINT;",
+            "    j0 : DINT;",
+            "    j1 : DINT;",
+            "    found : BOOL;",
+            "    slope : LREAL;",
+            "    predicted : LREAL;",
+            "    innovation : LREAL;",
+            "    hph : LREAL;",
+            "    sv : LREAL;",
+            "    zs : LREAL;",
+            "    variance : LREAL;",
+            "    recal : BOOL;",
+            "    recalSize : LREAL;",
+            "    fx : ARRAY[0..2] OF LREAL;",
+            "    h : ARRAY[0..2] OF LREAL;",
+            "    ph : ARRAY[0..2] OF LREAL;",
+            "    kg : ARRAY[0..2] OF LREAL;",
+            "    fp : ARRAY[0..8] OF LREAL;",
+            "    ff : ARRAY[0..8] OF LREAL;",
+            "    ikh : ARRAY[0..8] OF LREAL;",
+            "    am : ARRAY[0..8] OF LREAL;",
+            "    pn : ARRAY[0..8] OF LREAL;",
+        ]
+    terms = p.terms
+    lags = terms[:n_lags]
+    constants = [
+        f"    N_INPUTS : DINT := {n_inputs};",
+        f"    N_TERMS : DINT := {n_terms};",
+        f"    N_LAGS : DINT := {n_lags};",
+        *(f"    {key} : DINT := {code};" for key, (code, _) in STATUS_CODES.items() if code < 0),
+        f"    INPUT : ARRAY[0..{max(n_terms, 1) - 1}] OF DINT := "
+        + _list([t.input for t in terms], str, 16)
+        + ";",
+        f"    POWER : ARRAY[0..{max(n_terms, 1) - 1}] OF LREAL := "
+        + _list([t.power for t in terms], literal)
+        + ";",
+        f"    FRACTIONAL : ARRAY[0..{max(n_terms, 1) - 1}] OF BOOL := "
+        + _list([t.fractional for t in terms], _bool, 8)
+        + ";",
+        f"    WEIGHT : ARRAY[0..{max(n_terms, 1) - 1}] OF LREAL := "
+        + _list([t.weight for t in terms], literal)
+        + ";",
+        f"    TAU : ARRAY[0..{max(n_lags, 1) - 1}] OF LREAL := "
+        + _list([t.tau_s for t in lags] or [1.0], literal)
+        + ";",
+        f"    IDLE : ARRAY[0..{max(n_lags, 1) - 1}] OF BOOL := "
+        + _list([t.idle for t in lags], _bool, 8)
+        + ";",
+    ]
+    if trust:
+        constants += [
+            f"    HISTORY : DINT := {p.trust.history};",
+            f"    MEMORY_H : LREAL := {literal(p.trust.memory_h)};",
+            f"    MEMORY_VAR : LREAL := {literal(p.trust.memory_var)};",
+            f"    GAIN_VAR : LREAL := {literal(p.trust.gain_var)};",
+        ]
+    return "\n".join(
+        [
+            "VAR_INPUT",
+            *inputs,
+            "END_VAR",
+            "VAR_OUTPUT",
+            *outputs,
+            "END_VAR",
+            "VAR",
+            _state_declarations(p),
+            *scratch,
+            "END_VAR",
+            "VAR CONSTANT",
+            *constants,
+            "END_VAR",
+        ]
+    )
+
+
+def write_st(p):
+    """The Structured Text source of :class:`Program` ``p``, as text."""
+    if p.nominal_step_s is None:
+        restart = "                code := ERR_TIME;"
+    else:
+        restart = (
+            "                (* the next piece of the recording: its clock starts anew *)\n"
+            f"                dt := {literal(p.nominal_step_s)};\n"
+            "                shift := st_time_s + dt - TimeS;"
+        )
+    gap = (
+        ""
+        if p.max_step_s is None
+        else (
+            f"\n            ELSIF dt > {literal(p.max_step_s)} THEN\n"
+            "                code := ERR_GAP;"
+        )
+    )
+    if p.hold:
+        missing = "            st_held := TRUE;\n            code := 1;"
+    else:
+        missing = "            code := ERR_VALUE;"
+    copy = "\n".join(f"xin[{j}] := {v.identifier};" for j, v in enumerate(p.inputs))
+    observe, status = observe_block(p)
+    body = _BODY.substitute(
+        copy_inputs=copy,
+        finite_xin=finite("xin[j]"),
+        finite_time=finite("TimeS"),
+        finite_total=finite("total"),
+        reset=_reset_body(p),
+        restart=restart,
+        gap=gap,
+        missing=missing,
+        intercept=literal(p.intercept),
+        relative=_bool(p.relative_to_start),
+        record=_record_st(p),
+        stage=_stage_st(p),
+        observe=observe,
+        max_correction=literal(p.max_correction_um),
+        status_outputs=status,
+    )
+    call = (
+        f"call {p.name} every cycle; set Execute on a cycle that brings a new row (time_s "
+        "must increase); OutputUm is the output"
+    )
+    lines = wrap(header_lines(p, "IEC 61131-3 Structured Text", call))
+    header = "(*\n" + "\n".join(f"  {line}".rstrip() for line in lines) + "\n*)\n"
+    return (
+        header
+        + f"FUNCTION_BLOCK {p.name}\n"
+        + _declarations(p)
+        + "\n"
+        + body
+        + "END_FUNCTION_BLOCK\n"
+    )

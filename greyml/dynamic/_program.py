@@ -1,0 +1,441 @@
+"""One description of a Compensator's computation, from which every export is written.
+
+:func:`describe` turns a compensator's plan (its terms and inputs checked,
+never taken from a file) and its parameters into a :class:`Program`: the
+numbers (per term the input it reads, its power, time constant, weight and
+whether it starts idle; the intercept; the limits; the probe filter's
+calibration), the policies (reference, restarting clock, missing inputs), the
+layout of the running state, and the names that may appear in generated text,
+made safe. The C and Structured Text writers render the same fixed algorithm
+(``Compensator.update``'s order of checks, the lags, the output stage of
+:func:`greyml.dynamic._output.limit_output`, the probe filter of
+:mod:`greyml.dynamic._compensator_trust`) from it, and the JSON export is
+:meth:`Program.to_dict`.
+
+Nothing a model file says reaches generated code as text except through
+:func:`identifier` (letters, digits and single underscores, with a prefix) and
+:func:`comment_text` (a short run of harmless characters).
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass
+
+from greyml.dynamic._compensator_trust import _ALLOWANCE, _GAIN_VAR, HISTORY
+from greyml.dynamic._output import QUANTA_MAX, QUANTUM_TOLERANCE
+
+__all__ = [
+    "SCHEMA",
+    "SCHEMA_VERSION",
+    "STATUS_CODES",
+    "Program",
+    "check_name",
+    "comment_text",
+    "describe",
+    "identifier",
+]
+
+#: The JSON export's schema: its name and version (a reader checks both).
+SCHEMA = "greyml.compensator-export"
+SCHEMA_VERSION = 1
+
+#: What update and observe return, in every export (Python raises instead of
+#: the negative ones, with the same one-line message as for a refused row).
+STATUS_CODES = {
+    "OK": (0, "the row was taken"),
+    "HELD": (1, "an input was missing (NaN or infinite): the last output again, no state changed"),
+    "ERR_TIME": (-1, "time_s not finite, or not later than the previous row's: refused"),
+    "ERR_GAP": (-2, "the step is longer than max_step_s: refused (reset to start anew)"),
+    "ERR_VALUE": (
+        -3,
+        "an input missing (on_missing='raise'), negative to a fractional power, or the "
+        "correction overflows: refused",
+    ),
+    "ERR_READING": (-4, "a probe reading refused (as Compensator.observe refuses it)"),
+}
+
+# IEC 61131-3 and C keywords (case-insensitive for Structured Text) that a
+# function or block name may not be; an input's identifier always has a prefix
+_RESERVED = frozenset(
+    """
+    abs action and any array at auto bool break by byte case char const continue date
+    default dint do double dt dword else elsif end_action end_case end_for end_function
+    end_function_block end_if end_method end_program end_repeat end_struct end_type
+    end_var end_while enum exit exp extern false float for function function_block goto
+    if inline int int16_t int32_t int64_t lint long lreal mod not of or program real
+    register repeat restrict return short signed sint sizeof static string struct switch
+    then time to tod true trunc type typedef udint uint ulint union unsigned until usint
+    var var_input var_output var_in_out var_temp var_global void volatile while word xor
+    """.split()
+)
+
+_NAME = re.compile(r"[A-Za-z](?:_?[A-Za-z0-9])*")
+_NAME_MAX = 31
+
+
+def check_name(name):
+    """``name`` if it is a safe function (C) and block (Structured Text) name, else one line."""
+    if not (
+        isinstance(name, str)
+        and len(name) <= _NAME_MAX
+        and _NAME.fullmatch(name)
+        and name.lower() not in _RESERVED
+    ):
+        shown = comment_text(str(name)) if isinstance(name, str) else type(name).__name__
+        raise ValueError(
+            f"Compensator.export: the name {shown!r} is not a C and Structured Text "
+            f"identifier: a letter, then letters, digits and single underscores, at most "
+            f"{_NAME_MAX} characters, not a keyword."
+        )
+    return name
+
+
+def identifier(name, taken, prefix="x_"):
+    """A harmless identifier for the input ``name``: ``prefix`` and its letters and digits.
+
+    Anything else becomes one underscore (Structured Text allows no double
+    underscore and none at the end); the result is at most 31 characters and
+    differs, ignoring case (Structured Text's rule), from every name in
+    ``taken``, which it is added to.
+    """
+    core = re.sub(r"[^A-Za-z0-9]+", "_", str(name)).strip("_") or "input"
+    base = (prefix + core)[:_NAME_MAX].rstrip("_")
+    candidate, k = base, 2
+    while candidate.lower() in taken:
+        suffix = f"_{k}"
+        candidate = base[: _NAME_MAX - len(suffix)].rstrip("_") + suffix
+        k += 1
+    taken.add(candidate.lower())
+    return candidate
+
+
+def comment_text(text, limit=60):
+    """``text`` for a comment: letters, digits, spaces and ``_.,:=+-``, at most ``limit``.
+
+    No character that could end a C or Structured Text comment (``*``, ``/``,
+    parentheses, braces) or start a line survives; the others become ``_``.
+    """
+    safe = re.sub(r"[^A-Za-z0-9 _.,:=+\-]", "_", str(text))
+    return safe if len(safe) <= limit else safe[: limit - 3] + "..."
+
+
+def _unit(name):
+    """The unit an input's name says (greyml's naming), or that of the training data."""
+    lowered = str(name).lower()
+    for ending, unit in (("_c", "degC"), ("_um", "um"), ("_mm", "mm"), ("rpm", "rpm")):
+        if lowered.endswith(ending):
+            return unit
+    return "as in training"
+
+
+@dataclass(frozen=True)
+class Input:
+    """One input: its name in the model, its identifier in generated code, its unit."""
+
+    name: str
+    identifier: str
+    comment: str
+    unit: str
+
+
+@dataclass(frozen=True)
+class Term:
+    """One term of the sum: ``weight · lag_tau(x[input] ** power)``."""
+
+    input: int
+    power: float
+    tau_s: float | None
+    weight: float
+    idle: bool
+    fractional: bool
+
+
+@dataclass(frozen=True)
+class StateVar:
+    """One variable of the running state (C struct member, Structured Text variable)."""
+
+    name: str
+    kind: str  # "real", "int" or "bool"
+    length: int  # 1 for a scalar
+    unit: str
+    meaning: str
+
+
+@dataclass(frozen=True)
+class Trust:
+    """The probe filter's calibration and constants (:mod:`_compensator_trust`)."""
+
+    offset_var: float
+    growth_var_per_h: float
+    noise_var: float
+    memory_var: float
+    memory_h: float
+    interval_quantile: float
+    probe_noise_um: float
+    change_threshold: float
+    allowance: float
+    gain_var: float
+    history: int
+
+
+@dataclass(frozen=True)
+class Program:
+    """Everything an export writes: numbers, policies, state layout and safe names."""
+
+    name: str
+    description: str
+    inputs: tuple
+    terms: tuple
+    n_lags: int
+    intercept: float
+    relative_to_start: bool
+    nominal_step_s: float | None
+    max_step_s: float | None
+    clamp_um: float | None
+    quantum_um: float | None
+    rate_limit_um_s: float | None
+    hold: bool
+    max_correction_um: float
+    tolerance_um: float | None
+    trust: Trust | None
+    state: tuple
+    greyml_version: str
+
+    @property
+    def reference(self):
+        """Which displacement the output is, in words."""
+        if self.relative_to_start:
+            return (
+                "the change since the first row after init or reset (or since the "
+                "displacement given to reset)"
+            )
+        return (
+            "the model's own zero, as fitted (reset with an initial displacement moves it "
+            "to the measured value at the next row)"
+        )
+
+    @property
+    def time_step(self):
+        """What the export assumes of the rows' clock, in words."""
+        bound = "any length" if self.max_step_s is None else f"at most {self.max_step_s:g} s"
+        words = f"time_s in seconds; steps > 0 of {bound} (exact for inputs held between rows)"
+        if self.nominal_step_s is not None:
+            words += f"; a clock that restarts steps by {self.nominal_step_s:g} s"
+        return words
+
+    def limits_text(self):
+        parts = [
+            "clamp " + ("none" if self.clamp_um is None else f"+-{self.clamp_um:g} um"),
+            "quantum " + ("none" if self.quantum_um is None else f"{self.quantum_um:g} um"),
+            "rate limit "
+            + ("none" if self.rate_limit_um_s is None else f"{self.rate_limit_um_s:g} um/s"),
+            "missing input: " + ("hold the last output" if self.hold else "refuse the row"),
+        ]
+        return "; ".join(parts)
+
+    def to_dict(self):
+        """The JSON export (strict JSON: no NaN or infinity)."""
+        trust = None
+        if self.trust is not None:
+            trust = {k: _bound(getattr(self.trust, k)) for k in self.trust.__dataclass_fields__}
+        return {
+            "schema": SCHEMA,
+            "schema_version": SCHEMA_VERSION,
+            "greyml_version": self.greyml_version,
+            "name": self.name,
+            "model": self.description,
+            "reference": self.reference,
+            "units": {"time": "s", "output": "um", "rate": "um/s", "tau": "s"},
+            "time_step": self.time_step,
+            "inputs": [
+                {"index": j, "name": v.name, "identifier": v.identifier, "unit": v.unit}
+                for j, v in enumerate(self.inputs)
+            ],
+            "terms": [
+                {
+                    "input": t.input,
+                    "power": t.power,
+                    "tau_s": t.tau_s,
+                    "weight": t.weight,
+                    "idle": t.idle,
+                }
+                for t in self.terms
+            ],
+            "intercept": self.intercept,
+            "relative_to_start": self.relative_to_start,
+            "nominal_step_s": self.nominal_step_s,
+            "max_step_s": self.max_step_s,
+            "limits": {
+                "clamp_um": self.clamp_um,
+                "quantum_um": self.quantum_um,
+                "rate_limit_um_s": self.rate_limit_um_s,
+                "on_missing": "hold" if self.hold else "raise",
+                "quanta_max": QUANTA_MAX,
+                "quantum_tolerance": QUANTUM_TOLERANCE,
+            },
+            "max_correction_um": _bound(self.max_correction_um),
+            "tolerance_um": _bound(self.tolerance_um),
+            "probe_filter": trust,
+            "status_codes": {k: {"code": c, "meaning": m} for k, (c, m) in STATUS_CODES.items()},
+            "state": [
+                {
+                    "name": v.name,
+                    "type": v.kind,
+                    "length": v.length,
+                    "unit": v.unit,
+                    "meaning": v.meaning,
+                }
+                for v in self.state
+            ],
+            "algorithm": ALGORITHM,
+        }
+
+
+def _bound(value):
+    """A number for JSON: None (null) for no bound or an infinite one."""
+    return None if value is None or math.isinf(value) else value
+
+
+#: The computation in words, step by step (the JSON carries it; C and ST spell it out).
+ALGORITHM = [
+    "init: every state variable 0 (false); the output is 0.",
+    "reset(initial?): forget the lags, the start, the probe filter and the credit; keep "
+    "the output; remember the initial displacement if given.",
+    "update(time_s, x): (1) a term with a fractional power whose input is negative -> "
+    "refuse(); (2) after the first row: dt = time_s - previous; if not dt > 0: with "
+    "nominal_step_s, dt = nominal_step_s and the clock shifts by previous + dt - time_s, "
+    "else ERR_TIME; if dt > max_step_s: ERR_GAP; before it: time_s not finite -> ERR_TIME; "
+    "(3) an input not finite -> refuse(); (4) v_k = x[input_k] ** power_k; at the first "
+    "row lag_k = v_k (0 for idle lags), else lag_k = (1 - a_k) v_k + a_k lag_k with "
+    "a_k = exp(-dt / tau_k) (a_k = 0 without lag); total = sum weight_k lag_k; not finite "
+    "-> ERR_VALUE; (5) at the first row start = intercept + total - initial (initial "
+    "given), total (relative_to_start) or nothing; total -= start; (6) model = intercept "
+    "+ total; the probe filter's correction: model (1 + gain) + offset exp(-dh / memory_h) "
+    "+ rate dh once a reading was taken (dh in hours since the filter's time); (7) the "
+    "output stage: clamp, quantise (floor(|v| / q + 0.5) quanta, at most quanta_max, "
+    "sign of v), rate limit (without a quantum: within +-rate dt of the last output, 0 "
+    "at the first row after init or reset; with one: credit = min(credit + rate dt, "
+    "max(rate dt, q)), move floor(min(|target - last|, credit / q + quantum_tolerance)) "
+    "quanta towards the target, credit -= moved).",
+    "refuse(): time_s not finite -> ERR_TIME; an input not finite -> HELD (the last "
+    "output, no state changed; on_missing='hold') or ERR_VALUE; else ERR_VALUE.",
+    "observe(time_s, measured): Compensator.observe's Kalman filter on offset, rate and "
+    "gain, the model's correction at time_s interpolated from the last `history` rows, "
+    "and the two-sided CUSUM of the standardised innovations (allowance, "
+    "change_threshold) that recalibrates: P += diag(innovation^2, innovation^2, gain_var).",
+]
+
+
+def _state_layout(n_inputs, n_terms, trust):
+    """The running state, in the order the C struct and the ST variables declare it."""
+    rows = [
+        ("started", "bool", 1, "", "a row was taken since init or reset"),
+        ("time_s", "real", 1, "s", "time of the last row taken"),
+        ("lag", "real", n_terms, "as the term", "each term's lag (its input's power without lag)"),
+        ("has_start", "bool", 1, "", "start is subtracted"),
+        ("start", "real", 1, "um", "subtracted from the sum of the terms"),
+        ("has_initial", "bool", 1, "", "reset was given a displacement"),
+        ("initial", "real", 1, "um", "the displacement given to reset"),
+        ("model_um", "real", 1, "um", "the model's correction at the last row"),
+        ("correction_um", "real", 1, "um", "the correction with probe readings"),
+        ("output_um", "real", 1, "um", "the last output (what the axis has)"),
+        ("last", "real", 1, "quanta or um", "the last output in the stage's unit"),
+        ("credit_um", "real", 1, "um", "what the rate limit still allows (with a quantum)"),
+        ("held", "bool", 1, "", "the last row was held for a missing input"),
+    ]
+    if trust is not None:
+        rows += [
+            ("has_ft0", "bool", 1, "", "the filter has a time"),
+            ("ft0", "real", 1, "s", "the filter's time"),
+            ("fx", "real", 3, "um, um/h, 1", "offset, rate and gain error"),
+            ("fp", "real", 9, "", "their covariance, row by row"),
+            ("adjusted", "bool", 1, "", "a reading was taken"),
+            ("flags", "real", 2, "", "the CUSUM's sums upwards and downwards"),
+            ("changes", "int", 1, "", "how many times the change detector fired"),
+            ("has_reading", "bool", 1, "", "a reading was taken since reset"),
+            ("last_reading", "real", 1, "s", "time of the last reading"),
+            ("ht", "real", trust.history, "s", "times of the rows remembered (a ring)"),
+            ("hm", "real", trust.history, "um", "the model's correction at those rows"),
+            ("hpos", "int", 1, "", "where the next row is written in the ring"),
+            ("hcount", "int", 1, "", "how many rows the ring holds"),
+        ]
+    return tuple(StateVar(*row) for row in rows)
+
+
+def describe(comp, *, name="greyml_compensator", description=None):
+    """The :class:`Program` of a Compensator (its parameters checked, its plan made anew).
+
+    Parameters
+    ----------
+    comp : Compensator
+    name : str
+        The function (C) and function block (Structured Text) name.
+    description : str, optional
+        The model, in words, for the header comment (sanitised).
+
+    Returns
+    -------
+    Program
+    """
+    from greyml import __version__
+
+    name = check_name(name)
+    plan = comp._check_params()
+    taken = {name.lower()}
+    inputs = tuple(
+        Input(v, identifier(v, taken), comment_text(v, 40), _unit(v)) for v in plan["names"]
+    )
+    start, stop = plan["span"]
+    n = plan["weight"].size
+    n_lags = plan["tau"].size
+    terms = []
+    for k in range(n):
+        power = float(plan["power"][k - start]) if start <= k < stop else 1.0
+        terms.append(
+            Term(
+                input=int(plan["index"][k]) - 1,
+                power=power,
+                tau_s=float(plan["tau"][k]) if k < n_lags else None,
+                weight=float(plan["weight"][k]),
+                idle=bool(plan["idle"][k]) if k < n_lags else False,
+                fractional=power != round(power),
+            )
+        )
+    u = comp._uncertainty()
+    trust = None
+    if u is not None:
+        trust = Trust(
+            *u,
+            interval_quantile=float(comp.interval_quantile),
+            probe_noise_um=float(comp.probe_noise_um),
+            change_threshold=float(comp.change_threshold),
+            allowance=_ALLOWANCE,
+            gain_var=_GAIN_VAR,
+            history=HISTORY,
+        )
+    clamp, quantum, rate = plan["limits"]
+    max_step = plan["max_step"]
+    if description is None:
+        description = f"Compensator of {n} terms over {len(inputs)} inputs"
+    return Program(
+        name=name,
+        description=comment_text(description, 100),
+        inputs=inputs,
+        terms=tuple(terms),
+        n_lags=n_lags,
+        intercept=float(comp.intercept),
+        relative_to_start=bool(comp.relative_to_start),
+        nominal_step_s=None if comp.nominal_step_s is None else float(comp.nominal_step_s),
+        max_step_s=None if math.isinf(max_step) else float(max_step),
+        clamp_um=clamp,
+        quantum_um=quantum,
+        rate_limit_um_s=rate,
+        hold=comp.on_missing == "hold",
+        max_correction_um=float(comp.max_correction_um),
+        tolerance_um=None if comp.tolerance_um is None else float(comp.tolerance_um),
+        trust=trust,
+        state=_state_layout(len(inputs), n, trust),
+        greyml_version=comment_text(__version__, 30),
+    )

@@ -1,0 +1,152 @@
+"""The C export (issue 29): compiled with the system's compiler, it gives what Python gives.
+
+24 h of CAIVIAC rows (a simulated recording without the data) through the
+default transfer function's compensator, with and without the controller's
+limits and through probe readings, match ``Compensator.update`` to 1e-9 µm at
+every row; a script of refusals, held rows, late readings, a restarting clock
+and resets gives the same codes and numbers; the source allocates nothing and
+loops over constants only. Without a C compiler these tests skip, saying so.
+"""
+
+import re
+
+import numpy as np
+import pytest
+from _export_cases import (
+    CompiledC,
+    compiler,
+    day,
+    fitted,
+    five_sensors,
+    replay,
+    script,
+    scripted,
+)
+
+from greyml.dynamic._export import export_text
+
+pytestmark = pytest.mark.skipif(
+    compiler() is None, reason="no C compiler ($CC, gcc, cc or clang) on this machine"
+)
+
+LIMITS = {
+    "plain": {},
+    "rate and quantum": {"rate_limit_um_s": 0.002, "quantum_um": 0.1},
+    "fast rate, quantum and clamp": {"rate_limit_um_s": 0.05, "quantum_um": 0.5, "clamp_um": 4.0},
+    "rate alone": {"rate_limit_um_s": 0.001},
+}
+
+
+@pytest.fixture(scope="module")
+def compiled(tmp_path_factory):
+    """The default model's compensator with each set of limits, compiled once."""
+    model = fitted()
+    out = {}
+    for label, limits in LIMITS.items():
+        comp = model.compensator().set_params(**limits)
+        folder = tmp_path_factory.mktemp(label.replace(" ", "_").replace(",", ""))
+        out[label] = (comp, CompiledC(comp, folder))
+    return out
+
+
+@pytest.mark.parametrize("label", list(LIMITS))
+def test_a_day_of_rows_gives_pythons_output_to_1e_9(compiled, label):
+    _, c = compiled[label]
+    comp = fitted().compensator().set_params(**LIMITS[label])
+    c.init()
+    t, x, y = day(comp.inputs)
+    assert t.size == 5760  # 24 h of 15 s rows
+    python = np.empty(t.size)
+    exported = np.empty(t.size)
+    for k in range(t.size):
+        python[k] = comp.update(dict(zip(["time_s", *comp.inputs], [t[k], *x[k]])))
+        code, exported[k] = c.update(t[k], x[k])
+        assert code == 0
+    np.testing.assert_allclose(exported, python, rtol=0, atol=1e-9)
+    if LIMITS[label]:
+        assert not np.array_equal(python, [comp.status.correction] * t.size)  # limits acted
+        counts = python / LIMITS[label].get("quantum_um", 1.0)
+        if "quantum_um" in LIMITS[label]:
+            np.testing.assert_allclose(counts, np.round(counts), atol=1e-6)
+
+
+def test_probe_readings_and_a_detected_change_match_python(compiled):
+    _, c = compiled["rate and quantum"]
+    comp = fitted().compensator().set_params(**LIMITS["rate and quantum"])
+    c.init()
+    t, x, y = day(comp.inputs)
+    drift = np.where(t - t[0] > 12 * 3600, (t - t[0] - 12 * 3600) / 3600 * 2.0, 0.0)
+    worst = 0.0
+    for k in range(t.size):
+        value = comp.update(dict(zip(["time_s", *comp.inputs], [t[k], *x[k]])))
+        code, out = c.update(t[k], x[k])
+        assert code == 0
+        worst = max(worst, abs(out - value))
+        if k % 240 == 239:  # every hour, a reading 7 s late (between two rows)
+            comp.observe(t[k] - 7.0, y[k] + drift[k])
+            assert c.observe(t[k] - 7.0, y[k] + drift[k]) == 0
+        status = comp.status
+        worst = max(worst, abs(c.correction() - status.correction))
+        worst = max(worst, abs(c.half_width() - status.half_width))
+        assert c.changes() == status.changes and c.trusted() == status.trusted
+    assert comp.status.changes >= 1  # the drift was detected, in both
+    assert worst <= 1e-9
+
+
+LIMITED = {"rate_limit_um_s": 0.01, "quantum_um": 0.1, "clamp_um": 2.0}
+
+
+@pytest.mark.parametrize(
+    "nominal, on_missing, limits, calibrated",
+    [
+        (None, "hold", {}, True),
+        (15.0, "hold", LIMITED, True),
+        (None, "raise", LIMITED, True),
+        (15.0, "raise", {}, True),
+        (None, "hold", {"quantum_um": 0.1}, False),
+        (15.0, "raise", {"rate_limit_um_s": 0.01}, False),
+    ],
+)
+def test_refusals_held_rows_readings_and_resets_match_python(
+    tmp_path, nominal, on_missing, limits, calibrated
+):
+    comp = scripted(calibrated, nominal_step_s=nominal, on_missing=on_missing, **limits)
+    c = CompiledC(comp, tmp_path)
+    worst, changes = replay(comp, c, script(nominal), on_missing)
+    assert worst <= 1e-9
+    if calibrated:
+        assert changes >= 3  # the detector fired twice, and recalibrate was called
+    else:
+        assert "gm_observe" not in c.source
+
+
+def test_the_update_allocates_nothing_and_loops_over_constants(compiled):
+    comp, c = compiled["fast rate, quantum and clamp"]
+    source = c.source
+    code = re.sub(r"/\*.*?\*/", "", source, flags=re.S)
+    for word in ("malloc", "calloc", "realloc", "free", "alloca", "while", "goto", "#include <s"):
+        assert word not in code, word
+    assert re.findall(r"#include\s*<[^>]+>", code) == ["#include <math.h>"]
+    loops = re.findall(r"for \(([^)]*)\)", code)
+    assert loops
+    bound = r"(\w+) = 0; \1( \+ 1)? < (GM_N_TERMS|GM_N_INPUTS|GM_HISTORY|\d+); \1\+\+"
+    for loop in loops:
+        assert re.fullmatch(bound, loop), loop
+    # no function calls itself
+    definitions = re.findall(r"^[\w ]+?(\w+)\([^;{]*\)\n\{(.*?)\n\}$", code, flags=re.M | re.S)
+    assert len(definitions) >= 8
+    for name, body in definitions:
+        assert f"{name}(" not in body, name
+
+
+def test_a_model_of_five_sensors_and_the_speed_exports_under_30_kb(tmp_path):
+    model = five_sensors()
+    comp = model.compensator(tolerance_um=5.0)
+    comp.set_params(rate_limit_um_s=0.5, quantum_um=0.1, clamp_um=100.0)
+    assert len(comp.inputs) == 6 and comp.uncertainty is not None  # probe readings too
+    # each sensor through 4 lags and as it is, the speed and its square through 5 and as is
+    assert len(model.terms_) == 5 * 5 + 2 * 6
+    for language in ("c", "st", "json"):
+        size = len(export_text(comp, language).encode())
+        assert size < 30_000, (language, size)
+    CompiledC(comp, tmp_path)  # and it compiles
