@@ -250,3 +250,17 @@ def test_no_bound_on_the_correction():
     comp = _comp(max_correction_um=math.inf)
     comp.update(_row(0.0, 1e6))
     assert comp.status.plausible
+
+
+def test_start_test_passes_through_the_rate_limit():
+    comp = Compensator(
+        ["T1_C"],
+        [("T1_C", 1, 900.0, 2.0)],
+        relative_to_start=True,
+        rate_limit_um_s=0.01,
+        row_columns=["time_s", "T1_C"],
+    )
+    outputs = [comp.update(_row(60.0 * k, 20.0 + k)) for k in range(60)]
+    before = outputs[-1]
+    after = comp.start_test(_row(3600.0, 80.0))  # the correction itself drops to 0
+    assert abs(after - before) <= 0.01 * 60.0 + 1e-12 and after != 0.0

@@ -180,7 +180,6 @@ def test_the_file_is_written_whole_and_never_over_another_without_overwrite(tmp_
 @pytest.mark.parametrize(
     "params, words",
     [
-        ({"max_correction_um": math.inf}, "'max_correction_um' parameter of Compensator"),
         ({"change_threshold": math.inf}, "'change_threshold' parameter of Compensator"),
         ({"rate_limit_um_s": math.inf}, "'rate_limit_um_s' parameter of Compensator"),
         ({"intercept": math.nan}, "'intercept' parameter of Compensator"),
@@ -191,6 +190,16 @@ def test_an_infinite_number_is_refused_in_one_line(params, words, tmp_path):
     with pytest.raises(ValueError, match=re.escape(words)) as info:
         comp.export("c", tmp_path / "x.c")
     assert "\n" not in str(info.value)
+
+
+def test_no_bound_on_the_correction_exports_as_no_bound(tmp_path):
+    comp = Compensator(["T1_C"], [("T1_C", 1, 600.0, 1.0)], max_correction_um=math.inf)
+    import json
+
+    spec = json.loads(comp.export("json", tmp_path / "x.json").read_text(encoding="utf-8"))
+    assert "max_correction_um" in json.dumps(spec)  # a JSON without inf: it would not parse
+    text = comp.export("c", tmp_path / "x.c").read_text(encoding="utf-8")
+    assert "fabs(s->correction_um) <= HUGE_VAL" in text  # C99's infinity: every value plausible
 
 
 # -- the command line ---------------------------------------------------------------

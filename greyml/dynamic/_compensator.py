@@ -342,44 +342,6 @@ class Compensator(_Limits, _Trust):
         self._reset_trust()
         return self
 
-    def start_test(self, row, initial_displacement=None):
-        """Take the first row of a test that continues the state: its lags carry on,
-        and the reference starts anew there.
-
-        For a recording whose tests follow each other on one clock: the
-        correction at ``row`` is 0 with ``relative_to_start=True`` (or the
-        ``initial_displacement`` given), as batch ``predict`` measures each
-        test from its first row, while the lags keep the history that
-        :meth:`reset` would forget. Probe readings of the previous test no
-        longer apply (the displacement is known again here).
-
-        Parameters
-        ----------
-        row : dict, pandas Series or 1-D array
-            As for :meth:`update`.
-        initial_displacement : float, optional
-            The displacement measured at ``row``.
-
-        Returns
-        -------
-        correction : float
-        """
-        if initial_displacement is not None and not _real(initial_displacement):
-            raise ValueError(
-                "Compensator.start_test: initial_displacement must be a finite number; got "
-                f"{initial_displacement!r}."
-            )
-        self.update(row)
-        total = float(self._plan["weight"] @ self._lags)
-        self._initial = None if initial_displacement is None else float(initial_displacement)
-        self._start = self._first_start(total)
-        model = self.intercept + total - (self._start or 0.0)
-        if self._start is not None:  # the displacement is known here: the filter starts anew
-            self._anchor_trust(self._time, model)
-        else:
-            self._corr = self._corrected(model, self._time) if self._adjusted else model
-        return self._corr
-
     def _coefficients(self, dt, plan):
         """``a`` of every term for a step ``dt`` (cached while dt repeats)."""
         n_lags = plan["tau"].size

@@ -31,6 +31,7 @@ from collections import namedtuple
 import numpy as np
 
 from greyml.dynamic._compensator_plan import real
+from greyml.dynamic._output import limit_output
 
 __all__ = ["HISTORY", "Status", "filter_from_vars"]
 
@@ -150,6 +151,58 @@ class _Trust:
         self._ht = np.full(HISTORY, -np.inf)
         self._hm = np.zeros(HISTORY)
         self._hn = 0
+
+    def start_test(self, row, initial_displacement=None):
+        """Take the first row of a test that continues the state: its lags carry on,
+        and the reference starts anew there.
+
+        For a recording whose tests follow each other on one clock: the
+        correction at ``row`` is 0 with ``relative_to_start=True`` (or the
+        ``initial_displacement`` given), as batch ``predict`` measures each
+        test from its first row, while the lags keep the history that
+        :meth:`reset` would forget. Probe readings of the previous test no
+        longer apply (the displacement is known again here).
+
+        Parameters
+        ----------
+        row : dict, pandas Series or 1-D array
+            As for :meth:`update`.
+        initial_displacement : float, optional
+            The displacement measured at ``row``.
+
+        Returns
+        -------
+        correction : float
+        """
+        if initial_displacement is not None and not real(initial_displacement):
+            raise ValueError(
+                "Compensator.start_test: initial_displacement must be a finite number; got "
+                f"{initial_displacement!r}."
+            )
+        previous = self._time
+        before = (self._last, self._credit)  # the output stage before this row
+        self.update(row)
+        if self._held:
+            return self._output  # a missing input: nothing moved, not even the reference
+        total = float(self._plan["weight"] @ self._lags)
+        self._initial = None if initial_displacement is None else float(initial_displacement)
+        self._start = self._first_start(total)
+        model = self.intercept + total - (self._start or 0.0)
+        if self._start is not None:  # the displacement is known here: the filter starts anew
+            self._anchor_trust(self._time, model)
+        else:
+            self._corr = self._corrected(model, self._time) if self._adjusted else model
+        plan = self._plan
+        if not plan["limited"]:
+            self._output = self._last = self._corr
+            return self._corr
+        dt = None if previous is None else self._time - previous
+        if dt is not None and not dt > 0:
+            dt = self.nominal_step_s
+        self._output, self._last, self._credit = limit_output(
+            self._corr, dt, before[0], before[1], *plan["limits"]
+        )
+        return self._output
 
     def _anchor_trust(self, time, model):
         """The displacement is known at ``time`` (a new test's first row): the filter
