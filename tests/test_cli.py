@@ -261,7 +261,7 @@ def test_python_m_greyml(drift_case):
 
 
 def test_sensitivities_recalibrate_a_simulation_off_by_five_percent(tmp_path, capsys):
-    from greyml.gap import withheld_case
+    from greyml.gap_validation import withheld_case
 
     case = withheld_case(("drift",), 10, 3, param_error=0.05)
     real = write_tests_csv(case.real, tmp_path / "real.csv")

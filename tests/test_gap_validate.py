@@ -5,9 +5,8 @@ import pandas as pd
 import pytest
 
 from greyml.datasets import make_tests
-from greyml.gap import (
-    GapWarning,
-    diagnose_gap,
+from greyml.gap import GapWarning, diagnose_gap
+from greyml.gap_validation import (
     perturb_parameters,
     random_tests,
     simulator_sensitivities,

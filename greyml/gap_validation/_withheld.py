@@ -22,8 +22,8 @@ import pandas as pd
 
 from greyml.datasets import make_tests
 from greyml.datasets._simulated import _machine, main_target
-from greyml.gap._effects import EFFECTS
-from greyml.gap._report import GapWarning
+from greyml.exceptions import GapWarning
+from greyml.gap import EFFECTS, diagnose_gap
 from greyml.simulation import Effects, HeatingTest, Programme, diurnal
 
 __all__ = [
@@ -394,8 +394,6 @@ def _rms(x):
 
 def _run_case(spec, setting, use_sensitivities, kwargs):
     """One case of ``spec``; ``setting``: the keywords of withheld_case every case shares."""
-    from greyml.gap._diagnose import diagnose_gap
-
     withheld, size, param_error, seed = spec
     extra = withheld in (("event",), ("custom",))
     case = withheld_case(withheld, size, seed, param_error=param_error, **setting)
