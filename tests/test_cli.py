@@ -132,7 +132,10 @@ def test_null_case_has_no_cause(null_case, capsys):
     assert main(_gap(null_case)) == 0
     out = capsys.readouterr().out
     assert out.startswith("Verdict: within noise.")
-    assert "No significant unmodelled effect." in out
+    assert "No effect tried is supported by the held-out tests." in out
+    # what was not tried is said, with the columns it would need
+    assert data["not_tried"] == {"fbg_temperature": "needs an FBG target (the target among fbgs=)"}
+    assert "Not tried: fbg_temperature (needs an FBG target" in out
 
 
 def _error(capsys, argv):

@@ -158,9 +158,11 @@ def test_an_effect_hidden_by_a_parameter_error_of_opposite_sign_is_found():
 
 
 def test_backward_pruning_drops_an_effect_that_two_others_explain():
+    from types import SimpleNamespace
+
     from greyml.gap._effects import Candidate
     from greyml.gap._fit import evaluate
-    from greyml.gap._search import _prune
+    from greyml.gap._naming import EffectSearch, Named
 
     rng = np.random.default_rng(0)
     bounds = [(0, 200), (200, 400), (400, 600), (600, 800)]
@@ -172,10 +174,18 @@ def test_backward_pruning_drops_an_effect_that_two_others_explain():
         return Candidate(name, [name], [()], lambda s: x[:, None, None], lambda v, s: v, 1)
 
     both, drift, other = fixed("both", t + wave), fixed("drift", t), fixed("other", wave)
-    ctx = type("Ctx", (), {"r": r, "bounds": bounds})()
     base = [np.zeros((800, 0))] * 4
+    search = EffectSearch(
+        SimpleNamespace(r=r, bounds=bounds),
+        SimpleNamespace(base=base),
+        rng,
+        n_placebo=1,
+        min_shrinkage=0.05,
+        max_effects=3,
+        tie_tolerance=0.02,
+    )
     named = []
     for cand in (both, drift, other):
-        fold = [np.hstack([b] + [c.make(())[:, 0, :] for c, _, _ in named]) for b in base]
-        named.append((cand, evaluate(r, fold, cand.make, cand.settings, bounds), None))
-    assert _prune(ctx, named, base, None, 0.02) == [both]
+        fold = [np.hstack([b] + [n.candidate.make(())[:, 0, :] for n in named]) for b in base]
+        named.append(Named(cand, evaluate(r, fold, cand.make, cand.settings, bounds), None))
+    assert search._prune(named, None) == [both]
