@@ -253,6 +253,7 @@ class Candidate:
     bank: object = None  # Bank; built from ``make`` when not given
     taus: tuple = ()  # the time constants the settings draw from (for placebos)
     grid: tuple = ()  # the search grid: its ends are the bounds (for warnings)
+    placebo: object = None  # callable rng -> Bank: its own placebo; random walks if None
 
     def features(self, setting):
         return self.make(setting)
@@ -372,17 +373,38 @@ def _initial_state(effect, ctx, grid):
     offset = _per_test_start(start, ctx.bounds)
     names = ["mean sensor"] + list(ctx.sensor_names)
     settings = two_lags(grid)
-    values = offset[:, :, None] * -np.expm1(-ctx.t_s[:, None] / grid[None, :])[:, None, :]
-    return _bank_candidate(
+    shapes = -np.expm1(-ctx.t_s[:, None] / grid[None, :])[:, None, :]
+    picks = lag_picks(settings, grid)
+    cand = _bank_candidate(
         effect.name,
         names,
         settings,
-        values,
-        lag_picks(settings, grid),
+        offset[:, :, None] * shapes,
+        picks,
         lambda v, s: f"start offset of {v} from the air relaxing with {_taus(s)}",
         grid,
         grid,
     )
+    firsts = np.array([start for start, _ in ctx.bounds])
+    cand.placebo = partial(_offset_placebo, shapes, ctx.bounds, start[firsts], picks)
+    return cand
+
+
+def _offset_placebo(shapes, bounds, offsets, picks, rng):
+    """``initial_state``'s placebo: the start offsets of other tests, through the same relaxations.
+
+    Any smooth gap that starts at 0 in each test is fitted in part by some
+    per-test amplitude times a relaxation. ``offsets`` (T, V) holds each
+    test's start offsets; the placebo gives each test those of another
+    (the tests permuted at random), so that the effect is credited only if
+    the offsets of the test itself do better than the same offsets in the
+    wrong tests.
+    """
+    order = rng.permutation(len(bounds))
+    offset = np.empty((shapes.shape[0], offsets.shape[1]))
+    for (start, stop), source in zip(bounds, order):
+        offset[start:stop] = offsets[source]
+    return Bank(offset[:, :, None] * shapes, picks)
 
 
 def _drift(effect, ctx, grid):

@@ -261,9 +261,13 @@ class EffectSearch:
 
         As many variants, features and time-constant settings: the variants
         are random walks from 0 in every test, lagged like the candidate's
-        signatures (or used as they are when it has no time constant).
+        signatures (or used as they are when it has no time constant). A
+        candidate with a placebo of its own (``initial_state``: random start
+        offsets) gets that one.
         """
         ctx = self.ctx
+        if cand.placebo is not None:
+            return cand.placebo(self.rng)
         n, V, k = len(ctx.r), len(cand.variants), cand.n_features
         if cand.settings[0]:
             taus = cand.taus or tuple(sorted({float(t) for s in cand.settings for t in s}))
@@ -277,16 +281,18 @@ class EffectSearch:
 
         Stops at the first placebo whose shrinkage reaches ``beat`` (the
         effect's own): the effect is then not significant, whatever the
-        others do.
+        others do. Returns the shrinkages and the best placebo's evaluation.
         """
-        out = []
+        out, best = [], None
         for _ in range(self.n_placebo):
             ev = self.evaluate(base, self._placebo_bank(cand), cand.settings, recal)
             out.append(shrinkage(ev.rmse, before.rmse))
+            if best is None or ev.rmse < best.rmse:
+                best = ev
             if out[-1] >= beat:
                 break
         self.n_drawn += len(out)
-        return np.array(out)
+        return np.array(out), best
 
     def pair_placebos(self, base, before, first, second, recal, beat):
         """Held-out shrinkage of placebo pairs as free as (``first``, ``second``)."""
@@ -392,9 +398,18 @@ class EffectSearch:
         low = _low_interval(best.interval)
         if low:
             return low
-        step.placebo = self.placebos(base, step.before, best.candidate, recal, best.shrinkage)
+        step.placebo, placebo = self.placebos(
+            base, step.before, best.candidate, recal, best.shrinkage
+        )
         if not best.shrinkage > step.threshold:
             return f"placebos do as well (p = {step.p_value:.2g})"
+        # beating every placebo must hold over tests, not by a fluke of one
+        margin = shrinkage_interval(placebo.held_out, best.evaluation.held_out, self.ctx.bounds)
+        if not margin[0] > 0:
+            return (
+                f"it beats the best placebo ({step.placebo_max:.0%}) by too little: its 95% "
+                f"interval over tests against it is {margin[0]:.0%} to {margin[1]:.0%}"
+            )
         return ""
 
     def _pair(self, base, before, scored, recal, number, top=3):
