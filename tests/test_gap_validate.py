@@ -133,7 +133,24 @@ def test_validate_withheld_small_run():
     shrink = result.shrinkage()
     # the named effect removes most of the noise-free gap
     assert shrink.loc[(0.05, "ambient"), "clean_shrinkage"] > 0.85
-    assert isinstance(result.pairs(), pd.DataFrame)
+    assert result.pairs().empty  # no pair was withheld
+
+
+def test_pairs_summarise_both_named_by_parameter_error():
+    from greyml.gap_validation import WithheldValidation
+
+    cases = pd.DataFrame(
+        {
+            "withheld": ["ambient+drift", "ambient+drift", "ambient+drift", "drift"],
+            "param_error": [0.0, 0.0, 0.05, 0.0],
+            "all_named": [True, False, True, True],
+            "top1": [True, True, False, True],
+        }
+    )
+    pairs = WithheldValidation(cases).pairs()
+    assert pairs.loc[(0.0, "ambient+drift")].tolist() == [0.5, 1.0, 2]
+    assert pairs.loc[(0.05, "ambient+drift")].tolist() == [1.0, 0.0, 1]
+    assert len(pairs) == 2  # the single effect is not a pair
 
 
 def test_withheld_case_rejects_unknown_effects():
