@@ -203,6 +203,10 @@ def print_report(report, frame, title):
     with pd.option_context("display.max_colwidth", 60, "display.width", 200):
         print(causes.to_string(index=False, float_format="%.2f"))
     print(f"named: {', '.join(report.named) if report.named else 'nothing'}")
+    if report.not_tried:  # e.g. ambient: this recording has no air column
+        print("not tried: " + "; ".join(f"{e} ({why})" for e, why in report.not_tried.items()))
+    for effect, why in report.untestable.items():
+        print(f"untestable: {effect}, {why}")
     print(
         f"verdict {report.verdict!r}: unexplained_rms {report.unexplained_rms:.2f} µm, "
         f"noise floor {report.noise_floor:.3f} µm, remainder ratio {report.remainder_ratio:.0f}"

@@ -385,33 +385,47 @@ def _initial_state(effect, ctx, grid):
         grid,
         grid,
     )
-    firsts = np.array([start for start, _ in ctx.bounds])
-    cand.placebo = partial(_offset_placebo, shapes, ctx.bounds, start[firsts], picks)
+    cand.placebo = partial(_offset_placebo, shapes, ctx.bounds, len(names), picks)
     return cand
 
 
-def _offset_placebo(shapes, bounds, offsets, picks, rng):
-    """``initial_state``'s placebo: the start offsets of other tests, through the same relaxations.
+def _offset_placebo(shapes, bounds, n_variants, picks, rng):
+    """``initial_state``'s placebo: random start offsets through the same relaxations.
 
     Any smooth gap that starts at 0 in each test is fitted in part by some
-    per-test amplitude times a relaxation. ``offsets`` (T, V) holds each
-    test's start offsets; the placebo gives each test those of another
-    (the tests permuted at random), so that the effect is credited only if
-    the offsets of the test itself do better than the same offsets in the
-    wrong tests.
+    per-test amplitude times a relaxation; the effect is credited only if the
+    offsets the sensors give do better than as many random ones (one per
+    test and variant).
     """
-    order = rng.permutation(len(bounds))
-    offset = np.empty((shapes.shape[0], offsets.shape[1]))
-    for (start, stop), source in zip(bounds, order):
-        offset[start:stop] = offsets[source]
+    offset = np.empty((shapes.shape[0], n_variants))
+    for start, stop in bounds:
+        offset[start:stop] = rng.standard_normal(n_variants)
     return Bank(offset[:, :, None] * shapes, picks)
 
 
 def _drift(effect, ctx, grid):
     hours = (ctx.t_s / 3600.0)[:, None, None]
-    return _fixed_candidate(
+    cand = _fixed_candidate(
         effect.name, ["time"], hours, lambda v, s: "linear in time since the test start"
     )
+    cand.placebo = partial(_time_placebo, ctx.t_s, min(ctx.dt))
+    return cand
+
+
+def _time_placebo(t_s, step, rng):
+    """``drift``'s placebo: one random walk in time since the test start, the same in every test.
+
+    ``drift`` is a function of the time since the start alone, the same in
+    every test, so it can carry what all tests share to a held-out test; a
+    random function of that time (a random walk in it) has the same freedom.
+    The effect is credited only if a straight line does better than such
+    random functions: a gap that merely rises in every test (a slow heat
+    input the library lacks) is not taken for drift.
+    """
+    k = np.rint(t_s / step).astype(np.intp)
+    walk = np.cumsum(rng.standard_normal(int(k.max()) + 1))
+    walk -= walk[0]
+    return Bank(walk[k][:, None, None], [[0]])
 
 
 def _fbg_temperature(effect, ctx, grid):

@@ -295,18 +295,21 @@ class EffectSearch:
         return np.array(out), best
 
     def pair_placebos(self, base, before, first, second, recal, beat):
-        """Held-out shrinkage of placebo pairs as free as (``first``, ``second``)."""
-        out = []
+        """Held-out shrinkage of placebo pairs as free as (``first``, ``second``), and the best's
+        evaluation."""
+        out, best = [], None
         for _ in range(self.n_placebo):
             ev_a = self.evaluate(base, self._placebo_bank(first), first.settings, recal)
             ev_b = self.evaluate(
                 _with(base, ev_a), self._placebo_bank(second), second.settings, recal
             )
             out.append(shrinkage(ev_b.rmse, before.rmse))
+            if best is None or ev_b.rmse < best.rmse:
+                best = ev_b
             if out[-1] >= beat:  # not significant, whatever the others do
                 break
         self.n_drawn += len(out)
-        return np.array(out)
+        return np.array(out), best
 
     # -- the search --------------------------------------------------------
 
@@ -422,8 +425,9 @@ class EffectSearch:
         its interval over tests must lie above 0, each member must add to
         the other on its own (the interval of the pair against the other
         member alone above 0), and the pair must beat ``n_placebo`` pairs
-        of random walks given the same freedom (the first fitted alone, the
-        second given it). Returns two :class:`Named`, or None.
+        of placebos given the same freedom (the first fitted alone, the
+        second given it), the best of them over tests (the interval against
+        it above 0). Returns two :class:`Named`, or None.
         """
         best = None
         for first in scored[:top]:
@@ -449,12 +453,14 @@ class EffectSearch:
             if _low_interval(interval):
                 return None
             own[id(member)] = (other, interval)
-        placebo = self.pair_placebos(
+        placebo, best_placebo = self.pair_placebos(
             base, before, first.candidate, second.candidate, recal, pair_shrink
         )
         threshold = max(self.min_shrinkage, float(placebo.max()))
         if not pair_shrink > threshold:
             return None
+        if _low_interval(shrinkage_interval(best_placebo.held_out, ev.held_out, bounds)):
+            return None  # it beats the best placebo pair by a fluke of one test
         out = []
         for k, (member, partner) in enumerate(((first, second), (second, first))):
             other, interval = own[id(member)]
