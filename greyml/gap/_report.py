@@ -194,12 +194,15 @@ class GapReport:
     def unexplained_share(self):
         """Share of the held-out gap above the noise that the named effects leave.
 
-        (``rmse_after``² − floor²) / (``rmse_before``² − floor²), clipped to
-        [0, 1], with floor the noise floor: 1 when nothing is explained, 0
-        when what is left is noise; 0 when the gap itself is within the noise.
+        (``rmse_after``² − floor²) / (start² − floor²), clipped to [0, 1],
+        with floor the noise floor and start the held-out RMSE the effects
+        were searched from (``rmse_recalibrated`` when the recalibration was
+        kept, else ``rmse_before``): 1 when nothing is explained, 0 when what
+        is left is noise; 0 when the gap itself is within the noise.
         """
         floor2 = self.noise_floor**2
-        above = self.rmse_before**2 - floor2
+        start = self.rmse_recalibrated if self.recalibration_kept else self.rmse_before
+        above = start**2 - floor2
         if not above > 0:
             return 0.0
         return float(np.clip((self.rmse_after**2 - floor2) / above, 0.0, 1.0))
