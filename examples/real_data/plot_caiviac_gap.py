@@ -51,8 +51,9 @@ repeated with the simulation calibrated on each other cycle.
   and harms in others), so it is not supported. T4 as a custom ``hvac_air``
   makes the held-out gap worse (−15 %); as the ``ambient`` column it shrinks
   it by 1 %, and ``initial_state`` by −2 %. Without an air column, the report
-  lists ``ambient`` and ``initial_state`` as not tried (they need one). The recalibration of the simulation's own gain
-  and timing (within ±10 %) leaves more held out (16.63 µm) and is not kept.
+  lists ``ambient`` and ``initial_state`` as not tried (they need one). The
+  recalibration of the simulation's own gain and timing (within ±10 %)
+  leaves more held out (16.63 µm) and is not kept.
 * *What remains*: verdict ``"unexplained"``: ``unexplained_rms`` 15.95 µm,
   95 times the noise floor of 0.168 µm (the floor is that of one row a
   minute), with 8 located events of 1.6 to 5.9 µm. Six of them lie 13 to
