@@ -132,7 +132,10 @@ def test_null_case_has_no_cause(null_case, capsys):
     assert main(_gap(null_case)) == 0
     out = capsys.readouterr().out
     assert out.startswith("Verdict: within noise.")
-    assert "No significant unmodelled effect." in out
+    assert "No effect tried is supported by the held-out tests." in out
+    # what was not tried is said, with the columns it would need
+    assert data["not_tried"] == {"fbg_temperature": "needs an FBG target (the target among fbgs=)"}
+    assert "Not tried: fbg_temperature (needs an FBG target" in out
 
 
 def _error(capsys, argv):
@@ -261,7 +264,7 @@ def test_python_m_greyml(drift_case):
 
 
 def test_sensitivities_recalibrate_a_simulation_off_by_five_percent(tmp_path, capsys):
-    from greyml.gap import withheld_case
+    from greyml.gap_validation import withheld_case
 
     case = withheld_case(("drift",), 10, 3, param_error=0.05)
     real = write_tests_csv(case.real, tmp_path / "real.csv")

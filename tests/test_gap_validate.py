@@ -5,9 +5,8 @@ import pandas as pd
 import pytest
 
 from greyml.datasets import make_tests
-from greyml.gap import (
-    GapWarning,
-    diagnose_gap,
+from greyml.gap import GapWarning, diagnose_gap
+from greyml.gap_validation import (
     perturb_parameters,
     random_tests,
     simulator_sensitivities,
@@ -134,7 +133,24 @@ def test_validate_withheld_small_run():
     shrink = result.shrinkage()
     # the named effect removes most of the noise-free gap
     assert shrink.loc[(0.05, "ambient"), "clean_shrinkage"] > 0.85
-    assert isinstance(result.pairs(), pd.DataFrame)
+    assert result.pairs().empty  # no pair was withheld
+
+
+def test_pairs_summarise_both_named_by_parameter_error():
+    from greyml.gap_validation import WithheldValidation
+
+    cases = pd.DataFrame(
+        {
+            "withheld": ["ambient+drift", "ambient+drift", "ambient+drift", "drift"],
+            "param_error": [0.0, 0.0, 0.05, 0.0],
+            "all_named": [True, False, True, True],
+            "top1": [True, True, False, True],
+        }
+    )
+    pairs = WithheldValidation(cases).pairs()
+    assert pairs.loc[(0.0, "ambient+drift")].tolist() == [0.5, 1.0, 2]
+    assert pairs.loc[(0.05, "ambient+drift")].tolist() == [1.0, 0.0, 1]
+    assert len(pairs) == 2  # the single effect is not a pair
 
 
 def test_withheld_case_rejects_unknown_effects():
@@ -159,9 +175,11 @@ def test_an_effect_hidden_by_a_parameter_error_of_opposite_sign_is_found():
 
 
 def test_backward_pruning_drops_an_effect_that_two_others_explain():
+    from types import SimpleNamespace
+
     from greyml.gap._effects import Candidate
     from greyml.gap._fit import evaluate
-    from greyml.gap._search import _prune
+    from greyml.gap._naming import EffectSearch, Named
 
     rng = np.random.default_rng(0)
     bounds = [(0, 200), (200, 400), (400, 600), (600, 800)]
@@ -173,10 +191,18 @@ def test_backward_pruning_drops_an_effect_that_two_others_explain():
         return Candidate(name, [name], [()], lambda s: x[:, None, None], lambda v, s: v, 1)
 
     both, drift, other = fixed("both", t + wave), fixed("drift", t), fixed("other", wave)
-    ctx = type("Ctx", (), {"r": r, "bounds": bounds})()
     base = [np.zeros((800, 0))] * 4
+    search = EffectSearch(
+        SimpleNamespace(r=r, bounds=bounds),
+        SimpleNamespace(base=base),
+        rng,
+        n_placebo=1,
+        min_shrinkage=0.05,
+        max_effects=3,
+        tie_tolerance=0.02,
+    )
     named = []
     for cand in (both, drift, other):
-        fold = [np.hstack([b] + [c.make(())[:, 0, :] for c, _, _ in named]) for b in base]
-        named.append((cand, evaluate(r, fold, cand.make, cand.settings, bounds), None))
-    assert _prune(ctx, named, base, None, 0.02) == [both]
+        fold = [np.hstack([b] + [n.candidate.make(())[:, 0, :] for n in named]) for b in base]
+        named.append(Named(cand, evaluate(r, fold, cand.make, cand.settings, bounds), None))
+    assert search._prune(named, None) == [both]

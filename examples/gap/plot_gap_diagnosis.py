@@ -222,8 +222,9 @@ save(fig_a, "gap_diagnosis_where.png")
 # of the gap on the held-out tests. An effect that only fits noise shrinks
 # nothing there, or makes it worse.
 #
-# **Significant** means: the effect's held-out shrinkage is at least 5 % and
-# beats every one of 39 placebos. A placebo is a random walk given the same
+# **Significant** means: the effect's held-out shrinkage is at least 5 %,
+# its 95 % interval over tests lies above 0, and it beats every one of 39
+# placebos. A placebo is a random walk given the same
 # freedom as the effect: as many variants, features and time constants to
 # choose from, fitted and scored on held-out whole tests in the same way. An
 # effect that is only flexible enough to follow slow wander would do as well

@@ -9,24 +9,20 @@ effects, and the report stage here turns what was found into a
 from __future__ import annotations
 
 import warnings
+from dataclasses import replace
 
 import numpy as np
 import pandas as pd
 
 from greyml._param_validation import Integral, Interval, Real, validate_params
 from greyml._rng import RANDOM_STATE_CONSTRAINT, make_generator
-from greyml.gap._effects import (
-    DESCRIPTIONS,
-    EFFECTS,
-    build_candidates,
-    custom_description,
-    fmt_tau,
-    tau_grid,
-)
+from greyml.gap._consistency import inconsistent_sensors
+from greyml.gap._effects import LIBRARY, build_candidates, fmt_tau, tau_grid
 from greyml.gap._events import locate_events
+from greyml.gap._naming import EffectSearch, showing_tests, shrinkage
 from greyml.gap._prepare import GapContext, check_parameters, prepare
 from greyml.gap._report import GapReport, GapWarning
-from greyml.gap._search import _shrinkage, search_effects, starting_point
+from greyml.gap._search import starting_point
 from greyml.gap._where import gap_breakdown, residual_diagnostics
 
 __all__ = ["diagnose_gap", "GapContext"]
@@ -80,11 +76,15 @@ def diagnose_gap(
     time since the start and frequency band (``where``). Then every candidate
     effect of the library (``greyml.gap.EFFECTS``) is fitted to the gap on
     calibration tests and scored on the held-out test, leave one test out.
-    An effect is *significant* when its held-out shrinkage
+    An effect is *significant* (named) when its held-out shrinkage
     1 − RMSE_after/RMSE_before beats both ``min_shrinkage`` and every one of
     ``n_placebo`` random-walk placebos given the same freedom (as many
-    variants and time constants). The best significant effect is added and the
-    rest re-diagnosed on what is left, until nothing significant remains.
+    variants and time constants), and its 95 % interval over tests (whole
+    tests resampled) lies above 0. The best significant effect is added and
+    the rest re-diagnosed on what is left, until nothing significant remains.
+    Before the search, sensors whose relation to the others changes between
+    tests (swapped, moved, mislabelled) are reported and left out of the
+    effects; effects that only one test shows are reported as untestable.
 
     Abrupt events (a step or a spike in one test: a probe knocked, a
     re-clamp) are located first (``ruptures``) and reported in ``events``;
@@ -161,7 +161,8 @@ def diagnose_gap(
     -----
     GapWarning
         When a named effect's fitted time constant ends at the bound of its
-        search (often a ``time_s`` that is not in seconds).
+        search (often a ``time_s`` that is not in seconds), and when sensors
+        relate to the others differently in one test.
 
     Examples
     --------
@@ -183,13 +184,92 @@ def diagnose_gap(
     )
     roles = dict(target=target, ambient=ambient, drivers=drivers, sensors=sensors, fbgs=fbgs)
     real, ctx, custom = prepare(real, sim, custom_effects, **roles)
-    rng = make_generator(random_state)
-    candidates, skipped = build_candidates(ctx, effects, custom=custom)
+    asked = [e.name for e in effects]
+    flags = inconsistent_sensors(ctx.sensors, ctx.bounds)
+    effect_ctx = _without_sensors(ctx, flags, stacklevel=3)
+    candidates, skipped = build_candidates(effect_ctx, [*effects, *custom])
+    candidates, untestable = _testable(ctx, candidates)
     start = starting_point(
         ctx, real, recalibrate=recalibrate, sensitivities=sensitivities, tolerance=tolerance
     )
-    found = search_effects(ctx, candidates, start, rng, **search)
-    return _report(target, ctx, start, found, skipped, custom)
+    found = EffectSearch(ctx, start, make_generator(random_state), **search).run(candidates)
+    not_tried = _not_tried(asked, skipped)
+    descriptions = {e.name: e.description for e in (*effects, *custom)}
+    report = _report(target, ctx, start, found, not_tried, untestable, descriptions, flags)
+    return report
+
+
+# --------------------------------------------------------------------------
+# before the search: consistent sensors, testable effects
+# --------------------------------------------------------------------------
+
+
+def _without_sensors(ctx, flags, stacklevel):
+    """``ctx`` without the sensors flagged as inconsistent (said in one warning)."""
+    if not flags:
+        return ctx
+    bad = sorted({f.sensor for f in flags})
+    names = [ctx.sensor_names[j] for j in bad]
+    where = "; ".join(_flag_words(ctx, f) for f in flags)
+    warnings.warn(
+        f"diagnose_gap: sensor{'s' if len(names) > 1 else ''} {', '.join(names)} relate to the "
+        f"other sensors differently in one test (swapped, moved or mislabelled?): {where}; "
+        "left out of the effects built from the sensors.",
+        GapWarning,
+        stacklevel=stacklevel + 1,
+    )
+    keep = [j for j in range(len(ctx.sensor_names)) if j not in bad]
+    return replace(
+        ctx, sensors=ctx.sensors[:, keep], sensor_names=[ctx.sensor_names[j] for j in keep]
+    )
+
+
+def _flag_words(ctx, flag):
+    """One flagged sensor in words."""
+    words = (
+        f"{ctx.sensor_names[flag.sensor]} in test {ctx.labels[flag.test]!r} (held-out error "
+        f"{flag.ratio:.0f}× that in the other tests"
+    )
+    if flag.partner is not None:
+        words += f"; it reads as swapped with {ctx.sensor_names[flag.partner]}"
+    return words + ")"
+
+
+def _testable(ctx, candidates):
+    """The candidates that leave one test out can score, and why the others cannot.
+
+    An effect whose signatures are zero in every test but one (a coolant
+    run in one test only, an air that changed in one test) cannot be
+    scored on a held-out test: held out, that test's calibration tests do
+    not show it; held in, no other test does.
+    """
+    keep, untestable = [], {}
+    for cand in candidates:
+        shown = showing_tests(cand, ctx.bounds)
+        if max(len(tests) for tests in shown) >= 2:
+            keep.append(cand)
+            continue
+        seen = sorted(set().union(*shown))
+        if seen:
+            which = f"only test {ctx.labels[seen[0]]!r} shows it"
+        else:
+            which = "no test shows it (its signatures are zero)"
+        untestable[cand.effect] = (
+            f"untestable leave one test out: {which}; another test with this effect would test it"
+        )
+    return keep, untestable
+
+
+def _not_tried(asked, skipped):
+    """Library effects not tried, and why: the columns they need, or not asked for."""
+    out = {}
+    for effect in LIBRARY:
+        if effect.name not in asked:
+            needs = effect.needs()
+            out[effect.name] = "not asked for (effects=)" + (f"; needs {needs}" if needs else "")
+        elif effect.name in skipped:
+            out[effect.name] = skipped[effect.name]
+    return out
 
 
 # --------------------------------------------------------------------------
@@ -197,7 +277,7 @@ def diagnose_gap(
 # --------------------------------------------------------------------------
 
 
-def _report(target, ctx, start, found, skipped, custom):
+def _report(target, ctx, start, found, not_tried, untestable, descriptions, flags):
     """The :class:`GapReport` of what the search found."""
     final = found.final
     r_series = pd.Series(ctx.r, index=ctx.index, name="gap")
@@ -211,22 +291,32 @@ def _report(target, ctx, start, found, skipped, custom):
     drivers_frame = pd.DataFrame(dict(zip(ctx.driver_names, ctx.drivers.T)), index=ctx.index)
     drivers_frame = drivers_frame if ctx.driver_names else None
     signal_frame = pd.DataFrame(signals, index=ctx.index)
-    causes = _causes(ctx, found, skipped)
+    # the causes table lists the effects asked for; not_tried lists the whole library
+    asked_skipped = {e: why for e, why in not_tried.items() if not why.startswith("not asked")}
+    causes = _causes(ctx, found, {**untestable, **asked_skipped})
     where = gap_breakdown(r_series, drivers=drivers_frame)
     whiteness, xcorr = residual_diagnostics(r_series, signal_frame)
     corrected = pd.Series(final.held_out, index=ctx.index, name="gap_after")
     remainder_where = gap_breakdown(corrected, drivers=drivers_frame)
     remainder_white, remainder_xcorr = residual_diagnostics(corrected, signal_frame)
-    descriptions = {e: DESCRIPTIONS[e] for e in EFFECTS}
-    for name, (kind, columns, _) in custom.items():
-        descriptions[name] = custom_description(kind, columns)
     named = found.named
+    inconsistent = pd.DataFrame(
+        {
+            "test": [ctx.labels[f.test] for f in flags],
+            "sensor": [ctx.sensor_names[f.sensor] for f in flags],
+            "error_ratio": [f.ratio for f in flags],
+            "swapped_with": [
+                ctx.sensor_names[f.partner] if f.partner is not None else None for f in flags
+            ],
+        },
+        columns=_SENSOR_COLUMNS,
+    )
     return GapReport(
         target=target,
         where=where,
         causes=causes,
-        cause=named[0][0].effect if named else None,
-        named=[b.effect for b, _, _ in named],
+        cause=named[0].candidate.effect if named else None,
+        named=[n.candidate.effect for n in named],
         rmse_before=start.initial.rmse,
         rmse_recalibrated=start.recalibrated.rmse if start.recalibrated is not None else np.nan,
         rmse_after=final.rmse,
@@ -245,6 +335,9 @@ def _report(target, ctx, start, found, skipped, custom):
         remainder_where=remainder_where,
         remainder_whiteness=remainder_white,
         remainder_cross_correlation=remainder_xcorr,
+        not_tried=not_tried,
+        untestable=untestable,
+        inconsistent_sensors=inconsistent,
     )
 
 
@@ -269,7 +362,8 @@ def _causes(ctx, found, skipped):
     """The ``causes`` table: named effects, the last step's losers, the dropped, the skipped."""
     rows = []
     grid = tau_grid(ctx.dt, ctx.durations)
-    for best, ev, step in found.named:
+    for named in found.named:
+        best, ev, step = named.candidate, named.evaluation, named.step
         detail = best.describe(best.variants[ev.variant], ev.tau)
         bound = _at_bound(best, ev.tau)
         if bound:
@@ -280,83 +374,65 @@ def _causes(ctx, found, skipped):
                 GapWarning,
                 stacklevel=4,  # the caller of diagnose_gap (via _report)
             )
-        if step["ties"]:
-            detail += f"; indistinguishable from {', '.join(step['ties'])}"
-        if step.get("pair"):
-            detail += f"; named as a pair with {step['pair']} (together they beat the placebos)"
-        rows.append(
-            _row(
-                best.effect,
-                detail,
-                step,
-                ev,
-                True,
-                step["step"],
-                step["placebo_max"],
-                bounds=ctx.bounds,
+        if step.ties:
+            detail += f"; indistinguishable from {', '.join(step.ties)}"
+        if step.pair:
+            detail += (
+                f"; named as a pair with {step.pair} (together they beat the placebos; its "
+                f"shrinkage is its own part, what it adds to {step.pair} alone)"
             )
+        rows.append(
+            _row(best.effect, detail, step, step.after, True, step.number, True, step.interval)
         )
     last = found.steps[-1] if found.steps else None
-    if last is not None and not last["significant"]:
-        for _, cand, ev in last["scored"]:
-            first = cand is last["scored"][0][1]
-            detail = cand.describe(cand.variants[ev.variant], ev.tau)
-            rows.append(
-                _row(
-                    cand.effect,
-                    detail,
-                    last,
-                    ev,
-                    placebo=last["placebo_max"] if first else np.nan,
-                    bounds=ctx.bounds,
-                )
-            )
+    if last is not None and not last.significant:
+        for k, scored in enumerate(last.scored):
+            cand, ev = scored.candidate, scored.evaluation
+            why = last.why if k == 0 else _why_not(scored, last)
+            detail = f"{cand.describe(cand.variants[ev.variant], ev.tau)}; not supported: {why}"
+            rows.append(_row(cand.effect, detail, last, ev, own=k == 0, interval=scored.interval))
     for cand in found.dropped:
         detail = "named, then dropped: the other named effects explain the gap as well without it"
         rows.append(_row(cand.effect, detail))
     for effect, why in skipped.items():
-        rows.append(_row(effect, f"not tried: {why}"))
+        prefix = "" if why.startswith("untestable") else "not tried: "
+        rows.append(_row(effect, prefix + why))
     return pd.DataFrame(rows, columns=_CAUSE_COLUMNS)
 
 
-def _shrinkage_ci(before, after, bounds, level=0.95, n_boot=2000):
-    """Percentile interval of the held-out shrinkage over tests resampled with replacement."""
-    b = np.array([np.sum(before[s:e] ** 2) for s, e in bounds])
-    a = np.array([np.sum(after[s:e] ** 2) for s, e in bounds])
-    # a fixed seed: the interval is a property of the data, not of random_state
-    pick = np.random.default_rng(0).integers(0, len(bounds), size=(n_boot, len(bounds)))
-    den = b[pick].sum(axis=1)
-    ok = den > 0
-    if not ok.any():
-        return (np.nan, np.nan)
-    shrink = 1.0 - np.sqrt(a[pick].sum(axis=1)[ok] / den[ok])
-    lo, hi = np.quantile(shrink, [(1 - level) / 2, (1 + level) / 2])
-    return (float(lo), float(hi))
+def _why_not(scored, step):
+    """Why a candidate other than a step's best was not named."""
+    lo = scored.interval[0]
+    if not (np.isfinite(lo) and lo > 0):
+        return "its 95% interval over tests reaches below 0"
+    if not scored.shrinkage > step.min_shrinkage:
+        return f"it shrinks the gap by no more than min_shrinkage={step.min_shrinkage:g}"
+    best = step.scored[0].candidate.effect
+    return f"{best} shrinks the gap more and is not supported either"
 
 
-def _row(
-    effect, detail, step=None, ev=None, significant=False, number=0, placebo=np.nan, bounds=None
-):
-    """One row of ``causes``: ``ev`` scored against ``step``'s starting gap (NaN if unscored)."""
+def _row(effect, detail, step=None, ev=None, significant=False, number=0, own=False, interval=None):
+    """One row of ``causes``: ``ev`` scored against ``step``'s starting gap (NaN if unscored).
+
+    ``own``: the row is the one the step's placebos were drawn for (its
+    p-value and best placebo are shown).
+    """
     scored = step is not None and ev is not None
-    ci = (np.nan, np.nan)
-    if scored and bounds is not None and step.get("held_before") is not None:
-        ci = _shrinkage_ci(step["held_before"], ev.held_out, bounds)
-    own = scored and placebo is not None and np.isfinite(placebo)
+    before = step.before if scored else None
     return {
         "effect": effect,
         "detail": detail,
-        "rmse_before": step["rmse_before"] if scored else np.nan,
+        "rmse_before": before.rmse if scored else np.nan,
         "rmse_after": ev.rmse if scored else np.nan,
-        "shrinkage": _shrinkage(ev.rmse, step["rmse_before"]) if scored else np.nan,
+        "shrinkage": shrinkage(ev.rmse, before.rmse) if scored else np.nan,
         "significant": significant,
         "step": number,
-        "placebo_shrinkage": placebo,
-        "peak_before": step["peak_before"] if scored else np.nan,
+        "placebo_shrinkage": step.placebo_max if scored and own else np.nan,
+        "peak_before": before.peak if scored else np.nan,
         "peak_after": ev.peak if scored else np.nan,
-        "p_value": step["p_value"] if own else np.nan,
-        "n_placebo": int(step["n_placebo"]) if own else 0,
-        "shrinkage_ci": ci,
+        "p_value": step.p_value if scored and own else np.nan,
+        "n_placebo": step.n_placebo if scored and own else 0,
+        "shrinkage_ci": interval if scored else (np.nan, np.nan),
     }
 
 
@@ -401,6 +477,8 @@ def _at_bound(cand, setting, rtol=1e-9):
             return f"the longest time constant searched ({hi:g} s = {fmt_tau(hi)})"
     return ""
 
+
+_SENSOR_COLUMNS = ["test", "sensor", "error_ratio", "swapped_with"]
 
 _CAUSE_COLUMNS = [
     "effect",

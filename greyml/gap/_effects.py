@@ -11,14 +11,16 @@ All signatures start at 0 at each test's start, as a displacement measured
 from the start of the test does.
 
 Kernels here are pure array functions; :mod:`greyml.gap._search` fits and
-scores them. Each effect's candidate is made by its builder (:data:`BUILDERS`;
-the user's custom effects by :data:`CUSTOM_BUILDERS`), all with the one
-signature ``builder(name, ctx, grid, spec)``.
+scores them. Every effect, of the library (:data:`LIBRARY`) or the user's
+own, is one :class:`Effect` record: its name, what it stands for, the
+columns it needs and its builder, ``builder(effect, ctx, grid) -> Candidate``.
 """
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
+from functools import partial
 
 import numpy as np
 
@@ -26,40 +28,84 @@ from greyml._time import format_duration
 from greyml.dynamic._kernels import lag_filter
 
 __all__ = [
+    "DESCRIPTIONS",
     "EFFECTS",
+    "LIBRARY",
     "Bank",
     "Candidate",
+    "Effect",
     "LagCache",
+    "build_candidates",
+    "columns_effect",
     "first_order_lag",
     "lag_bank",
+    "signature_effect",
     "tau_grid",
-    "BUILDERS",
-    "CUSTOM_BUILDERS",
-    "build_candidates",
-    "custom_description",
 ]
 
-#: The fixed names of the effects, in the order they are tried.
-EFFECTS = (
-    "ambient",
-    "heat_source",
-    "sensor_lag",
-    "initial_state",
-    "drift",
-    "fbg_temperature",
-    "nonlinear_expansion",
-)
+#: Longest lag between the structure and a surface sensor that ``sensor_lag``
+#: tries; a longer one is no longer a sensor's lag but a different thermal path.
+MAX_SENSOR_LAG_S = 3600.0
 
-#: What each effect stands for (printed in reports).
-DESCRIPTIONS = {
-    "ambient": "ambient air reaching the structure through a thermal lag",
-    "heat_source": "an unmodelled heat input driven by a driver, through a thermal lag",
-    "sensor_lag": "the structure leading or lagging its surface sensors",
-    "initial_state": "machine not at equilibrium at the test start, decaying",
-    "drift": "slow drift of the probe or sensors in time",
-    "fbg_temperature": "temperature cross-sensitivity of the FBG readings",
-    "nonlinear_expansion": "expansion not proportional to the temperature rise",
+#: The roles an effect can need: what to give, in words, and whether a
+#: context has it.
+_ROLES = {
+    "ambient": ("the ambient column (ambient=)", lambda ctx: ctx.ambient is not None),
+    "drivers": ("at least one driver column (drivers=)", lambda ctx: ctx.drivers.shape[1] > 0),
+    "sensors": ("temperature sensor columns (sensors=)", lambda ctx: ctx.sensors.shape[1] > 0),
+    "fbg_target": ("an FBG target (the target among fbgs=)", lambda ctx: ctx.target_is_fbg),
 }
+
+
+@dataclass(frozen=True)
+class Effect:
+    """One candidate effect: what it is, what it needs and how its signatures are built.
+
+    The library's effects (:data:`LIBRARY`) and the user's custom effects
+    are records of this one kind.
+
+    Parameters
+    ----------
+    name : str
+        The name it is reported under.
+    description : str
+        What it stands for, in words.
+    builder : callable
+        ``builder(effect, ctx, grid) -> Candidate``: the effect's signatures
+        on the measured roles ``ctx`` with time constants from ``grid``.
+    columns : tuple of str
+        The roles it needs (``"ambient"``, ``"drivers"``, ``"sensors"``,
+        ``"fbg_target"``); without them it is not tried.
+
+    Examples
+    --------
+    >>> from greyml.gap import LIBRARY
+    >>> ambient = LIBRARY[0]
+    >>> ambient.name, ambient.columns
+    ('ambient', ('ambient',))
+    >>> ambient.needs()
+    'the ambient column (ambient=)'
+    """
+
+    name: str
+    description: str
+    builder: Callable
+    columns: tuple = ()
+
+    def needs(self):
+        """The columns it needs, in words ("" when it needs none)."""
+        return " and ".join(_ROLES[role][0] for role in self.columns)
+
+    def missing(self, ctx):
+        """Why it cannot be tried on ``ctx``'s columns, or "" when it can."""
+        lacking = [role for role in self.columns if not _ROLES[role][1](ctx)]
+        if not lacking:
+            return ""
+        return "needs " + " and ".join(_ROLES[role][0] for role in lacking)
+
+    def build(self, ctx, grid):
+        """The effect's :class:`Candidate` on ``ctx``."""
+        return self.builder(self, ctx, grid)
 
 
 def lag_bank(x, taus, dt, bounds):
@@ -207,6 +253,7 @@ class Candidate:
     bank: object = None  # Bank; built from ``make`` when not given
     taus: tuple = ()  # the time constants the settings draw from (for placebos)
     grid: tuple = ()  # the search grid: its ends are the bounds (for warnings)
+    placebo: object = None  # callable rng -> Bank: its own placebo; random walks if None
 
     def features(self, setting):
         return self.make(setting)
@@ -277,56 +324,48 @@ def _fixed_candidate(effect, variants, values, describe):
 
 
 # --------------------------------------------------------------------------
-# builders: one per effect, builder(name, ctx, grid, spec) -> Candidate, or a
-# str saying why the effect cannot be tried on the columns given
+# builders: one per effect, builder(effect, ctx, grid) -> Candidate; the
+# Effect record checks first that ctx has the columns the effect needs
 # --------------------------------------------------------------------------
 
 
-def _ambient(name, ctx, grid, spec):
-    if ctx.ambient is None:
-        return "needs the ambient column (ambient=)"
+def _ambient(effect, ctx, grid):
     rise = ctx.ambient - _per_test_start(ctx.ambient, ctx.bounds)
 
     def describe(v, s):
         return f"air {v} through two thermal lags ({_taus(s)})"
 
-    return _two_lag_candidate(name, [ctx.ambient_name], rise[:, None], grid, ctx, describe)
+    return _two_lag_candidate(effect.name, [ctx.ambient_name], rise[:, None], grid, ctx, describe)
 
 
-def _heat_source(name, ctx, grid, spec):
-    if ctx.drivers.shape[1] == 0:
-        return "needs at least one driver column (drivers=)"
-
+def _heat_source(effect, ctx, grid):
     def describe(v, s):
         return f"heat driven by {v}, thermal lags {_taus(s)}"
 
-    return _two_lag_candidate(name, ctx.driver_names, _scaled(ctx.drivers), grid, ctx, describe)
+    return _two_lag_candidate(
+        effect.name, ctx.driver_names, _scaled(ctx.drivers), grid, ctx, describe
+    )
 
 
-def _sensor_lag(name, ctx, grid, spec):
-    if ctx.sensors.shape[1] == 0:
-        return "needs temperature sensor columns (sensors=)"
-    longest = spec["max_sensor_lag_s"]
+def _sensor_lag(effect, ctx, grid):
     rise = _sensor_rise(ctx)
-    taus = grid[grid <= longest]
+    taus = grid[grid <= MAX_SENSOR_LAG_S]
     taus = taus if taus.size else grid[:1]
     settings = one_lag(taus)
     values = rise[:, :, None] - lag_bank(rise, taus, ctx.dt, ctx.bounds)
     return _bank_candidate(
-        name,
+        effect.name,
         list(ctx.sensor_names),
         settings,
         values,
         lag_picks(settings, taus),
         lambda v, s: f"structure ahead of {v} by about {_taus(s)}",
         taus,
-        (grid[0], longest),
+        (grid[0], MAX_SENSOR_LAG_S),
     )
 
 
-def _initial_state(name, ctx, grid, spec):
-    if ctx.ambient is None or ctx.sensors.shape[1] == 0:
-        return "needs sensors and the ambient column"
+def _initial_state(effect, ctx, grid):
     # how far each sensor (and their mean) starts from the air: the state the
     # test starts in, as far as the sensors see it
     start = ctx.sensors - ctx.ambient[:, None]
@@ -334,109 +373,184 @@ def _initial_state(name, ctx, grid, spec):
     offset = _per_test_start(start, ctx.bounds)
     names = ["mean sensor"] + list(ctx.sensor_names)
     settings = two_lags(grid)
-    values = offset[:, :, None] * -np.expm1(-ctx.t_s[:, None] / grid[None, :])[:, None, :]
-    return _bank_candidate(
-        name,
+    shapes = -np.expm1(-ctx.t_s[:, None] / grid[None, :])[:, None, :]
+    picks = lag_picks(settings, grid)
+    cand = _bank_candidate(
+        effect.name,
         names,
         settings,
-        values,
-        lag_picks(settings, grid),
+        offset[:, :, None] * shapes,
+        picks,
         lambda v, s: f"start offset of {v} from the air relaxing with {_taus(s)}",
         grid,
         grid,
     )
+    cand.placebo = partial(_offset_placebo, shapes, ctx.bounds, len(names), picks)
+    return cand
 
 
-def _drift(name, ctx, grid, spec):
+def _offset_placebo(shapes, bounds, n_variants, picks, rng):
+    """``initial_state``'s placebo: random start offsets through the same relaxations.
+
+    Any smooth gap that starts at 0 in each test is fitted in part by some
+    per-test amplitude times a relaxation; the effect is credited only if the
+    offsets the sensors give do better than as many random ones (one per
+    test and variant).
+    """
+    offset = np.empty((shapes.shape[0], n_variants))
+    for start, stop in bounds:
+        offset[start:stop] = rng.standard_normal(n_variants)
+    return Bank(offset[:, :, None] * shapes, picks)
+
+
+def _drift(effect, ctx, grid):
     hours = (ctx.t_s / 3600.0)[:, None, None]
-    return _fixed_candidate(
-        name, ["time"], hours, lambda v, s: "linear in time since the test start"
+    cand = _fixed_candidate(
+        effect.name, ["time"], hours, lambda v, s: "linear in time since the test start"
     )
+    cand.placebo = partial(_time_placebo, ctx.t_s, min(ctx.dt))
+    return cand
 
 
-def _fbg_temperature(name, ctx, grid, spec):
-    if not ctx.target_is_fbg:
-        return "the target is not an FBG column (fbgs=)"
-    if ctx.sensors.shape[1] == 0:
-        return "needs temperature sensor columns (sensors=)"
+def _time_placebo(t_s, step, rng):
+    """``drift``'s placebo: one random walk in time since the test start, the same in every test.
+
+    ``drift`` is a function of the time since the start alone, the same in
+    every test, so it can carry what all tests share to a held-out test; a
+    random function of that time (a random walk in it) has the same freedom.
+    The effect is credited only if a straight line does better than such
+    random functions: a gap that merely rises in every test (a slow heat
+    input the library lacks) is not taken for drift.
+    """
+    k = np.rint(t_s / step).astype(np.intp)
+    walk = np.cumsum(rng.standard_normal(int(k.max()) + 1))
+    walk -= walk[0]
+    return Bank(walk[k][:, None, None], [[0]])
+
+
+def _fbg_temperature(effect, ctx, grid):
     return _fixed_candidate(
-        name,
+        effect.name,
         list(ctx.sensor_names),
         _sensor_rise(ctx)[:, :, None],
         lambda v, s: f"proportional to the rise of {v}",
     )
 
 
-def _nonlinear_expansion(name, ctx, grid, spec):
+def _nonlinear_expansion(effect, ctx, grid):
     variants, columns = ["the simulated target squared"], [ctx.sim**2]
     if ctx.sensors.shape[1]:
         variants.append("the mean sensor rise squared")
         columns.append(_sensor_rise(ctx).mean(axis=1) ** 2)
     square = np.column_stack(columns)[:, :, None]
-    return _fixed_candidate(name, variants, square, lambda v, s: f"proportional to {v}")
+    return _fixed_candidate(effect.name, variants, square, lambda v, s: f"proportional to {v}")
 
 
-def _custom_columns(name, ctx, grid, spec):
+#: The library of effects, in the order they are tried.
+LIBRARY = (
+    Effect(
+        "ambient",
+        "ambient air reaching the structure through a thermal lag",
+        _ambient,
+        ("ambient",),
+    ),
+    Effect(
+        "heat_source",
+        "an unmodelled heat input driven by a driver, through a thermal lag",
+        _heat_source,
+        ("drivers",),
+    ),
+    Effect(
+        "sensor_lag",
+        "the structure leading or lagging its surface sensors",
+        _sensor_lag,
+        ("sensors",),
+    ),
+    Effect(
+        "initial_state",
+        "machine not at equilibrium at the test start, decaying",
+        _initial_state,
+        ("sensors", "ambient"),
+    ),
+    Effect("drift", "slow drift of the probe or sensors in time", _drift),
+    Effect(
+        "fbg_temperature",
+        "temperature cross-sensitivity of the FBG readings",
+        _fbg_temperature,
+        ("fbg_target", "sensors"),
+    ),
+    Effect(
+        "nonlinear_expansion",
+        "expansion not proportional to the temperature rise",
+        _nonlinear_expansion,
+    ),
+)
+
+#: The names of the library's effects, in the order they are tried (a view of :data:`LIBRARY`).
+EFFECTS = tuple(effect.name for effect in LIBRARY)
+
+#: What each effect of the library stands for (a view of :data:`LIBRARY`).
+DESCRIPTIONS = {effect.name: effect.description for effect in LIBRARY}
+
+_BY_NAME = {effect.name: effect for effect in LIBRARY}
+
+
+def library_effects(names):
+    """The library's :class:`Effect` records of ``names`` (checked names), in that order."""
+    return [_BY_NAME[name] for name in names]
+
+
+def _custom_columns(effect, ctx, grid, *, columns, values):
     """Measured columns through two thermal lags, as ``heat_source``."""
 
     def describe(v, s):
         return f"user-defined: {v} through thermal lags {_taus(s)}"
 
-    return _two_lag_candidate(name, spec["columns"], _scaled(spec["values"]), grid, ctx, describe)
+    return _two_lag_candidate(effect.name, columns, _scaled(values), grid, ctx, describe)
 
 
-def _custom_signatures(name, ctx, grid, spec):
+def _custom_signatures(effect, ctx, grid, *, columns, values):
     """The user's signature columns, used as they are (one variant)."""
     return _fixed_candidate(
-        name,
-        [", ".join(spec["columns"])],
-        spec["values"][:, None, :],
+        effect.name,
+        [", ".join(columns)],
+        values[:, None, :],
         lambda v, s: f"user-defined signature ({v})",
     )
 
 
-#: The builder of each effect, in the order of :data:`EFFECTS`.
-BUILDERS = {
-    "ambient": _ambient,
-    "heat_source": _heat_source,
-    "sensor_lag": _sensor_lag,
-    "initial_state": _initial_state,
-    "drift": _drift,
-    "fbg_temperature": _fbg_temperature,
-    "nonlinear_expansion": _nonlinear_expansion,
-}
+def columns_effect(name, columns, values):
+    """A user-defined :class:`Effect`: measured columns through two thermal lags.
 
-#: The builder of a user-defined effect, by the kind of its spec (see build_candidates).
-CUSTOM_BUILDERS = {"columns": _custom_columns, "signatures": _custom_signatures}
-
-
-def custom_description(kind, columns):
-    """What a user-defined effect stands for (printed in reports)."""
-    if kind == "columns":
-        return f"user-defined: {', '.join(columns)} through a thermal lag"
-    return "user-defined signature"
+    ``values`` (n, p) holds the columns named in ``columns``; each is scaled
+    to its largest value and is one variant, as a driver of ``heat_source``.
+    """
+    columns = tuple(columns)
+    return Effect(
+        name,
+        f"user-defined: {', '.join(columns)} through a thermal lag",
+        partial(_custom_columns, columns=columns, values=np.asarray(values, dtype=float)),
+    )
 
 
-def build_candidates(ctx, effects, max_sensor_lag_s=3600.0, custom=None):
-    """The candidates of the requested effects that the available columns allow.
+def signature_effect(name, columns, values):
+    """A user-defined :class:`Effect`: signature columns (n, k) whose gains are fitted."""
+    return Effect(
+        name,
+        "user-defined signature",
+        partial(_custom_signatures, columns=tuple(columns), values=np.asarray(values, dtype=float)),
+    )
 
-    Every effect, built-in or user-defined, is built by its builder
-    (:data:`BUILDERS`, :data:`CUSTOM_BUILDERS`) from the context, the grid of
-    time constants and its spec.
+
+def build_candidates(ctx, effects):
+    """The candidates of ``effects`` that the available columns allow.
 
     Parameters
     ----------
     ctx : GapContext
         Arrays of the measured roles (see :mod:`greyml.gap._prepare`).
-    effects : sequence of str
-    max_sensor_lag_s : float, default=3600
-        Longest lag between the structure and a surface sensor tried; a
-        longer one is no longer a sensor's lag but a different thermal path.
-    custom : dict, optional
-        User-defined effects: name -> ("columns", names, (n, p) array) for
-        measured columns through two thermal lags, as ``heat_source``; or
-        name -> ("signatures", names, (n, k) array) for signature columns
-        used as they are.
+    effects : sequence of Effect
+        The library's effects asked for, then the user's.
 
     Returns
     -------
@@ -445,16 +559,13 @@ def build_candidates(ctx, effects, max_sensor_lag_s=3600.0, custom=None):
         Effect name -> why it cannot be tried on these columns.
     """
     grid = tau_grid(ctx.dt, ctx.durations)
-    registry = {e: (BUILDERS[e], {"max_sensor_lag_s": max_sensor_lag_s}) for e in effects}
-    for name, (kind, columns, values) in (custom or {}).items():
-        registry[name] = (CUSTOM_BUILDERS[kind], {"columns": columns, "values": values})
     out, skipped = [], {}
-    for name, (build, spec) in registry.items():
-        made = build(name, ctx, grid, spec)
-        if isinstance(made, str):
-            skipped[name] = made
+    for effect in effects:
+        why = effect.missing(ctx)
+        if why:
+            skipped[effect.name] = why
         else:
-            out.append(made)
+            out.append(effect.build(ctx, grid))
     return out, skipped
 
 

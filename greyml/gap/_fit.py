@@ -167,22 +167,18 @@ def _grams(bank, bounds):
     return bank.cache[key]
 
 
-_CONSTANTS = {}
-
-
-def _fold_constants(r, B, D, f, bounds):
+def _fold_constants(r, B, D, f, bounds, cache):
     """Cross products of the base B and the parameters' design D with B, D and r on fold f.
 
-    They do not depend on the candidate: kept (with references to the arrays,
-    so that their ids stay theirs) while the same base is scored against
-    every candidate and placebo of a step.
+    They do not depend on the candidate: kept in ``cache`` (a dict owned by
+    the caller, dropped with it) while the same base is scored against every
+    candidate and placebo of a step. The entry holds the arrays themselves,
+    so that their ids stay theirs while it lives.
     """
     key = (id(r), id(B), id(D), f, tuple(bounds))
-    hit = _CONSTANTS.get(key)
+    hit = cache.get(key)
     if hit is not None and hit[0] is r and hit[1] is B and hit[2] is D:
         return hit[3]
-    if len(_CONSTANTS) > 512:
-        _CONSTANTS.clear()
     start, stop = bounds[f]
 
     def cal(a, b):
@@ -193,7 +189,7 @@ def _fold_constants(r, B, D, f, bounds):
         (cal(B, B), cal(B, rc)[:, 0], cal(B, D)),
         (cal(D, D), cal(D, rc)[:, 0], float(cal(rc, rc)[0, 0])),
     )
-    _CONSTANTS[key] = (r, B, D, out)
+    cache[key] = (r, B, D, out)
     return out
 
 
@@ -206,11 +202,11 @@ class _Fold:
     test's.
     """
 
-    def __init__(self, r, B, D, bank, f, bounds):
+    def __init__(self, r, B, D, bank, f, bounds, cache):
         start, stop = bounds[f]
         n = r.shape[0]
         (self.BB, self.Br, self.BD), (self.DD, self.Dr, self.rr) = _fold_constants(
-            r, B, D, f, bounds
+            r, B, D, f, bounds, cache
         )
         self.bank = bank
         if bank is not None:
@@ -316,7 +312,7 @@ def _joint_choice(fold, recal, f, max_rounds, shortlist):
     return best[1], best[2]
 
 
-def evaluate(r, base, make, settings, bounds, recal=None, max_rounds=3, shortlist=4):
+def evaluate(r, base, make, settings, bounds, recal=None, max_rounds=3, shortlist=4, cache=None):
     """Leave-one-test-out score of ``base`` + one candidate.
 
     Parameters
@@ -344,6 +340,10 @@ def evaluate(r, base, make, settings, bounds, recal=None, max_rounds=3, shortlis
     max_rounds : int, default=3
     shortlist : int, default=4
         (setting, variant) pairs fitted jointly per start and round.
+    cache : dict, optional
+        Where the cross products that do not depend on the candidate are
+        kept between calls (the caller's, e.g. one search's); by default
+        they are kept for this call only.
 
     Returns
     -------
@@ -355,10 +355,11 @@ def evaluate(r, base, make, settings, bounds, recal=None, max_rounds=3, shortlis
     bank = _as_bank(make, settings)
     settings = list(settings) if bank is not None else [()]
     empty = np.zeros((n, 0))
+    cache = {} if cache is None else cache
     for f, (start, stop) in enumerate(bounds):
         B = base[f]
         D = recal.designs[f] if recal is not None else empty
-        fold = _Fold(r, B, D, bank, f, bounds)
+        fold = _Fold(r, B, D, bank, f, bounds, cache)
         if recal is None:
             _, i, v, coef = fold.select(np.zeros(0))[0]
         else:

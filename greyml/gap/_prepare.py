@@ -23,7 +23,7 @@ from greyml._validation import (
     first_non_finite,
     segment_of,
 )
-from greyml.gap._effects import EFFECTS
+from greyml.gap._effects import EFFECTS, columns_effect, library_effects, signature_effect
 from greyml.io import check_test_frame, read_tests_csv
 
 __all__ = ["GapContext", "build_context", "check_parameters", "custom_specs", "prepare"]
@@ -32,10 +32,11 @@ __all__ = ["GapContext", "build_context", "check_parameters", "custom_specs", "p
 def check_parameters(effects, custom_effects, max_effects, n_placebo, min_shrinkage, tie_tolerance):
     """Check what diagnose_gap's declared constraints cannot: the effects named.
 
-    Returns the effects to try (names, in order, once) and the settings of
+    Returns the library's effects to try (:class:`~greyml.gap._effects.Effect`
+    records, in order, once) and the settings of
     the search (``n_placebo``, ``min_shrinkage``, ``max_effects``,
     ``tie_tolerance``) as keyword arguments of
-    :func:`~greyml.gap._search.search_effects`.
+    :class:`~greyml.gap._naming.EffectSearch`.
     """
     if effects is None:
         effects = EFFECTS
@@ -47,7 +48,7 @@ def check_parameters(effects, custom_effects, max_effects, n_placebo, min_shrink
         raise ValueError(f"Unknown effect(s) {unknown}; the effects are {list(EFFECTS)}.")
     search = {"n_placebo": n_placebo, "min_shrinkage": min_shrinkage}
     search.update(max_effects=max_effects, tie_tolerance=tie_tolerance)
-    return effects, search
+    return library_effects(effects), search
 
 
 def prepare(real, sim, custom_effects, *, target, ambient, drivers, sensors, fbgs):
@@ -62,8 +63,8 @@ def prepare(real, sim, custom_effects, *, target, ambient, drivers, sensors, fbg
         The measured data, checked.
     ctx : GapContext
         The roles as arrays.
-    custom : dict
-        The custom effects: name -> (kind, names, (n, k) array), see :func:`custom_specs`.
+    custom : list of Effect
+        The custom effects, see :func:`custom_specs`.
     """
     real = _read(real, "The measured data")
     ctx = build_context(
@@ -287,10 +288,10 @@ def build_context(real, sim, *, target, ambient, drivers, sensors, fbgs):
 
 
 def custom_specs(custom_effects, real, ctx):
-    """Check ``custom_effects``: name -> (kind, column names, (n, k) array)."""
+    """Check ``custom_effects``: one :class:`~greyml.gap._effects.Effect` per entry."""
     if custom_effects is None:
-        return {}
-    out = {}
+        return []
+    out = []
     segments = test_segments(real)
     for name, spec in custom_effects.items():
         if not isinstance(name, str) or not name:
@@ -332,7 +333,7 @@ def custom_specs(custom_effects, real, ctx):
                 names = [f"{name}[{j}]" for j in range(values.shape[1])]
             for j in range(values.shape[1]):
                 _finite(values[:, j], f"Custom effect {name!r}", ctx.index, segments)
-            out[name] = ("signatures", names, values)
+            out.append(signature_effect(name, names, values))
             continue
         columns = _as_names(spec, f"custom_effects[{name!r}]")
         if not columns:
@@ -355,5 +356,5 @@ def custom_specs(custom_effects, real, ctx):
             _finite(
                 values[:, j], f"Column {column!r} (custom effect {name!r})", ctx.index, segments
             )
-        out[name] = ("columns", columns, values)
+        out.append(columns_effect(name, columns, values))
     return out

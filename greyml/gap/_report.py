@@ -97,6 +97,23 @@ class GapReport:
         (bootstrap of tests).
     remainder_where, remainder_whiteness, remainder_cross_correlation
         ``where``, ``whiteness`` and ``cross_correlation`` of the remainder.
+    not_tried : dict
+        The library's effects that were not tried, each with why: the
+        columns it needs (e.g. "needs the ambient column (ambient=)"), or
+        not asked for in ``effects=``.
+    untestable : dict
+        Effects that leave one test out cannot score, each with why: only
+        one test shows them (a custom column that is on in one test only).
+    inconsistent_sensors : DataFrame
+        Sensors whose relation to the other sensors changes in one test
+        (swapped, moved or mislabelled?), found before the search and left
+        out of the effects built from the sensors: ``test``, ``sensor``,
+        ``error_ratio`` (its held-out error predicted from the others in
+        that test over its median in the other tests) and ``swapped_with``
+        (the sensor it reads as swapped with, or None).
+    unexplained_share : float
+        The part of the held-out gap above the noise floor that the named
+        effects leave (see :attr:`unexplained_share`).
 
     Examples
     --------
@@ -153,6 +170,13 @@ class GapReport:
     remainder_where: pd.DataFrame | None = None
     remainder_whiteness: dict = field(default_factory=dict)
     remainder_cross_correlation: pd.DataFrame | None = None
+    not_tried: dict = field(default_factory=dict)
+    untestable: dict = field(default_factory=dict)
+    inconsistent_sensors: pd.DataFrame = field(
+        default_factory=lambda: pd.DataFrame(
+            columns=["test", "sensor", "error_ratio", "swapped_with"]
+        )
+    )
 
     @property
     def unexplained_rms(self):
@@ -165,6 +189,38 @@ class GapReport:
         if self.noise_floor > 0:
             return self.rmse_after / self.noise_floor
         return np.inf if self.rmse_after > 0 else 0.0
+
+    @property
+    def unexplained_share(self):
+        """Share of the held-out gap above the noise that the named effects leave.
+
+        (``rmse_after``² − floor²) / (start² − floor²), clipped to [0, 1],
+        with floor the noise floor and start the held-out RMSE the effects
+        were searched from (``rmse_recalibrated`` when the recalibration was
+        kept, else ``rmse_before``): 1 when nothing is explained, 0 when what
+        is left is noise; 0 when the gap itself is within the noise.
+        """
+        floor2 = self.noise_floor**2
+        start = self.rmse_recalibrated if self.recalibration_kept else self.rmse_before
+        above = start**2 - floor2
+        if not above > 0:
+            return 0.0
+        return float(np.clip((self.rmse_after**2 - floor2) / above, 0.0, 1.0))
+
+    def not_supported(self, top=3):
+        """The best effects tried but not named, each with its shrinkage and why (a list of str)."""
+        rows = self.causes[
+            ~self.causes["significant"].astype(bool) & self.causes["shrinkage"].notna()
+        ]
+        out = []
+        for _, row in rows.head(top).iterrows():
+            why = row["detail"].rpartition("not supported: ")[2]
+            low, high = row["shrinkage_ci"]
+            out.append(
+                f"{row['effect']} (held-out shrinkage {row['shrinkage']:.0%}, 95% CI over tests "
+                f"{low:.0%} to {high:.0%}: {why})"
+            )
+        return out
 
     @property
     def verdict(self):
@@ -198,15 +254,16 @@ class GapReport:
                 f"held-out gap from RMSE {self.rmse_before:.3g} to {self.rmse_after:.3g}, "
                 f"{ratio:.1f}× the {floor}."
             )
+        share = f"{self.unexplained_share:.0%} of the gap above the noise is unexplained"
         if self.verdict == "partial":
             return (
                 f"Verdict: partial. {named} explain{'s' if len(self.named) == 1 else ''} part of "
                 f"the gap (RMSE {self.rmse_before:.3g} -> {self.rmse_after:.3g}), but "
-                f"{ratio:.1f}× the {floor} remains{at}."
+                f"{ratio:.1f}× the {floor} remains{at}; {share}."
             )
         return (
             f"Verdict: unexplained. A held-out gap of RMSE {self.rmse_after:.3g}, "
-            f"{ratio:.1f}× the {floor}{at}, that no candidate effect explains."
+            f"{ratio:.1f}× the {floor}{at}, that no effect tried explains; {share}."
         )
 
     def where_remains(self):
@@ -290,6 +347,11 @@ class GapReport:
                     else self.remainder_where.to_dict(orient="records")
                 ),
                 "remainder_whiteness": dict(self.remainder_whiteness),
+                "unexplained_share": self.unexplained_share,
+                "not_supported": self.not_supported(),
+                "not_tried": dict(self.not_tried),
+                "untestable": dict(self.untestable),
+                "inconsistent_sensors": self.inconsistent_sensors.to_dict(orient="records"),
             }
         )
 
@@ -310,8 +372,17 @@ class GapReport:
                 f"Recalibration not kept ({self.recalibration}): held-out RMSE "
                 f"{self.rmse_recalibrated:.3g}; the effects leave less without it."
             )
+        for _, row in self.inconsistent_sensors.iterrows():
+            swap = row["swapped_with"]
+            how = f"swapped with {swap}?" if swap else "swapped, moved or mislabelled?"
+            lines.append(
+                f"Inconsistent sensor: {row['sensor']} in test {row['test']} relates to the other "
+                f"sensors differently than in the other tests (held-out error "
+                f"{row['error_ratio']:.0f}× theirs): {how} Left out of the effects built from "
+                "the sensors."
+            )
         if self.cause is None:
-            lines.append("No significant unmodelled effect.")
+            lines.append("No effect tried is supported by the held-out tests.")
         else:
             for _, row in self.causes[self.causes["significant"]].iterrows():
                 lines.append(
@@ -329,6 +400,17 @@ class GapReport:
             lines.append(
                 f"With {', '.join(self.named)} added: RMSE {self.rmse_after:.3g}{ratio}, "
                 f"peak {self.peak_after:.3g}."
+            )
+        unsupported = self.not_supported() if self.verdict in ("partial", "unexplained") else []
+        if unsupported:
+            lines.append("Tried, not supported: " + "; ".join(unsupported) + ".")
+        for effect, why in self.untestable.items():
+            lines.append(f"Untestable: {effect}, {why}.")
+        if self.not_tried:
+            lines.append(
+                "Not tried: "
+                + "; ".join(f"{effect} ({why})" for effect, why in self.not_tried.items())
+                + "."
             )
         lines.append(f"Placebos drawn: {self.n_placebo}.")
         return "\n".join(lines)

@@ -22,8 +22,8 @@ import pandas as pd
 
 from greyml.datasets import make_tests
 from greyml.datasets._simulated import _machine, main_target
-from greyml.gap._effects import EFFECTS
-from greyml.gap._report import GapWarning
+from greyml.exceptions import GapWarning
+from greyml.gap import EFFECTS, diagnose_gap
 from greyml.simulation import Effects, HeatingTest, Programme, diurnal
 
 __all__ = [
@@ -254,15 +254,15 @@ def withheld_case(
     m = _machine(machine)
     target = target or main_target(m)
     withheld = tuple(withheld)
-    if withheld in (("event",), ("custom",)):
+    if withheld in _EXTRA:
         return _extra_case(
             withheld[0], size, seed, m, target, param_error, kind, n_tests, n_sensors
         )
     unknown = [w for w in withheld if w not in WITHHELD]
     if unknown:
         raise ValueError(
-            f"Cannot withhold {unknown}; the effects are {list(WITHHELD)} (or 'event' or "
-            "'custom' alone)."
+            f"Cannot withhold {unknown}; the effects are {list(WITHHELD)} (or one of "
+            f"{[e[0] for e in _EXTRA]} alone)."
         )
     rng = np.random.default_rng(seed)
     tests = random_tests(m, rng, n_tests)
@@ -279,8 +279,19 @@ def withheld_case(
     real = real.copy()
     real[target] = sim_true + effect + noise
     return _case(
-        m, m, tests, target, off, param_error, seed, n_sensors, real, sim_true, noise,
-        withheld=withheld, effect=effect,
+        m,
+        m,
+        tests,
+        target,
+        off,
+        param_error,
+        seed,
+        n_sensors,
+        real,
+        sim_true,
+        noise,
+        withheld=withheld,
+        effect=effect,
     )
 
 
@@ -297,8 +308,9 @@ def _simulated(machine, tests, target, seed):
     return quiet, full, real, noise, float(np.std(noise))
 
 
-def _case(m, sim_m, tests, target, effects, param_error, seed, n_sensors, real, sim_true, noise,
-          **extra):
+def _case(
+    m, sim_m, tests, target, effects, param_error, seed, n_sensors, real, sim_true, noise, **extra
+):
     """The simulation the diagnosis is given (``sim_m`` with its parameters
     ``param_error`` off), its sensitivities and the roles of the columns."""
     wrong = (
@@ -329,6 +341,38 @@ def _case(m, sim_m, tests, target, effects, param_error, seed, n_sensors, real, 
 
 #: The logged column of a "custom" case and the name the diagnosis is told.
 CUSTOM_COLUMN, CUSTOM_NAME = "pump_kW", "hydraulics"
+#: The logged column of a "foreign" case, and the name it is given as a custom effect.
+FOREIGN_COLUMN, FOREIGN_NAME = "fixture_kW", "fixture"
+#: The cases outside the library (withheld alone).
+_EXTRA = (("event",), ("custom",), ("foreign",), ("foreign_custom",))
+
+
+def _fixture_heat(index, rng, tau_s):
+    """A fixture heater's logged power and its part of the probe reading (unscaled).
+
+    Per test: blocks of 30-120 min, each off or at half or full power (drawn,
+    independently of the machine's duty), through one first-order lag of
+    ``tau_s`` from rest at the test start.
+    """
+    from scipy.signal import lfilter
+
+    labels = index.get_level_values("test")
+    times = index.get_level_values("time_s").to_numpy(dtype=float)
+    power = np.zeros(len(index))
+    part = np.zeros(len(index))
+    for test in pd.unique(labels):
+        rows = np.flatnonzero(labels == test)
+        t = times[rows] - times[rows[0]]
+        edges = [0.0]
+        while edges[-1] < t[-1]:
+            edges.append(edges[-1] + 60.0 * float(rng.uniform(30.0, 120.0)))
+        levels = rng.choice([0.0, 0.5, 1.0], size=len(edges))
+        u = levels[np.searchsorted(edges, t, side="right") - 1]
+        dt = float(np.median(np.diff(t)))
+        a = np.exp(-dt / tau_s)
+        power[rows] = u
+        part[rows] = lfilter([1.0 - a], [1.0, -a], u)
+    return power, part
 
 
 def _with_pump(m):
@@ -354,7 +398,12 @@ def _extra_case(kind_of_case, size, seed, m, target, param_error, kind, n_tests,
     hydraulic unit on its base, driven by a logged column (``pump_kW``) that
     the simulation lacks; its part of the target peaks at ``size`` times the
     noise, and the diagnosis is told of the column only as the custom effect
-    ``"hydraulics"``.
+    ``"hydraulics"``. ``"foreign"``: a heater on the fixture, not in the
+    simulation and not in the library, switched in blocks of its own (logged
+    as ``fixture_kW``), reaches the probe through a lag of 60-120 min
+    (drawn); its part peaks at ``size`` times the noise and the diagnosis is
+    not told of it. ``"foreign_custom"``: the same, told of ``fixture_kW``
+    as the custom effect ``"fixture"``.
     """
     rng = np.random.default_rng(seed)
     real_m = _with_pump(m) if kind_of_case == "custom" else m
@@ -369,6 +418,13 @@ def _extra_case(kind_of_case, size, seed, m, target, param_error, kind, n_tests,
         effect = size * sigma / float(np.max(np.abs(part))) * part
         real = real.rename(columns={"c_rpm": CUSTOM_COLUMN})
         custom = {CUSTOM_NAME: [CUSTOM_COLUMN]}
+    elif kind_of_case in ("foreign", "foreign_custom"):
+        tau_s = 60.0 * float(rng.uniform(60.0, 120.0))
+        power, part = _fixture_heat(real.index, rng, tau_s)
+        effect = size * sigma / float(np.max(np.abs(part))) * part
+        real = real.assign(**{FOREIGN_COLUMN: power})
+        if kind_of_case == "foreign_custom":
+            custom = {FOREIGN_NAME: [FOREIGN_COLUMN]}
     else:
         labels = real.index.get_level_values("test")
         times = real.index.get_level_values("time_s").to_numpy(dtype=float)
@@ -383,8 +439,21 @@ def _extra_case(kind_of_case, size, seed, m, target, param_error, kind, n_tests,
     real = real.copy()
     real[target] = sim_true + effect + noise
     return _case(
-        m, sim_m, tests, target, quiet, param_error, seed, n_sensors, real, sim_true, noise,
-        withheld=(kind_of_case,), effect=effect, custom_effects=custom, event=event,
+        m,
+        sim_m,
+        tests,
+        target,
+        quiet,
+        param_error,
+        seed,
+        n_sensors,
+        real,
+        sim_true,
+        noise,
+        withheld=(kind_of_case,),
+        effect=effect,
+        custom_effects=custom,
+        event=event,
     )
 
 
@@ -394,10 +463,8 @@ def _rms(x):
 
 def _run_case(spec, setting, use_sensitivities, kwargs):
     """One case of ``spec``; ``setting``: the keywords of withheld_case every case shares."""
-    from greyml.gap._diagnose import diagnose_gap
-
     withheld, size, param_error, seed = spec
-    extra = withheld in (("event",), ("custom",))
+    extra = withheld in _EXTRA
     case = withheld_case(withheld, size, seed, param_error=param_error, **setting)
     start = time.perf_counter()
     with warnings.catch_warnings(record=True) as caught:
@@ -424,6 +491,8 @@ def _run_case(spec, setting, use_sensitivities, kwargs):
     true_gap = case.effect + case.parameter_gap
     ranked = list(report.causes.dropna(subset=["shrinkage"])["effect"])
     clean = _rms(true_gap)
+    named_rows = report.causes[report.causes["significant"].astype(bool)]
+    lows = [float(ci[0]) for ci in named_rows["shrinkage_ci"]]
     return {
         "withheld": "+".join(withheld) if withheld else "none",
         "size": float(size) if withheld else 0.0,
@@ -435,6 +504,9 @@ def _run_case(spec, setting, use_sensitivities, kwargs):
         "top2": bool(withheld) and any(w in ranked[:2] for w in _named_as(withheld)),
         "all_named": bool(withheld) and set(_named_as(withheld)) <= set(report.named),
         "physical_named": any(e in EFFECTS for e in report.named),
+        "n_named": len(lows),
+        "n_named_ci_above_0": sum(low > 0 for low in lows),
+        "unexplained_share": report.unexplained_share,
         "event_located": located,
         "event_size": case.event[2] / _rms(case.noise) if case.event else np.nan,
         "false_alarm": not withheld and report.cause is not None,
@@ -456,7 +528,11 @@ def _run_case(spec, setting, use_sensitivities, kwargs):
 
 def _named_as(withheld):
     """The names the diagnosis should give: the custom effect's name for a custom case."""
-    return (CUSTOM_NAME,) if withheld == ("custom",) else withheld
+    if withheld == ("custom",):
+        return (CUSTOM_NAME,)
+    if withheld == ("foreign_custom",):
+        return (FOREIGN_NAME,)
+    return withheld
 
 
 @dataclass
@@ -507,6 +583,44 @@ class WithheldValidation:
                 shrinkage=("shrinkage", "median"),
             )
             .assign(n=cases.groupby("param_error").size())
+        )
+
+    def foreign(self):
+        """Foreign heat source cases, not given and given as a custom effect, by parameter error.
+
+        Not given (``foreign``): how often no library effect is named, the
+        verdict is ``"unexplained"`` or ``"partial"``, and the median
+        unexplained share. Given (``foreign_custom``): how often it is named,
+        the median held-out shrinkage and the oracle's, and how often the
+        shrinkage is within 0.05 of the oracle's.
+        """
+        cases = self.cases[self.cases["withheld"].isin(["foreign", "foreign_custom"])]
+        out = cases.assign(
+            no_library=~cases["physical_named"].astype(bool),
+            verdict_ok=cases["verdict"].isin(["unexplained", "partial"]),
+            near_oracle=(cases["shrinkage"] - cases["oracle_shrinkage"]).abs() <= 0.05,
+        )
+        return (
+            out.groupby(["withheld", "param_error"])
+            .agg(
+                no_library=("no_library", "mean"),
+                verdict_ok=("verdict_ok", "mean"),
+                unexplained_share=("unexplained_share", "median"),
+                named=("all_named", "mean"),
+                shrinkage=("shrinkage", "median"),
+                oracle=("oracle_shrinkage", "median"),
+                near_oracle=("near_oracle", "mean"),
+            )
+            .assign(n=out.groupby(["withheld", "param_error"]).size())
+        )
+
+    def named_intervals(self):
+        """Named effects over all cases, and how many have their 95 % interval above 0."""
+        return pd.Series(
+            {
+                "named": int(self.cases["n_named"].sum()),
+                "interval_above_0": int(self.cases["n_named_ci_above_0"].sum()),
+            }
         )
 
     def verdicts(self):
@@ -581,6 +695,8 @@ def validate_withheld(
     n_events=0,
     n_custom=0,
     custom_size=10,
+    n_foreign=0,
+    foreign_size=30,
     verbose=0,
     **diagnose_kwargs,
 ):
@@ -632,6 +748,13 @@ def validate_withheld(
         column that the diagnosis is told of only as a custom effect
         (``withheld == "custom"``), at ``custom_size`` times the noise.
     custom_size : float, default=10
+    n_foreign : int, default=0
+        Cases per parameter error with a heater on the fixture, not in the
+        library, reaching the probe through a lag of 60-120 min: as many
+        not given to the diagnosis (``withheld == "foreign"``) as given as
+        the custom effect ``"fixture"`` (``"foreign_custom"``).
+    foreign_size : float, default=30
+        Peak of the heater's part over the probe noise's standard deviation.
     **diagnose_kwargs
         Passed to :func:`diagnose_gap`.
 
@@ -671,6 +794,10 @@ def validate_withheld(
         for _ in range(n_custom):
             specs.append((("custom",), custom_size, param_error, counter))
             counter += 1
+        for given in ("foreign", "foreign_custom"):
+            for _ in range(n_foreign):
+                specs.append(((given,), foreign_size, param_error, counter))
+                counter += 1
     setting = dict(machine=machine, target=target, kind=kind, n_tests=n_tests, n_sensors=n_sensors)
     rows = Parallel(n_jobs=n_jobs, verbose=verbose)(
         delayed(_run_case)(spec, setting, sensitivities, diagnose_kwargs) for spec in specs
