@@ -75,15 +75,19 @@ ABRUPT_Z = 3.0
 BEND_Z = 3.0
 #: At most this many bends per test (the switches of heat sources).
 MAX_BENDS_PER_TEST = 12
+#: Fewest step times between two bends.
+BEND_APART = 4
 #: At most this many events per test, the most significant kept: events are
 #: rare (a probe knocked, a re-clamp); a recording whose noise floor is far
 #: below its gap would otherwise turn every bend into an event, and every
 #: event is a column of every fit that follows.
 MAX_EVENTS_PER_TEST = 5
 #: Knot spacing of the smooth gap, in step times.
-KNOTS_PER_STEP_TIME = 15
+KNOTS_PER_STEP_TIME = 10
 #: Fewest rows between two knots of the smooth gap.
 MIN_ROWS_PER_KNOT = 6
+#: Two opposite steps closer than this many step times are one spike.
+SPIKE_STEP_TIMES = 15
 #: Default window (s) within which an event coincides with a driver's switch.
 DRIVER_WINDOW_S = 60.0
 #: A driver switches when it changes by more than this share of its range.
@@ -126,6 +130,11 @@ class EventSettings:
     def knot_s(self):
         """Knot spacing of the smooth gap (s), before the rows' minimum."""
         return KNOTS_PER_STEP_TIME * self.step_time_s
+
+    @property
+    def spike_s(self):
+        """Two opposite steps closer than this (s) are one spike."""
+        return SPIKE_STEP_TIMES * self.step_time_s
 
 
 @dataclass(frozen=True)
@@ -301,15 +310,45 @@ def _scan_bends(q, e, lo, hi):
     return j, np.where(ok, num**2 / np.where(ok, den, 1.0), 0.0)
 
 
-def _greedy(x, basis, g, lo, hi, per_row, quantum, settings, masked):
+def _smoother(q, e, j, gain, kb, g, reach, lo, hi):
+    """The first of the two bends within ``reach`` rows of row ``kb`` that explain most.
+
+    Returns (row of the first bend, gain of both), or None. The second is
+    sought given the first, at least ``BEND_APART`` step times away from it.
+    """
+    near = np.abs(j - kb) <= reach
+    if not near.any():
+        return None
+    first = int(j[np.argmax(np.where(near, gain, -np.inf))])
+    total = float(gain[j == first][0])
+    column = _hinge(e.size, first)
+    column = column - q @ (q.T @ column)
+    norm = np.sqrt(column @ column)
+    if norm > 0:
+        q2 = np.column_stack([q, column / norm])
+        e2 = e - q2[:, -1] * (q2[:, -1] @ e)
+        j2, gain2 = _scan_bends(q2, e2, lo, hi)
+        ok = (np.abs(j2 - kb) <= reach) & (np.abs(j2 - first) >= BEND_APART * g)
+        if ok.any():
+            total += float(np.max(gain2[ok]))
+    return first, total
+
+
+def _greedy(x, basis, g, dt, lo, hi, per_row, quantum, settings, masked):
     """Steps (ramp ends) and bends of the smooth part, the most significant first.
 
     Each round adds the best step or the best bend, whichever explains more:
     a bend (the start of a thermal response, where a heat source switched)
     belongs to the smooth gap and is never an event; a step is one when it
-    passes ``settings.z``. Steps are not sought at ``masked`` rows.
+    passes ``settings.z`` and no two bends within half a knot spacing of it
+    explain nearly as much (within ``ABRUPT_Z``² noise variances): the
+    smooth explanation (two heat-source switches, an on and an off) is
+    preferred. Bends are at least ``BEND_APART`` step times apart, so that
+    two of them cannot pass for a step. Steps are not sought at ``masked``
+    rows.
     """
     n = x.size
+    reach = max(1, int(round(0.5 * _knot(settings, dt) / dt)))
     ramps, bends = [], []
     while len(ramps) < MAX_EVENTS_PER_TEST:
         columns = [_ramp(n, k, g) for k in ramps] + [_hinge(n, j) for j in bends]
@@ -325,11 +364,16 @@ def _greedy(x, basis, g, lo, hi, per_row, quantum, settings, masked):
         if len(bends) < MAX_BENDS_PER_TEST:
             j, gain = _scan_bends(q, e, lo, hi)
             for chosen in bends:
-                gain[np.abs(j - chosen) < 2 * g] = 0.0
+                gain[np.abs(j - chosen) < BEND_APART * g] = 0.0
             bend = int(np.argmax(gain))
             if gain[bend] > max(step_gain, (BEND_Z * per_row) ** 2):
                 bends.append(int(j[bend]))
                 continue
+            if score[best] > settings.z:
+                local = _smoother(q, e, j, gain, int(k[best]), g, reach, lo, hi)
+                if local is not None and local[1] >= step_gain:
+                    bends.append(local[0])
+                    continue
         if not score[best] > settings.z:
             break
         ramps.append(int(k[best]))
@@ -427,7 +471,7 @@ def _steps_in_test(x, t, dt, floor, quantum, correlation, settings):
     masked = np.zeros(n + 1, dtype=bool)
     smooth = basis
     for _ in range(MAX_EVENTS_PER_TEST):
-        ramps, bends = _greedy(x, basis, g, lo, hi, per_row, quantum, settings, masked)
+        ramps, bends = _greedy(x, basis, g, dt, lo, hi, per_row, quantum, settings, masked)
         smooth = np.column_stack([basis] + [_hinge(n, j) for j in bends])
         # a change that takes longer than the step time is not a step: leave
         # it (and its neighbours) out, and look again without it
@@ -563,7 +607,7 @@ def locate_events(
             m, size, z = steps[i]
             if i + 1 < len(steps):
                 m2, size2, z2 = steps[i + 1]
-                if np.sign(size2) == -np.sign(size) and t[m2] - t[m] < _knot(settings, dt[j]):
+                if np.sign(size2) == -np.sign(size) and t[m2] - t[m] < settings.spike_s:
                     merged.append((m, m2 - 1, 0.5 * (size - size2), min(z, z2)))
                     i += 2
                     continue

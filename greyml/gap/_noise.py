@@ -42,10 +42,13 @@ of rows where the reading stands still over a step time either side::
 with q the step of the readings (given, or detected: :func:`detect_quantum`).
 For a probe whose reading stands still, s = 1 and the floor is
 √(σ² + q²/12); for readings that dither, s ≈ 0 and it is the white part.
-On the quantised null cases of :mod:`greyml.gap_validation._measured` (VMC
-probe noise 0.1 µm, steps of 0.25 and 1 µm, rows every 15 s to 5 min) the
-floor came out 0-25 % above the root mean square of the true measurement
-error, never below it.
+On quantised readings of a displacement that crosses several steps (the
+null cases of :mod:`greyml.gap_validation._measured`: VMC probe noise
+0.1 µm, steps of 0.25 and 1 µm, rows every 15 s to 5 min) the floor came out
+between 5 % below and 25 % above the root mean square of the true
+measurement error. Where the displacement stands still on one step for a
+whole test, its rounding error is a constant offset anywhere from 0 to q/2,
+which no estimate from the readings can know; q/√12 is its average.
 
 Noise slower than the step time is not noise by this definition: it is
 signal, which the diagnosis must explain (a drift) or leave unexplained.
