@@ -9,34 +9,35 @@ or every 5 min gives the same events:
 - **a step** is a change of the gap completed within the step time
   (``step_time_s``, 2 min by default);
 - **the smooth gap** around it is a cubic spline with knots every
-  ``15 × step_time_s`` (30 min by default; at least six rows apart), which
-  follows thermal bends (lags of tens of minutes) but not a step;
-- a step is **located** where a ramp that rises within the step time, added
-  to the spline, explains the gap best (a scan of every row in closed form,
-  each step fitted given those found before, the most significant first);
-  it is kept while its size, less one quantum of the readings, exceeds
-  ``z`` standard errors, and while no ramp twice or four times as long,
-  placed anywhere over it, explains the gap as well: a change that takes
-  longer than the step time is not a step (at rows further apart than the
-  step time, a change between two rows is one, as far as the rows can
-  tell). The size's standard error is that of a least-squares
-  fit in which the noise is counted at most once per step time: noise that
-  is correlated within a step time (a sensor that averages) is not averaged
-  away by reading it faster, and a faster row rate does not make a smaller
-  bend significant;
+  ``10 × step_time_s`` (20 min by default; at least six rows apart) plus
+  *bends*, changes of slope where the data ask for one (a heat source
+  switching on or off starts a thermal response with a bend), at least
+  four step times apart;
+- steps and bends are added one at a time, whichever explains more first,
+  every row scanned in closed form. A step (a ramp that rises within the
+  step time) is kept while its size, less one quantum of the readings,
+  exceeds ``z`` standard errors; while no two bends near it explain as
+  much; and while no slower change (a ramp twice or four times as long, or
+  a bend, placed over it) fits clearly better and leaves no abrupt part on
+  top of it. At rows further apart than the step time, a change between two
+  rows is a step as far as the rows can tell;
+- the standard errors count the noise's own row-to-row correlation
+  (:func:`~greyml.gap._noise.row_correlation`), up to one independent
+  reading per step time: noise that a sensor averages is not averaged
+  away by reading it faster;
 - a quantised reading flips by one quantum whenever the displacement crosses
   a step of the instrument, so a change of one quantum is never an event;
-- two opposite steps closer than the spline's knot spacing are one
-  **spike** (the gap leaves and comes back: a door opened and closed);
+- two opposite steps closer than ``15 × step_time_s`` are one **spike** (the
+  gap leaves and comes back: a door opened and closed);
 - an event within ``driver_window_s`` (1 min by default, plus one row of
-  either's sampling) of a switch of a driver column (a change of more than
-  5 % of its range between two rows, e.g. the spindle speed) is reported
-  **at that driver change**: a real response to the driver that is not
-  thermal (the spindle's centrifugal and preload growth moves a probe at
-  once when the speed changes), not a knock.
+  sampling) of a switch of a driver column (a change of more than 5 % of
+  its range between two rows, e.g. the spindle speed) is reported **at that
+  driver change**: a real response to the driver that is not thermal (the
+  spindle's centrifugal and preload growth moves a probe at once when the
+  speed changes), not a knock.
 
-This is the one-sided local fit idea of jump detection in regression
-(Müller (1992); Qiu and Yandell (1998)) with a spline for the smooth part
+This is the one-sided fit idea of jump detection in regression (Müller
+(1992); Qiu and Yandell (1998)), with a spline and bends for the smooth part
 and least-squares steps added greedily, as in the segmentation methods
 reviewed by Truong, Oudre and Vayatis (2020).
 
