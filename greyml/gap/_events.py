@@ -352,13 +352,13 @@ def _greedy(x, basis, g, dt, lo, hi, per_row, quantum, settings, masked):
     reach = max(1, int(round(0.5 * _knot(settings, dt) / dt)))
     ramps, bends = [], []
     while len(ramps) < MAX_EVENTS_PER_TEST:
-        columns = [_ramp(n, k, g) for k in ramps] + [_hinge(n, j) for j in bends]
+        columns = [_step_column(n, s, g) for s in ramps] + [_hinge(n, j) for j in bends]
         q, e = _project(x, np.column_stack([basis, *columns]))
         k, size, den = _scan(q, e, g, lo, hi)
         finite = np.isfinite(den) & ~masked[k]
         score = np.full(size.shape, -np.inf)
         score[finite] = (np.abs(size[finite]) - quantum) * np.sqrt(den[finite]) / per_row
-        for chosen in ramps:
+        for chosen, _ in ramps:
             score[np.abs(k - chosen) <= g] = -np.inf
         best = int(np.argmax(score))
         step_gain = size[best] ** 2 * den[best] if np.isfinite(score[best]) else 0.0
@@ -377,8 +377,21 @@ def _greedy(x, basis, g, dt, lo, hi, per_row, quantum, settings, masked):
                     continue
         if not score[best] > settings.z:
             break
-        ramps.append(int(k[best]))
+        kb = int(k[best])
+        # a jump between two rows, if it fits better than the ramp: a step
+        # completed within one row is not left half explained
+        rows, jumps = _gains(q, e, 1, kb - g + 1, kb + 1)
+        jump = int(rows[np.argmax(jumps)]) if rows.size else kb
+        ramps.append((kb, jump if rows.size and jumps.max() >= step_gain else None))
     return ramps, bends
+
+
+def _step_column(n, step, g):
+    """The column of a located step: its jump between two rows, or its ramp."""
+    end, jump = step
+    if jump is not None:
+        return (np.arange(n) >= jump).astype(float)
+    return _ramp(n, end, g)
 
 
 def _hinge(n, j):
@@ -411,8 +424,8 @@ def _gradual(x, basis, ramps, g, widths, edge, hi, per_row, quantum):
     """
     n = x.size
     out = []
-    for i, kb in enumerate(ramps):
-        others = [_ramp(n, r, g) for j, r in enumerate(ramps) if j != i]
+    for i, (kb, _) in enumerate(ramps):
+        others = [_step_column(n, r, g) for j, r in enumerate(ramps) if j != i]
         base = np.column_stack([basis, *others])
         q, e = _project(x, base)
         narrow = max(
@@ -482,11 +495,14 @@ def _steps_in_test(x, t, dt, floor, quantum, correlation, settings):
         for kb in slow:
             masked[max(0, kb - 4 * g) : kb + 4 * g + 1] = True
     else:
-        ramps = [k for k in ramps if k not in slow]
+        ramps = [r for r in ramps if r[0] not in slow]
     basis = smooth
     rows = []
-    for i, k in enumerate(ramps):
-        others = [_ramp(n, r, g) for j, r in enumerate(ramps) if j != i]
+    for i, (k, jump) in enumerate(ramps):
+        if jump is not None:
+            rows.append(jump)
+            continue
+        others = [_step_column(n, r, g) for j, r in enumerate(ramps) if j != i]
         rows.append(_refine(x, np.column_stack([basis, *others]), k, g))
     # the joint fit: drop the weakest step until every one holds
     while rows:
