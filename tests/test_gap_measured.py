@@ -1,7 +1,7 @@
 """The diagnosis on small measured-like cases of greyml.gap_validation._measured (a few seeds).
 
 The benchmark ``benchmarks/bench_gap_measured.py`` runs the same families
-over 20 seeds of six 5.5-hour tests; these are three 3-hour tests each.
+over 20 seeds of six 5.5-hour tests; these are three tests of 2-3 hours.
 """
 
 import numpy as np
@@ -19,7 +19,7 @@ SMALL = dict(n_tests=3, hours=3.0)
 
 @pytest.mark.parametrize("quantum, seed", [(1.0, 0), (0.25, 1)])
 def test_a_quantised_null_at_15_s_rows_is_within_noise_with_no_event(quantum, seed):
-    case = quantised_null_case(quantum, 15.0, seed, **SMALL)
+    case = quantised_null_case(quantum, 15.0, seed, n_tests=3, hours=2.0)
     row = run_measured_case(case)
     assert row["detected_quantum"] == pytest.approx(quantum)
     assert row["verdict"] == "within_noise" and row["n_events"] == 0, row

@@ -241,8 +241,24 @@ def _bracket(t, t0, t1, tau):
 def drop_case(sample_s, seed, *, size=10.0, machine="vmc", n_tests=6, hours=5.5, n_sensors=10):
     """A 20-min air drop in one test, which the probe's bracket feels at once.
 
-    The drop's part of the target peaks at ``size`` times the probe noise;
-    see the module's docstring. ``drop`` holds (test, start time_s, size).
+    See the module's docstring.
+
+    Parameters
+    ----------
+    sample_s : float
+        Row rate (s), a multiple of 15 s.
+    seed : int
+        Draws the tests, the test with the drop, its time and its sign.
+    size : float, default=10
+        The drop's part of the target, in probe noise standard deviations.
+    machine : str, default="vmc"
+    n_tests, hours, n_sensors
+        Tests per case, their length and the sensors handed to the diagnosis.
+
+    Returns
+    -------
+    MeasuredCase
+        ``drop`` holds (test, start time_s, height).
 
     Examples
     --------
@@ -310,6 +326,27 @@ def _lagged(edges, levels, tau, t):
 def smooth_case(sample_s, seed, *, size=10.0, machine="vmc", n_tests=6, hours=5.5, n_sensors=10):
     """A fixture heater through a 60-120 min lag: a smooth gap with nothing abrupt in it.
 
+    See the module's docstring.
+
+    Parameters
+    ----------
+    sample_s : float
+        Row rate (s), a multiple of 15 s.
+    seed : int
+        Draws the tests, the heater's blocks and its lag.
+    size : float, default=10
+        The heater's part of the target at its peak, in probe noise
+        standard deviations.
+    machine : str, default="vmc"
+    n_tests, hours, n_sensors
+        Tests per case, their length and the sensors handed to the diagnosis.
+
+    Returns
+    -------
+    MeasuredCase
+        The measured frame holds the heater's column ``fixture_kW``, which
+        the roles do not name.
+
     Examples
     --------
     >>> case = smooth_case(300.0, 0, n_tests=3, hours=3)
@@ -356,9 +393,23 @@ def smooth_case(sample_s, seed, *, size=10.0, machine="vmc", n_tests=6, hours=5.
 def run_measured_case(case, **diagnose_kwargs):
     """Diagnose one :class:`MeasuredCase`; its outcome as a dict (one row of a table).
 
-    ``located``: a drop case's drop found as an event in its test within
-    10 min of its start; ``false_events``: events that are not that one (in
-    a null or smooth case, every event).
+    Parameters
+    ----------
+    case : MeasuredCase
+    **diagnose_kwargs
+        Passed to :func:`~greyml.gap.diagnose_gap` (the case's roles, its
+        sensitivities and its seed are passed already).
+
+    Returns
+    -------
+    dict
+        The case's family, rate, quantum and seed; the ``verdict``, the
+        effects ``named``, the ``noise_floor`` and the ``true_noise`` (root
+        mean square of the measurement error), the ``detected_quantum``;
+        ``n_events``; ``located`` (a drop found as an event in its test
+        within 10 min of its start) and ``located_s``; ``false_events``
+        (events that are not the drop: in a null or smooth case, every
+        event); ``seconds`` of the diagnosis.
     """
     from greyml.gap import diagnose_gap
 
@@ -442,8 +493,28 @@ def validate_measured(
 ):
     """Run the measured-like families over seeds and row rates: one row per case.
 
-    Seeds are ``random_state`` to ``random_state + n_seeds - 1`` in every
-    family and at every rate, so a seed is the same tests at every rate.
+    Parameters
+    ----------
+    families : sequence of str, default=FAMILIES
+    n_seeds : int, default=20
+        Seeds are ``random_state`` to ``random_state + n_seeds - 1`` in every
+        family and at every rate, so a seed is the same tests at every rate.
+    rates : sequence of float, default=RATES_S
+    quanta : sequence of float, default=QUANTA
+        The quantised nulls' steps.
+    drop_size : float, default=10
+    smooth_sizes : sequence of float, default=(10, 30)
+    random_state : int, default=0
+    n_jobs : int, optional
+        Cases in parallel with joblib (module-level workers).
+    verbose : int, default=0
+    **diagnose_kwargs
+        Passed to :func:`~greyml.gap.diagnose_gap`.
+
+    Returns
+    -------
+    DataFrame
+        One row per case (:func:`run_measured_case`) with its ``size``.
     """
     from joblib import Parallel, delayed
 
@@ -472,9 +543,19 @@ def validate_measured(
 def summarise_measured(cases):
     """The acceptance numbers of :func:`validate_measured`'s table, by family, quantum and rate.
 
-    ``within_noise`` and ``no_events``: shares of the cases; ``located``: the
-    share of drop cases whose drop was found in its test within 10 min;
-    ``false_per_test``: false events per test; ``n``: cases.
+    Parameters
+    ----------
+    cases : DataFrame
+        From :func:`validate_measured`.
+
+    Returns
+    -------
+    DataFrame
+        Indexed by family, quantum, size and rate: ``n`` (cases),
+        ``within_noise`` and ``no_events`` (shares of the cases),
+        ``located`` (share of drops found in their test within 10 min),
+        ``false_per_test`` (false events per test), the median ``floor``
+        and ``true_noise``.
     """
     keys = ["family", "quantum", "size", "sample_s"]
     grouped = cases.assign(
