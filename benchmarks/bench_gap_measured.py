@@ -49,6 +49,35 @@ def _share(mask):
     return f"{mask.mean():.1%} ({int(mask.sum())} of {mask.size})"
 
 
+def _drops(drop, family, by_rate):
+    """The lines of a drop family: located at each rate, and at 15 s and 5 min alike."""
+    out = []
+    if not len(drop):
+        return out
+    out.append(
+        f"\n{family} (20 min, 10x the noise): located in its test within 10 min, bar >= 90 %"
+    )
+    for rate in by_rate:
+        g = drop[drop["sample_s"] == rate]
+        out.append(
+            f"  {rate:>5g} s rows: {_share(g['located'])}; false events per test "
+            f"{(g['false_events'] / g['n_tests']).mean():.3f}; named when missed: "
+            f"{_counts(g.loc[~g['located'].astype(bool), 'named'])}"
+        )
+    every = drop.groupby("seed")["located"].all()
+    out.append(f"  located at every rate: {_share(every)}")
+    wide = drop.pivot_table(index="seed", columns="sample_s", values="located_s")
+    if {15.0, 300.0} <= set(wide.columns):
+        both = wide[[15.0, 300.0]].dropna()
+        same = (both[15.0] - both[300.0]).abs() <= 600
+        out.append(
+            f"  15 s and 5 min rows place it within 10 min of each other: {_share(same)} "
+            f"of the seeds located at both (largest difference "
+            f"{(both[15.0] - both[300.0]).abs().max():g} s)"
+        )
+    return out
+
+
 def _report(cases):
     out = []
     by_rate = sorted(cases["sample_s"].unique())
@@ -68,26 +97,8 @@ def _report(cases):
                     f"{_counts(g['verdict'])}; events {int(g['n_events'].sum())}; "
                     f"floor / true error median {ratio:.2f}"
                 )
-    drop = cases[cases["family"] == "drop"]
-    if len(drop):
-        out.append("\ndrop (20 min, 10x the noise): located in its test within 10 min, bar >= 90 %")
-        for rate in by_rate:
-            g = drop[drop["sample_s"] == rate]
-            out.append(
-                f"  {rate:>5g} s rows: {_share(g['located'])}; false events per test "
-                f"{(g['false_events'] / g['n_tests']).mean():.3f}"
-            )
-        every = drop.groupby("seed")["located"].all()
-        out.append(f"  located at every rate: {_share(every)}")
-        wide = drop.pivot_table(index="seed", columns="sample_s", values="located_s")
-        if {15.0, 300.0} <= set(wide.columns):
-            both = wide[[15.0, 300.0]].dropna()
-            same = (both[15.0] - both[300.0]).abs() <= 600
-            out.append(
-                f"  15 s and 5 min rows place it within 10 min of each other: {_share(same)} "
-                f"of the seeds located at both (largest difference "
-                f"{(both[15.0] - both[300.0]).abs().max():g} s)"
-            )
+    for family in ("drop", "drop_unlogged"):
+        out += _drops(cases[cases["family"] == family], family, by_rate)
     smooth = cases[cases["family"] == "smooth"]
     if len(smooth):
         out.append("\nsmooth (60-120 min lag, not given): false events per test, bar <= 0.1")

@@ -22,7 +22,9 @@ that the diagnosis must survive:
     probe's bracket, which follows the air within a minute (a first-order
     lag of 30 s): the reading drops by ``size`` times the probe noise at
     once and comes back when the door closes. The diagnosis should locate
-    the drop in that test within 10 min, at every rate.
+    the drop in that test within 10 min, at every rate. ``drop_unlogged``:
+    the same drop as a draught that the ambient sensor does not see (neither
+    the measured ambient column nor the simulation has it).
   - ``smooth_case``: a heater on the fixture, switched on and off in blocks
     of 20-90 min logged as ``fixture_kW`` (not handed to the diagnosis),
     reaches the probe through one first-order lag of 60-120 min (drawn), its
@@ -43,6 +45,7 @@ from dataclasses import dataclass, fields, replace
 import numpy as np
 import pandas as pd
 
+from greyml.datasets import make_tests
 from greyml.datasets._simulated import _machine, main_target
 from greyml.gap._report import GapWarning
 from greyml.gap._validate import WithheldCase, _case, _simulated, random_tests
@@ -66,7 +69,7 @@ RATES_S = (15.0, 60.0, 300.0)
 #: Quanta (µm) of the quantised nulls.
 QUANTA = (0.25, 1.0)
 #: The families :func:`validate_measured` runs.
-FAMILIES = ("gaussian_null", "quantised_null", "slow_noise_null", "drop", "smooth")
+FAMILIES = ("gaussian_null", "quantised_null", "slow_noise_null", "drop", "drop_unlogged", "smooth")
 #: The drop: how much colder, for how long, and how fast the probe follows.
 DROP_C, DROP_S, BRACKET_TAU_S = 2.0, 1200.0, 30.0
 #: How close (s) a located event must be to the drop's start.
@@ -238,10 +241,23 @@ def _bracket(t, t0, t1, tau):
     return np.where(t < t0, 0.0, np.where(t < t1, on, off))
 
 
-def drop_case(sample_s, seed, *, size=10.0, machine="vmc", n_tests=6, hours=5.5, n_sensors=10):
+def drop_case(
+    sample_s,
+    seed,
+    *,
+    size=10.0,
+    logged=True,
+    machine="vmc",
+    n_tests=6,
+    hours=5.5,
+    n_sensors=10,
+):
     """A 20-min air drop in one test, which the probe's bracket feels at once.
 
-    See the module's docstring.
+    See the module's docstring. With ``logged=False`` the drop is a draught
+    that the ambient sensor does not see: the measured ``ambient_C`` and the
+    simulation's air lack it, so the gap also holds the structure's own slow
+    response to it, under the bracket's step.
 
     Parameters
     ----------
@@ -250,7 +266,10 @@ def drop_case(sample_s, seed, *, size=10.0, machine="vmc", n_tests=6, hours=5.5,
     seed : int
         Draws the tests, the test with the drop, its time and its sign.
     size : float, default=10
-        The drop's part of the target, in probe noise standard deviations.
+        The bracket's part of the target, in probe noise standard deviations.
+    logged : bool, default=True
+        Whether the measured ambient column, and so the simulation, has the
+        drop.
     machine : str, default="vmc"
     n_tests, hours, n_sensors
         Tests per case, their length and the sensors handed to the diagnosis.
@@ -258,7 +277,8 @@ def drop_case(sample_s, seed, *, size=10.0, machine="vmc", n_tests=6, hours=5.5,
     Returns
     -------
     MeasuredCase
-        ``drop`` holds (test, start time_s, height).
+        ``drop`` holds (test, start time_s, height); family ``"drop"`` or
+        ``"drop_unlogged"``.
 
     Examples
     --------
@@ -275,8 +295,9 @@ def drop_case(sample_s, seed, *, size=10.0, machine="vmc", n_tests=6, hours=5.5,
     t0 = 60.0 * np.floor(rng.uniform(0.15, 0.75) * length / 60.0)
     sign = float(rng.choice([-1.0, 1.0]))
     air = door_openings(tests[k].ambient, [t0], drop_C=DROP_C, duration_s=DROP_S)
-    tests[k] = replace(tests[k], ambient=air)
-    quiet, full, real, noise, _ = _simulated(m, tests, target, seed)
+    drafty = list(tests)
+    drafty[k] = replace(tests[k], ambient=air)
+    quiet, full, real, noise, _ = _simulated(m, drafty, target, seed)
     sim_true = full[target].to_numpy()
     labels = real.index.get_level_values("test")
     times = real.index.get_level_values("time_s").to_numpy(dtype=float)
@@ -286,6 +307,10 @@ def drop_case(sample_s, seed, *, size=10.0, machine="vmc", n_tests=6, hours=5.5,
     )
     real = real.copy()
     real[target] = sim_true + effect + noise
+    if logged:
+        tests = drafty
+    else:
+        real["ambient_C"] = make_tests(m, tests, effects=quiet).frame["ambient_C"].to_numpy()
     return _finish(
         m,
         tests,
@@ -295,7 +320,7 @@ def drop_case(sample_s, seed, *, size=10.0, machine="vmc", n_tests=6, hours=5.5,
         real,
         sim_true,
         effect,
-        family="drop",
+        family="drop" if logged else "drop_unlogged",
         sample_s=float(sample_s),
         seed=int(seed),
         drop=(tests[k].label, float(t0), height),
@@ -469,8 +494,8 @@ def _run(spec, diagnose_kwargs):
         case = quantised_null_case(quantum, sample_s, seed)
     elif family == "slow_noise_null":
         case = quantised_null_case(0.0, sample_s, seed, noise_s=SLOW_NOISE_S)
-    elif family == "drop":
-        case = drop_case(sample_s, seed, size=size)
+    elif family in ("drop", "drop_unlogged"):
+        case = drop_case(sample_s, seed, size=size, logged=family == "drop")
     else:
         case = smooth_case(sample_s, seed, size=size)
     row = run_measured_case(case, **diagnose_kwargs)
@@ -530,7 +555,7 @@ def validate_measured(
                     specs += [(family, q, rate, seed, 0.0) for q in quanta]
                 elif family == "smooth":
                     specs += [(family, 0.0, rate, seed, s) for s in smooth_sizes]
-                elif family == "drop":
+                elif family in ("drop", "drop_unlogged"):
                     specs.append((family, 0.0, rate, seed, drop_size))
                 else:
                     specs.append((family, 0.0, rate, seed, 0.0))
