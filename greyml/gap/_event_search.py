@@ -86,13 +86,18 @@ def _scan(q, e, g, lo, hi):
     return k, size, np.where(ok, den, np.inf)
 
 
+def _fit_gain(size, den):
+    """Least-squares gain size² × residual norm², 0 where a column has no residual."""
+    finite = np.isfinite(den)
+    return np.where(finite, size**2 * np.where(finite, den, 0.0), 0.0)
+
+
 def _gains(q, e, width, lo, hi):
     """Rows k, and the gain (size² × residual norm²) of a ramp of ``width`` ending at each."""
     if hi <= lo:
         return np.zeros(0, dtype=int), np.zeros(0)
     k, size, den = _scan(q, e, width, lo, hi)
-    finite = np.isfinite(den)
-    return k, np.where(finite, size**2 * np.where(finite, den, 0.0), 0.0)
+    return k, _fit_gain(size, den)
 
 
 def _most(k, gain, first, last):
@@ -169,7 +174,15 @@ def _greedy(x, basis, g, dt, lo, hi, per_row, quantum, settings, masked):
     while len(ramps) < MAX_EVENTS_PER_TEST:
         columns = [_step_column(n, s, g) for s in ramps] + [_hinge(n, j) for j in bends]
         q, e = _project(x, np.column_stack([basis, *columns]))
+        # a step within the step time: a ramp of the step time, or a jump
+        # between two rows (the better of the two at each row)
         k, size, den = _scan(q, e, g, lo, hi)
+        width = np.full(k.shape, g)
+        if g > 1:
+            _, size1, den1 = _scan(q, e, 1, lo, hi)
+            sharper = _fit_gain(size1, den1) > _fit_gain(size, den)
+            size, den = np.where(sharper, size1, size), np.where(sharper, den1, den)
+            width[sharper] = 1
         finite = np.isfinite(den) & ~masked[k]
         score = np.full(size.shape, -np.inf)
         score[finite] = (np.abs(size[finite]) - quantum) * np.sqrt(den[finite]) / per_row
@@ -193,6 +206,9 @@ def _greedy(x, basis, g, dt, lo, hi, per_row, quantum, settings, masked):
         if not score[best] > settings.z:
             break
         kb = int(k[best])
+        if width[best] == 1:
+            ramps.append((kb, kb))
+            continue
         # a jump between two rows, if it fits better than the ramp: a step
         # completed within one row is not left half explained
         rows, jumps = _gains(q, e, 1, kb - g + 1, kb + 1)
