@@ -174,11 +174,13 @@ def _greedy(x, basis, g, dt, lo, hi, per_row, quantum, settings, masked):
     while len(ramps) < MAX_EVENTS_PER_TEST:
         columns = [_step_column(n, s, g) for s in ramps] + [_hinge(n, j) for j in bends]
         q, e = _project(x, np.column_stack([basis, *columns]))
-        # a step within the step time: a ramp of the step time, or a jump
-        # between two rows (the better of the two at each row)
+        # a step within the step time: a ramp of the step time, or, when a
+        # step time holds two rows only, a jump between two rows (the better
+        # of the two at each row); with more rows the ramp finds a jump too,
+        # and single-row jumps would only add chances for the noise
         k, size, den = _scan(q, e, g, lo, hi)
         width = np.full(k.shape, g)
-        if g > 1:
+        if g == 2:
             _, size1, den1 = _scan(q, e, 1, lo, hi)
             sharper = _fit_gain(size1, den1) > _fit_gain(size, den)
             size, den = np.where(sharper, size1, size), np.where(sharper, den1, den)
