@@ -156,7 +156,7 @@ def test_a_step_in_one_test_is_a_located_event_not_an_effect():
     step = np.where(in_test3 & (t >= 6000.0), 0.5, 0.0)  # 5× the probe noise
     report = _diagnose(*_with_gap(frame, step))
     assert report.named == [] and report.verdict == "unexplained"
-    assert list(report.events.columns) == ["test", "time_s", "size"]
+    assert list(report.events.columns)[:4] == ["test", "time_s", "kind", "size"]
     assert len(report.events) == 1
     event = report.events.iloc[0]
     assert event["test"] == "test3" and abs(event["time_s"] - 6000.0) <= 600

@@ -151,8 +151,12 @@ def test_a_spike_is_one_event():
     # only (not as a step to the end of the test): the located event ends
     from greyml.gap._events import locate_events
 
-    test, first, size, last = locate_events(report.gap.to_numpy(), BOUNDS, report.noise_floor)[0]
-    assert (test, first) == (2, 2 * N + 200) and last == pytest.approx(2 * N + 219, abs=2)
+    times = report.gap.index.get_level_values("time_s").to_numpy(dtype=float)
+    event = locate_events(
+        report.gap.to_numpy(), BOUNDS, times, [DT] * N_TESTS, report.noise_floor
+    )[0]
+    assert event.kind == "spike" and event.row == 2 * N + 200
+    assert event.last_row == pytest.approx(2 * N + 219, abs=2)
 
 
 def test_a_foreign_heat_source_is_not_given_a_library_name():

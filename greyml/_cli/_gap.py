@@ -4,28 +4,43 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
+import os
 import sys
 import textwrap
 import warnings
 
 from greyml._cli import _flags as flags
-from greyml._cli._files import _check_output_file, _read, _write_text
+from greyml._cli._files import _check_output_file, _read, _require_columns, _write_text
 from greyml._cli._fitting import _distinct_warnings
 from greyml._cli._printing import _progress, _warn
 
 _GAP_EPILOG = """\
 The CSV files have the columns test and time_s, then the data columns; SIM.csv
-holds the simulated target (a column named like --target, or a single column)
-for every measured (test, time_s) row.
+holds the simulated target for every measured (test, time_s) row: the column
+--sim-column names, else one named like --target, else greyml predict's
+predicted_<target> or predicted_<target>_since_start, else its only column. A
+file that greyml predict wrote (test, time_s, predicted_<target>,
+compensation_<target>) is read as it wrote it (a test column and seconds),
+whatever --test-column and --time-unit say of REAL.csv; with a _since_start
+prediction the measured target is compared from its first row in each test.
+
+Events are changes of the gap completed within --step-time seconds (2 min by
+default), found the same at any row rate; an event within --driver-window
+seconds of a switch of a --drivers column is reported at that switch (e.g. at
+a spindle speed change) rather than as a knock. The noise floor includes the
+step in which the target is read (--quantum; detected when not given).
 
 Output: without --json, the report for people is printed. --json FILE also
 writes the report as JSON to FILE; --json - writes only the JSON to standard
 output. The report for people starts with the verdict (within_noise, explained,
 partial or unexplained). The JSON holds "verdict", "unexplained_rms", "events"
-(located steps and spikes: test, time_s, size), "cause" (null when no effect is
+(located steps and spikes: test, time_s, kind, size, end_s, z, and
+at_driver_change, driver_change_s, driver_before, driver_after for one at a
+driver's switch), "noise_floor" and "quantum", "cause" (null when no effect is
 significant), "causes" (one row per effect, with p_value and shrinkage_ci) and
-"where" (where the gap lies), and never NaN. An existing FILE is replaced
-only with --force.
+"where" (where the gap lies), and never NaN. An existing FILE is replaced only
+with --force.
 
 {effects}
 
@@ -61,8 +76,18 @@ def _add_gap_parser(subparsers):
 def _add_gap_arguments(parser):
     """The arguments of ``greyml gap``."""
     parser.add_argument("real", metavar="REAL.csv", help="measured tests (CSV)")
-    parser.add_argument("sim", metavar="SIM.csv", help="simulation of the same tests (CSV)")
+    parser.add_argument(
+        "sim",
+        metavar="SIM.csv",
+        help="simulation of the same tests (CSV), or the output of greyml predict",
+    )
     flags._add_target(parser, "measured target column")
+    parser.add_argument(
+        "--sim-column",
+        type=flags._name,
+        metavar="COL",
+        help="the column of SIM.csv with the simulated target (default: see below)",
+    )
     parser.add_argument(
         "--ambient", type=flags._name, metavar="COL", help="ambient temperature column"
     )
@@ -98,6 +123,29 @@ def _add_gap_arguments(parser):
         help="how far (relative) the simulation's parameters may be off (default: 0.1)",
     )
     parser.add_argument(
+        "--quantum",
+        type=_quantum,
+        default=None,
+        metavar="Q",
+        help="the step in which the target is read, in its unit (1 for a probe that reads "
+        "whole micrometres; 0: continuous readings; default: detected in the readings)",
+    )
+    parser.add_argument(
+        "--step-time",
+        type=_step_time,
+        default=120.0,
+        metavar="S",
+        help="a change of the gap completed within S seconds is a step, an event (default: 120)",
+    )
+    parser.add_argument(
+        "--driver-window",
+        type=_driver_window,
+        default=60.0,
+        metavar="S",
+        help="an event within S seconds of a switch of a --drivers column is reported at "
+        "that switch (default: 60)",
+    )
+    parser.add_argument(
         "--custom",
         type=_custom_effect,
         action="append",
@@ -113,6 +161,90 @@ def _add_gap_arguments(parser):
     )
     parser.add_argument("--force", action="store_true", help="replace the --json FILE if it exists")
     flags._end_options(parser, _run_gap)
+
+
+def _number(text, what, low, strict):
+    """A finite float from ``text``, above ``low`` (or at it, unless ``strict``)."""
+    try:
+        value = float(text)
+    except ValueError:
+        value = math.nan
+    if not math.isfinite(value) or value < low or (strict and value == low):
+        raise argparse.ArgumentTypeError(f"must be {what}; got {text!r}")
+    return value
+
+
+def _quantum(text):
+    """``--quantum Q``: a finite number >= 0."""
+    return _number(text, "a finite number >= 0 (0: continuous readings)", 0.0, False)
+
+
+def _step_time(text):
+    """``--step-time S``: seconds, > 0."""
+    return _number(text, "a finite number of seconds > 0", 0.0, True)
+
+
+def _driver_window(text):
+    """``--driver-window S``: seconds, >= 0."""
+    return _number(text, "a finite number of seconds >= 0", 0.0, False)
+
+
+def _predict_header(path):
+    """The predicted column if ``path`` is a file greyml predict wrote, else None.
+
+    greyml predict writes ``test,time_s,predicted_<t>,compensation_<t>``
+    (``<t>`` possibly ending in ``_since_start``), comma-separated, in seconds.
+    """
+    try:
+        with open(path, encoding="utf-8-sig", newline="") as handle:
+            line = handle.readline(1 << 16)
+    except (OSError, UnicodeDecodeError):
+        return None  # the reader says what is wrong with the file
+    names = [n.strip().strip('"') for n in line.rstrip("\r\n").split(",")]
+    if len(names) != 4 or names[:2] != ["test", "time_s"]:
+        return None
+    predicted, compensation = names[2], names[3]
+    own = predicted.startswith("predicted_") and predicted != "predicted_"
+    if own and compensation == "compensation_" + predicted[len("predicted_") :]:
+        return predicted
+    return None
+
+
+def _sim_column(frame, path, target, given):
+    """The column of the simulation frame that holds the simulated target."""
+    if given is not None:
+        _require_columns(frame, [given], path, "--sim-column")
+        return given
+    for name in (target, f"predicted_{target}", f"predicted_{target}_since_start"):
+        if name in frame.columns:
+            return name
+    if frame.shape[1] == 1:
+        return frame.columns[0]
+    have = ", ".join(map(str, frame.columns[:12])) + (", ..." if frame.shape[1] > 12 else "")
+    raise ValueError(
+        f"{os.fspath(path)!r} has no column of the simulated {target!r} (looked for "
+        f"{target}, predicted_{target} and predicted_{target}_since_start; its columns: "
+        f"{have}); name it with --sim-column."
+    )
+
+
+def _read_sim(path, options, target, given):
+    """The simulated target (a one-column frame), and the notes to print about it.
+
+    A file of greyml predict is read as it wrote it (a ``test`` column,
+    seconds); a ``_since_start`` prediction means the measured target must be
+    compared from each test's first row (the second return value says so).
+    """
+    own = _predict_header(path)
+    frame = _read(path, None if own else options)
+    column = _sim_column(frame, path, target, given)
+    return frame[[column]], str(column).endswith("_since_start")
+
+
+def _since_start(real, target):
+    """``real`` with ``target`` measured from its first row in each test."""
+    first = real.groupby(level="test", sort=False)[target].transform("first")
+    return real.assign(**{target: real[target] - first})
 
 
 def _custom_effect(text):
@@ -136,7 +268,15 @@ def _run_gap(args):
     with _progress(3, args.quiet) as progress:
         progress.step(f"reading {args.real!r} and {args.sim!r}")
         real = _read(args.real, options)
-        sim = _read(args.sim, options)
+        sim, since_start = _read_sim(args.sim, options, args.target, args.sim_column)
+        notes = []
+        if since_start and args.target in real.columns:
+            real = _since_start(real, args.target)
+            notes.append(
+                f"{sim.columns[0]} in {args.sim!r} is the change since each test's first row "
+                f"(greyml predict's _since_start): the measured {args.target} is compared from "
+                "its first row in each test too."
+            )
         sensitivities = args.sensitivities
         if sensitivities is not None:
             sensitivities = _read(sensitivities, options)
@@ -156,13 +296,16 @@ def _run_gap(args):
                 sensitivities=sensitivities,
                 tolerance=args.tolerance,
                 custom_effects=dict(args.custom) if args.custom else None,
+                quantum=args.quantum,
+                step_time_s=args.step_time,
+                driver_window_s=args.driver_window,
             )
         data = report.to_dict()
         if args.json not in (None, "-"):
             progress.step(f"writing {args.json!r}")
             text = json.dumps(data, indent=2, allow_nan=False, ensure_ascii=False) + "\n"
             _write_text(args.json, text, args.force)
-    _warn("gap", _distinct_warnings(caught))
+    _warn("gap", notes + _distinct_warnings(caught))
     if args.json == "-":
         # ASCII-only JSON reads back the same through any stdout encoding.
         sys.stdout.write(json.dumps(data, indent=2, allow_nan=False, ensure_ascii=True) + "\n")

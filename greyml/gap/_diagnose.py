@@ -8,17 +8,17 @@ effects, and the report stage here turns what was found into a
 
 from __future__ import annotations
 
-import warnings
 from dataclasses import replace
 
 import numpy as np
 import pandas as pd
 
+from greyml._caller import warn_user
 from greyml._param_validation import Integral, Interval, Real, validate_params
 from greyml._rng import RANDOM_STATE_CONSTRAINT, make_generator
 from greyml.gap._consistency import inconsistent_sensors
 from greyml.gap._effects import LIBRARY, build_candidates, fmt_tau, tau_grid
-from greyml.gap._events import locate_events
+from greyml.gap._events import EVENT_COLUMNS, EventSettings, event_table, events_in
 from greyml.gap._naming import EffectSearch, showing_tests, shrinkage
 from greyml.gap._prepare import GapContext, check_parameters, prepare
 from greyml.gap._report import GapReport, GapWarning
@@ -47,6 +47,9 @@ __all__ = ["diagnose_gap", "GapContext"]
         "sensitivities": "no_validation",  # a DataFrame or a path
         "tolerance": [Interval(Real, 0, None, closed="left")],
         "custom_effects": [dict, None],
+        "quantum": [Interval(Real, 0, None, closed="left"), None],
+        "step_time_s": [Interval(Real, 0, None, closed="neither")],
+        "driver_window_s": [Interval(Real, 0, None, closed="left")],
     },
     prefer_skip_nested_validation=True,
 )
@@ -69,6 +72,9 @@ def diagnose_gap(
     sensitivities=None,
     tolerance=0.1,
     custom_effects=None,
+    quantum=None,
+    step_time_s=120.0,
+    driver_window_s=60.0,
 ):
     """Locate the gap between a simulation and measured tests and name its cause.
 
@@ -87,9 +93,13 @@ def diagnose_gap(
     effects; effects that only one test shows are reported as untestable.
 
     Abrupt events (a step or a spike in one test: a probe knocked, a
-    re-clamp) are located first (``ruptures``) and reported in ``events``;
-    they are held fixed while effects are fitted, so that an event is never
-    taken for ``drift`` or another effect. The report ends in a ``verdict``.
+    re-clamp, a change completed within ``step_time_s``) are located first,
+    in time, so that any row rate gives the same ones, and reported in
+    ``events``; they are held fixed while effects are fitted, so that an
+    event is never taken for ``drift`` or another effect. An event at a
+    switch of a driver (within ``driver_window_s``) is reported as such. The
+    noise floor holds the readings' own step (``quantum``). The report ends
+    in a ``verdict``.
 
     Parameters
     ----------
@@ -153,6 +163,21 @@ def diagnose_gap(
         whose gains are fitted. Each is compared with placebos given the same
         freedom.
 
+    quantum : float, optional
+        The step in which the target is read (a probe that reads in whole
+        micrometres: 1.0). None detects it in the readings (when nearly all
+        their nonzero changes are whole multiples of one step); 0 states that
+        they are continuous. The noise floor adds quantum²/12, and a change
+        of one quantum is never an event (see :mod:`greyml.gap._noise`).
+    step_time_s : float, default=120
+        A change of the gap completed within this many seconds is a step (an
+        event); slower changes are thermal. Also the time resolution of the
+        noise floor.
+    driver_window_s : float, default=60
+        An event within this many seconds (plus one row) of a switch of a
+        ``drivers`` column is reported at that switch (e.g. "at a spindle
+        speed change"), not as a knock.
+
     Returns
     -------
     GapReport
@@ -162,7 +187,8 @@ def diagnose_gap(
     GapWarning
         When a named effect's fitted time constant ends at the bound of its
         search (often a ``time_s`` that is not in seconds), and when sensors
-        relate to the others differently in one test.
+        relate to the others differently in one test. One line, attributed to
+        the line that called ``diagnose_gap``.
 
     Examples
     --------
@@ -186,11 +212,17 @@ def diagnose_gap(
     real, ctx, custom = prepare(real, sim, custom_effects, **roles)
     asked = [e.name for e in effects]
     flags = inconsistent_sensors(ctx.sensors, ctx.bounds)
-    effect_ctx = _without_sensors(ctx, flags, stacklevel=3)
+    effect_ctx = _without_sensors(ctx, flags)
     candidates, skipped = build_candidates(effect_ctx, [*effects, *custom])
     candidates, untestable = _testable(ctx, candidates)
     start = starting_point(
-        ctx, real, recalibrate=recalibrate, sensitivities=sensitivities, tolerance=tolerance
+        ctx,
+        real,
+        recalibrate=recalibrate,
+        sensitivities=sensitivities,
+        tolerance=tolerance,
+        quantum=quantum,
+        events=EventSettings(step_time_s=step_time_s, driver_window_s=driver_window_s),
     )
     found = EffectSearch(ctx, start, make_generator(random_state), **search).run(candidates)
     not_tried = _not_tried(asked, skipped)
@@ -204,19 +236,18 @@ def diagnose_gap(
 # --------------------------------------------------------------------------
 
 
-def _without_sensors(ctx, flags, stacklevel):
+def _without_sensors(ctx, flags):
     """``ctx`` without the sensors flagged as inconsistent (said in one warning)."""
     if not flags:
         return ctx
     bad = sorted({f.sensor for f in flags})
     names = [ctx.sensor_names[j] for j in bad]
     where = "; ".join(_flag_words(ctx, f) for f in flags)
-    warnings.warn(
+    warn_user(
         f"diagnose_gap: sensor{'s' if len(names) > 1 else ''} {', '.join(names)} relate to the "
         f"other sensors differently in one test (swapped, moved or mislabelled?): {where}; "
         "left out of the effects built from the sensors.",
         GapWarning,
-        stacklevel=stacklevel + 1,
     )
     keep = [j for j in range(len(ctx.sensor_names)) if j not in bad]
     return replace(
@@ -323,6 +354,7 @@ def _report(target, ctx, start, found, not_tried, untestable, descriptions, flag
         peak_before=start.initial.peak,
         peak_after=final.peak,
         noise_floor=start.floor,
+        quantum=start.noise.quantum,
         whiteness=whiteness,
         cross_correlation=xcorr,
         gap=r_series,
@@ -330,7 +362,7 @@ def _report(target, ctx, start, found, not_tried, untestable, descriptions, flag
         descriptions=descriptions,
         recalibration=start.recal_detail,
         recalibration_kept=found.kept,
-        events=_events(ctx, final, start.floor),
+        events=_events(ctx, final, start),
         n_placebo=found.n_placebo,
         remainder_where=remainder_where,
         remainder_whiteness=remainder_white,
@@ -341,21 +373,13 @@ def _report(target, ctx, start, found, not_tried, untestable, descriptions, flag
     )
 
 
-def _events(ctx, final, floor):
+def _events(ctx, final, start):
     """The events still in what the named effects leave, as a table.
 
     One found in the gap before the search may have been a thermal bend.
     """
-    times = ctx.index.get_level_values("time_s").to_numpy(dtype=float)
-    located = locate_events(final.held_out, ctx.bounds, floor)
-    return pd.DataFrame(
-        {
-            "test": [ctx.labels[t] for t, *_ in located],
-            "time_s": [times[first] for _, first, *_ in located],
-            "size": [float(size) for _, _, size, _ in located],
-        },
-        columns=["test", "time_s", "size"],
-    )
+    located = events_in(ctx, final.held_out, start.noise, start.events)
+    return pd.DataFrame(event_table(located), columns=EVENT_COLUMNS)
 
 
 def _causes(ctx, found, skipped):
@@ -368,11 +392,10 @@ def _causes(ctx, found, skipped):
         bound = _at_bound(best, ev.tau)
         if bound:
             detail += f"; {bound}"
-            warnings.warn(
+            warn_user(
                 f"diagnose_gap: the time constant of {best.effect!r} ended at {bound}; the "
                 f"true one may lie beyond it. {_bound_cause(ctx, grid, best.effect, ev.tau)}",
                 GapWarning,
-                stacklevel=4,  # the caller of diagnose_gap (via _report)
             )
         if step.ties:
             detail += f"; indistinguishable from {', '.join(step.ties)}"

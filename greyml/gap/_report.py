@@ -9,6 +9,7 @@ import numpy as np
 import pandas as pd
 
 from greyml.exceptions import GapWarning
+from greyml.gap._events import EVENT_COLUMNS, describe_event
 
 __all__ = ["GapReport", "GapWarning", "VERDICTS"]
 
@@ -71,7 +72,12 @@ class GapReport:
         Whether it was kept: the effects are searched for with and without
         it, and the search that leaves less of the gap held out is reported.
     noise_floor : float
-        White-noise level of the gap (from its first differences).
+        What the instrument alone puts into the gap: √(white² + quantum²/12),
+        the white part a robust spread about a local line at the step time's
+        resolution (see :mod:`greyml.gap._noise`).
+    quantum : float
+        The step in which the target is read, stated or detected (0.0:
+        continuous readings).
     whiteness : dict
         Ljung–Box test of the gap.
     cross_correlation : DataFrame
@@ -86,9 +92,14 @@ class GapReport:
     unexplained_rms, remainder_ratio : float
         Held-out RMSE of the remainder, and its ratio to the noise floor.
     events : DataFrame
-        Located events (a step or a spike in one test), never attributed to
-        an effect: ``test``, ``time_s`` (where it starts) and ``size`` (its
-        height, in the target's unit).
+        Located events (a step or a spike in one test, a change completed
+        within the step time), never attributed to an effect: ``test``,
+        ``time_s`` (its first row at the new level), ``kind`` (``"step"`` or
+        ``"spike"``), ``size`` (its height, in the target's unit), ``end_s``
+        (a spike's last row), ``z`` (its size less one quantum, in standard
+        errors), and, for an event at a switch of a driver,
+        ``at_driver_change`` (the driver's name), ``driver_change_s``,
+        ``driver_before`` and ``driver_after`` (empty otherwise).
     n_placebo : int
         Placebos drawn in the whole diagnosis. ``causes`` gains, per effect
         scored against placebos, ``p_value`` (sequential, Besag and
@@ -138,9 +149,9 @@ class GapReport:
     1       A    0.0
     2       B    0.0
     3       C    1.0
-    >>> report.events.round(1)
-      test  time_s  size
-    0    C  3600.0   2.0
+    >>> report.events[["test", "time_s", "kind", "size"]].round(1)
+      test  time_s  kind  size
+    0    C  3600.0  step   2.0
     >>> sorted(report.to_dict())[:4]
     ['cause', 'causes', 'cross_correlation', 'events']
     """
@@ -163,9 +174,7 @@ class GapReport:
     descriptions: dict = field(default_factory=dict)
     recalibration: str = ""
     recalibration_kept: bool = False
-    events: pd.DataFrame = field(
-        default_factory=lambda: pd.DataFrame(columns=["test", "time_s", "size"])
-    )
+    events: pd.DataFrame = field(default_factory=lambda: pd.DataFrame(columns=EVENT_COLUMNS))
     n_placebo: int = 0
     remainder_where: pd.DataFrame | None = None
     remainder_whiteness: dict = field(default_factory=dict)
@@ -177,6 +186,13 @@ class GapReport:
             columns=["test", "sensor", "error_ratio", "swapped_with"]
         )
     )
+    quantum: float = 0.0
+
+    def _quantum_words(self):
+        """How the floor holds the readings' step, in words ("" without one)."""
+        if not self.quantum > 0:
+            return ""
+        return f" (readings in steps of {self.quantum:.4g}: quantum²/12 included)"
 
     @property
     def unexplained_rms(self):
@@ -302,11 +318,7 @@ class GapReport:
                 f"of {top['peak_lag_s']:g} s."
             )
         for _, event in self.events.iterrows():
-            lines.append(
-                f"Located event: test {event['test']} at time_s={event['time_s']:g}, a jump of "
-                f"{event['size']:+.3g} (not a physical effect: a probe knocked, a re-clamp, a "
-                "door opened?)."
-            )
+            lines.append(describe_event(event))
         return lines
 
     @property
@@ -339,6 +351,7 @@ class GapReport:
                 "peak_after": self.peak_after,
                 "shrinkage": self.shrinkage,
                 "noise_floor": self.noise_floor,
+                "quantum": self.quantum,
                 "whiteness": dict(self.whiteness),
                 "cross_correlation": self.cross_correlation.to_dict(orient="records"),
                 "remainder_where": (
@@ -363,7 +376,7 @@ class GapReport:
         lines = [self.verdict_sentence(), *self.where_remains()]
         lines += [
             f"Gap of {self.target}: held-out RMSE {self.rmse_before:.3g}, peak "
-            f"{self.peak_before:.3g}; noise floor {self.noise_floor:.3g}."
+            f"{self.peak_before:.3g}; noise floor {self.noise_floor:.3g}{self._quantum_words()}."
         ]
         if self.recalibration and self.recalibration_kept:
             lines.append(f"Recalibrated ({self.recalibration}): RMSE {self.rmse_recalibrated:.3g}.")

@@ -16,11 +16,15 @@ import numpy as np
 
 from greyml._sequences import test_segments
 from greyml.gap._effects import recalibration_candidate
-from greyml.gap._events import event_columns, locate_events
+from greyml.gap._events import EventSettings, event_columns, events_in
 from greyml.gap._fit import evaluate, fit_recalibration
+from greyml.gap._noise import NoiseFloor, measure_noise, noise_floor
 from greyml.gap._prepare import _sensitivity_design
 
 __all__ = ["Start", "noise_floor", "starting_point"]
+
+#: What counts as an event when diagnose_gap is not told otherwise.
+DEFAULT_EVENTS = EventSettings()
 
 
 @dataclass
@@ -30,7 +34,9 @@ class Start:
     ``base``: each fold's fixed columns (the located events); ``initial``: the
     held-out gap with them alone; ``recal``: the refitted parameters (None
     without recalibration), ``recalibrated``: the held-out gap with them and
-    ``recal_detail`` what they are in words; ``floor``: the gap's noise floor.
+    ``recal_detail`` what they are in words; ``floor``: the gap's noise floor,
+    ``noise`` how it was measured (:class:`~greyml.gap._noise.NoiseFloor`),
+    ``events`` what counts as an event (:class:`~greyml.gap._events.EventSettings`).
     """
 
     base: list
@@ -39,6 +45,8 @@ class Start:
     recalibrated: object
     recal_detail: str
     floor: float
+    noise: NoiseFloor | None = None
+    events: EventSettings = DEFAULT_EVENTS
 
 
 def _recalibration(ctx, real, base, sensitivities, tolerance):
@@ -63,8 +71,14 @@ def _recalibration(ctx, real, base, sensitivities, tolerance):
     return recal, detail, evaluate(ctx.r, base, None, [()], ctx.bounds, recal=recal)
 
 
-def starting_point(ctx, real, *, recalibrate, sensitivities, tolerance):
-    """Recalibrate (if asked) and hold the located events fixed: a :class:`Start`."""
+def starting_point(
+    ctx, real, *, recalibrate, sensitivities, tolerance, quantum=None, events=DEFAULT_EVENTS
+):
+    """Recalibrate (if asked) and hold the located events fixed: a :class:`Start`.
+
+    ``quantum`` is the step of the readings (None: detected), ``events`` what
+    counts as an event.
+    """
     n = len(ctx.r)
     base = [np.zeros((n, 0)) for _ in ctx.bounds]
     recalibrated = recal = None
@@ -73,25 +87,19 @@ def starting_point(ctx, real, *, recalibrate, sensitivities, tolerance):
         recal, recal_detail, recalibrated = _recalibration(
             ctx, real, base, sensitivities, tolerance
         )
-    floor = noise_floor(ctx.r, ctx.bounds)
+    noise = measure_noise(
+        ctx.r, ctx.measured, ctx.bounds, ctx.dt, quantum=quantum, step_time_s=events.step_time_s
+    )
     # Abrupt events, located on the gap the parameters leave, are held fixed
     # (one column each, in every fold's base) while effects are fitted; those
     # still in the remainder at the end are reported.
-    located = locate_events(
-        recalibrated.held_out if recalibrated is not None else ctx.r, ctx.bounds, floor
+    located = events_in(
+        ctx, recalibrated.held_out if recalibrated is not None else ctx.r, noise, events
     )
     if located:
-        stops = [ctx.bounds[t][1] for t, *_ in located]
-        columns = event_columns([(*e, stop) for e, stop in zip(located, stops)], n)
+        columns = event_columns(located, n)
         base = [columns for _ in ctx.bounds]
         if recal is not None:
             recalibrated = evaluate(ctx.r, base, None, [()], ctx.bounds, recal=recal)
     initial = evaluate(ctx.r, base, None, [()], ctx.bounds)
-    return Start(base, initial, recal, recalibrated, recal_detail, floor)
-
-
-def noise_floor(r, bounds):
-    """Robust white-noise level of the gap: MAD of first differences / (0.6745·√2)."""
-    diffs = np.concatenate([np.diff(r[a:b]) for a, b in bounds])
-    mad = np.median(np.abs(diffs - np.median(diffs)))
-    return float(mad / 0.6745 / np.sqrt(2.0))
+    return Start(base, initial, recal, recalibrated, recal_detail, noise.floor, noise, events)
