@@ -15,7 +15,8 @@ or every 5 min gives the same events:
   four step times apart;
 - steps and bends are added one at a time, whichever explains more first,
   every row scanned in closed form. A step (a ramp that rises within the
-  step time) is kept while its size, less one quantum of the readings,
+  step time; where a step time holds two rows, also a jump between two
+  rows) is kept while its size, less one quantum of the readings,
   exceeds ``z`` standard errors; while no two bends near it explain as
   much; and while no slower change (a ramp twice or four times as long, or
   a bend, placed over it) fits clearly better and leaves no abrupt part on
