@@ -3,11 +3,9 @@
 from __future__ import annotations
 
 import os
-import warnings
-from pathlib import Path
 
 from greyml._cli import _flags as flags
-from greyml._cli._files import _check_output_file
+from greyml._cli._files import _check_output_file, _load_model_file
 from greyml._cli._printing import _progress, _warn, printable
 
 _EXPORT_EPILOG = """\
@@ -85,22 +83,9 @@ def _compensator(model_path):
     transfer function, is a ValueError with one line naming the file.
     """
     from greyml.dynamic import Compensator, ThermalTransferFunction
-    from greyml.persist import load_model
 
     name = os.fspath(model_path)
-    if not Path(model_path).is_file():
-        what = "is a folder, not a model file" if Path(model_path).is_dir() else "does not exist"
-        raise ValueError(f"the model file {name!r} {what}.")
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        try:
-            model = load_model(model_path)
-        except (OSError, ValueError):  # persist's messages are one line naming the file
-            raise
-        except Exception as exc:  # anything else: still the file's fault
-            raise ValueError(
-                f"{name!r} is not a greyml model file ({type(exc).__name__}: {exc})."
-            ) from None
+    model, caught = _load_model_file(model_path)
     steps = getattr(model, "steps", None)
     final = steps[-1][1] if steps else model
     base = os.path.basename(name)

@@ -232,3 +232,32 @@ def _time_unit_hint(frame, path, csv_options=None):
             "--time-unit min or --time-unit h"
         )
     return None
+
+
+def _load_model_file(model_path):
+    """``(model, warnings caught)`` of a model file; every failure one line naming it.
+
+    A missing file or a folder, a file that is not a greyml model, was altered
+    or names a class greyml does not create: a ValueError (or persist's own
+    one-line OSError/ValueError).
+    """
+    import warnings
+    from pathlib import Path
+
+    from greyml.persist import load_model
+
+    name = os.fspath(model_path)
+    if not Path(model_path).is_file():
+        what = "is a folder, not a model file" if Path(model_path).is_dir() else "does not exist"
+        raise ValueError(f"the model file {name!r} {what}.")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            model = load_model(model_path)
+        except (OSError, ValueError):  # persist's messages are one line naming the file
+            raise
+        except Exception as exc:  # anything else: still the file's fault
+            raise ValueError(
+                f"{name!r} is not a greyml model file ({type(exc).__name__}: {exc})."
+            ) from None
+    return model, caught

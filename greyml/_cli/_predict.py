@@ -3,12 +3,11 @@
 from __future__ import annotations
 
 import os
-import warnings
-from pathlib import Path
 
 from greyml._cli import _flags as flags
 from greyml._cli._files import (
     _check_output_file,
+    _load_model_file,
     _read,
     _require_values,
     _test_labels,
@@ -125,22 +124,9 @@ def _load(model_path):
     A file that is not a greyml model, was altered, or names a class greyml
     does not create is a ValueError with one line naming the file.
     """
-    from greyml.persist import load_model
 
     name = os.fspath(model_path)
-    if not Path(model_path).is_file():
-        what = "is a folder, not a model file" if Path(model_path).is_dir() else "does not exist"
-        raise ValueError(f"the model file {name!r} {what}.")
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        try:
-            estimator = load_model(model_path)
-        except (OSError, ValueError):  # persist's messages are one line naming the file
-            raise
-        except Exception as exc:  # anything else: still the file's fault
-            raise ValueError(
-                f"{name!r} is not a greyml model file ({type(exc).__name__}: {exc})."
-            ) from None
+    estimator, caught = _load_model_file(model_path)
     if not hasattr(estimator, "predict"):
         raise ValueError(
             f"{name!r} holds a {type(estimator).__name__}, which does not predict; "
