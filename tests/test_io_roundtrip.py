@@ -307,3 +307,24 @@ def test_a_cell_as_text_reads_as_its_number_or_is_refused(folder, value, row, co
         assert int(got) == int(stripped)
     else:
         assert _same_floats([got], [float(stripped)]), (value, got)
+
+
+@pytest.mark.parametrize(
+    "text",
+    [
+        "+" + "1" * 80,  # pd.to_numeric: 1.1111111111111113e+79
+        "74.4e59",  # pd.to_numeric: 7.439999999999999e+60
+        "+344004806608440426935413848863857262126144287750063.69",
+        "-7979873.87e-267",
+    ],
+)
+def test_a_column_beside_an_integer_beyond_64_bits_reads_each_cell_exactly(tmp_path, text):
+    """An integer beyond 64 bits makes pandas hand the column over as text; every
+    other cell of it must still read as Python's float of its text, bit for bit."""
+    big = "1" + "0" * 25
+    path = tmp_path / "cells.csv"
+    path.write_text(f"test,time_s,dz_um\nA,0,{big}\nA,60,{text}\n", encoding="utf-8")
+    back = read_tests_csv(path)["dz_um"].to_numpy()
+    assert back[0] == float(big)
+    assert back[1] == float(text)
+    assert back[1].hex() == float(text).hex()

@@ -52,21 +52,41 @@ def _as_floats(text: pd.Series) -> pd.Series:
     """Cells as numbers, NaN where a cell is not one; an integer beyond a float is ±inf.
 
     pandas reads an integer beyond 64 bits as a Python int, which
-    ``pd.to_numeric`` cannot convert; such a column is converted cell by cell."""
+    ``pd.to_numeric`` cannot convert; such a column is converted cell by cell.
+    ``pd.to_numeric`` is not correctly rounded (it reads 80 ones as
+    1.1111111111111113e+79, ``74.4e59`` as 7.439999999999999e+60): it only
+    tells which cells are numbers, whose values are read again with Python's
+    ``float``, which is. Only a column pandas' reader could not read as
+    numbers comes here."""
     try:
-        return pd.to_numeric(text, errors="coerce").astype(float)
-    except OverflowError:
-        pass
+        numbers = pd.to_numeric(text, errors="coerce").astype(float)
+    except OverflowError:  # a Python int beyond 64 bits among the cells
+        numbers = pd.Series(
+            [
+                v
+                if isinstance(v, int)
+                else pd.to_numeric(pd.Series([v], dtype=object), errors="coerce").iloc[0]
+                for v in text
+            ],
+            index=text.index,
+            dtype=object,
+        ).notna()
+        numbers = pd.Series(np.where(numbers, 0.0, np.nan), index=text.index)
+    found = np.flatnonzero(numbers.notna().to_numpy())
+    if len(found):
+        numbers = numbers.copy()
+        numbers.iloc[found] = [_one_number(text.iloc[k]) for k in found]
+    return numbers
 
-    def number(value):
-        if isinstance(value, int):
-            try:
-                return float(value)
-            except OverflowError:
-                return np.inf if value > 0 else -np.inf
-        return pd.to_numeric(pd.Series([value], dtype=object), errors="coerce").iloc[0]
 
-    return pd.Series([number(v) for v in text], index=text.index, dtype=float)
+def _one_number(value):
+    """One cell pandas found to be a number, as the nearest float (an int beyond a float: ±inf)."""
+    if isinstance(value, int):
+        try:
+            return float(value)
+        except OverflowError:
+            return np.inf if value > 0 else -np.inf
+    return float(str(value).strip())
 
 
 def _numeric_column(values: pd.Series, col, name: str, context=lambda row: "", lines=None):
