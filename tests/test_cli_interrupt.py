@@ -39,6 +39,22 @@ ROOT = str(Path(greyml.__file__).resolve().parents[1])
 CODES = {signal.SIGINT: 130, signal.SIGTERM: 143}
 
 
+@pytest.fixture(autouse=True)
+def _ctrl_c_heard():
+    """Ctrl-C as a terminal delivers it, for this test and the commands it starts.
+
+    A test run started in the background (``nohup pytest &``) inherits SIGINT
+    ignored; greyml then rightly leaves it ignored (the user asked for that),
+    and so would a command started from here. These tests are about a SIGINT
+    that is heard, so they give it Python's usual handler, and restore what
+    was there after."""
+    before = signal.getsignal(signal.SIGINT)
+    if before is signal.SIG_IGN:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
+    yield
+    signal.signal(signal.SIGINT, before)
+
+
 def _moments(n, longest_s, seed):
     """``n`` (delay after the command started, signal): one delay at random in each
     of ``n`` equal parts of [0, longest_s], SIGINT and SIGTERM at random."""
