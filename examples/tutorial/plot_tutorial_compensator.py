@@ -66,7 +66,7 @@ SPEEDS_RPM = (1250, 2500, 3750, 5000, 3500)
 
 
 def write_simulated_log(path):
-    """A log of the simulated VMC in the CAIVIAC file's layout; its target column."""
+    """The simulated VMC's log in the CAIVIAC file's layout; its target."""
     programme = Programme()
     for speed in SPEEDS_RPM:
         programme = programme.run(240, spindle_rpm=speed).dwell(240)
@@ -90,11 +90,19 @@ def write_simulated_log(path):
     return "dz_um"
 
 
-found = [f / "cycles.csv" for f in caiviac_candidates() if (f / "cycles.csv").is_file()]
-scratch = tempfile.TemporaryDirectory()  # for the simulated log, removed once read
+found = [
+    f / "cycles.csv"
+    for f in caiviac_candidates()
+    if (f / "cycles.csv").is_file()
+]
+scratch = (
+    tempfile.TemporaryDirectory()
+)  # for the simulated log, removed once read
 if found:
     path, target = found[0], "ch1_um"
-    print("Data: the real CAIVIAC recording (CAIVIAC/FL_THERMAL, MIT licence),")
+    print(
+        "Data: the real CAIVIAC recording (CAIVIAC/FL_THERMAL, MIT licence),"
+    )
     print(f"      {path.name}, probe channel {target}")
 else:
     path = os.path.join(scratch.name, "simulated_log.csv")
@@ -113,7 +121,9 @@ frame = read_tests_csv(path, test_column="cycle")
 scratch.cleanup()
 
 cycles = np.asarray(test_ids(frame))
-frame = frame[np.isin(cycles, ["1", "2", "3", "4", "5"])]  # a longer log: its first five
+frame = frame[
+    np.isin(cycles, ["1", "2", "3", "4", "5"])
+]  # a longer log: its first five
 cycles = np.asarray(test_ids(frame))
 clock_h = frame.index.get_level_values("time_s").to_numpy() / 3600.0
 sensors = [c for c in frame.columns if c.endswith("_C")]
@@ -122,7 +132,8 @@ print("cycle  starts at (h)  rows  top speed (rpm)")
 for cycle in dict.fromkeys(cycles):
     rows = cycles == cycle
     top = frame["spindle_rpm"][rows].max()
-    print(f"  {cycle:>3}  {clock_h[rows][0]:13.1f}  {rows.sum():4d}  {top:15,.0f}")
+    start = clock_h[rows][0]
+    print(f"  {cycle:>3}  {start:13.1f}  {rows.sum():4d}  {top:15,.0f}")
 
 
 # %%
@@ -130,7 +141,9 @@ for cycle in dict.fromkeys(cycles):
 # the probe reads the displacement from the recording's zero (its value at
 # the log's first row is its datum, not a rest state).
 def plot_log():
-    fig, axes = plt.subplots(3, 1, figsize=(9, 7), sharex=True, layout="constrained")
+    fig, axes = plt.subplots(
+        3, 1, figsize=(9, 7), sharex=True, layout="constrained"
+    )
     axes[0].plot(clock_h, frame["spindle_rpm"], color="C0")
     axes[0].set_ylabel("spindle speed (rpm)")
     axes[1].plot(clock_h, frame[sensors], color="grey", lw=0.6)
@@ -167,7 +180,8 @@ plt.show()
 X = frame[["spindle_rpm", *sensors]]
 y = frame[target]
 held = cycles == "5"
-print(f"training rows (cycles 1-4): {(~held).sum():,}; held out (cycle 5): {held.sum():,}")
+print(f"training rows (cycles 1-4): {(~held).sum():,}")
+print(f"held-out rows (cycle 5): {held.sum():,}")
 
 # %%
 # Fit: the model chooses the sensors
@@ -180,7 +194,8 @@ print(f"training rows (cycles 1-4): {(~held).sum():,}; held out (cycle 5): {held
 model = ThermalTransferFunction(drivers=["spindle_rpm"], max_sensors=5)
 model.fit(X[~held], y[~held])
 print(f"sensors kept: {', '.join(model.selected_sensors_)}")
-print(f"lag state: {model.state_!r}; displacement reference: {model.reference_!r}")
+print(f"lag state: {model.state_!r}")
+print(f"displacement reference: {model.reference_!r}")
 
 # %%
 # ``selection_`` lists each step of the forward selection: the sensor added
@@ -212,13 +227,19 @@ for line in model.describe(file=io.StringIO()).splitlines():
 def plot_steps():
     hours = np.linspace(0.0, 24.0, 289)
     inputs = [*model.drivers_, *model.selected_sensors_]
-    fig, axes = plt.subplots(1, len(inputs), figsize=(9, 3), layout="constrained", squeeze=False)
+    fig, axes = plt.subplots(
+        1, len(inputs), figsize=(9, 3), layout="constrained", squeeze=False
+    )
     for ax, name in zip(axes[0], inputs):
         step = model.step_sizes_[name]
         response = model.step_response(name, times=hours * 3600.0)
         ax.plot(hours, response.to_numpy(), color="C0")
         ax.axhline(0.0, color="grey", lw=0.5)
-        per = f"{step:g} rpm from rest" if name in model.drivers_ else f"{step:g} K"
+        per = (
+            f"{step:g} rpm from rest"
+            if name in model.drivers_
+            else f"{step:g} K"
+        )
         ax.set_title(f"{name}: a step of {per}", fontsize=9)
         ax.set_xlabel("time after the step (h)")
     axes[0, 0].set_ylabel(f"{target} change\nsince the step (µm)")
@@ -270,7 +291,9 @@ readings = []
 for k, row in enumerate(rows):
     output[k] = compensator.update(row)
     if k >= first and (k - first) % EVERY_ROWS == 0:
-        readings.append((clock_h[k] - clock_h[first], y.iloc[k], compensator.status))
+        readings.append(
+            (clock_h[k] - clock_h[first], y.iloc[k], compensator.status)
+        )
         compensator.observe(row[0], y.iloc[k])
         output[k] = compensator.status.correction
     half[k] = compensator.status.half_width
@@ -282,11 +305,13 @@ print("what the compensator gave just before it:")
 print("   h  reading  correction  half-width  trusted  changes")
 for h, reading, status in readings:
     print(
-        f"  {h:2.0f}  {reading:7.2f}  {status.correction:10.2f}  {status.half_width:10.2f}"
-        f"  {status.trusted!s:>7}  {status.changes:7d}"
+        f"  {h:2.0f}  {reading:7.2f}  {status.correction:10.2f}"
+        f"  {status.half_width:10.2f}  {status.trusted!s:>7}"
+        f"  {status.changes:7d}"
     )
 with_readings, half_with_readings = output[held], half[held]
-print(f"RMSE over cycle 5 with the readings: {rmse(measured, with_readings):.2f} µm")
+score = rmse(measured, with_readings)
+print(f"RMSE over cycle 5 with the readings: {score:.2f} µm")
 covered = np.mean(np.abs(measured - with_readings) <= half_with_readings)
 print(f"its 90 % interval holds {100 * covered:.0f} % of the rows,")
 print(f"  with a half-width of {half_with_readings.mean():.2f} µm on average")
@@ -305,14 +330,17 @@ limits = {"rate_limit_um_s": 0.5, "quantum_um": 0.1, "clamp_um": 100.0}
 for_machine = model.compensator().set_params(**limits)
 with tempfile.TemporaryDirectory() as folder:
     for language, suffix in (("c", "c"), ("st", "st"), ("json", "json")):
-        written = for_machine.export(language, os.path.join(folder, f"comp.{suffix}"), name="comp")
+        written = for_machine.export(
+            language, os.path.join(folder, f"comp.{suffix}"), name="comp"
+        )
         print(f"{written.name:10s} {written.stat().st_size / 1024:5.1f} KB")
     saved = save_model(model, os.path.join(folder, "model.greyml"))
     cli = os.path.join(folder, "cli.st")
     with contextlib.redirect_stdout(io.StringIO()) as said:
         code = greyml_command(
-            ["export", str(saved), "--language", "st", "--out", cli, "--name", "comp",
-             "--rate-limit", "0.5", "--quantum", "0.1", "--clamp", "100"]
+            ["export", str(saved), "--language", "st", "--out", cli,
+             "--name", "comp", "--rate-limit", "0.5", "--quantum", "0.1",
+             "--clamp", "100"]
         )  # fmt: skip
     with open(os.path.join(folder, "comp.st"), encoding="utf-8") as fh:
         header, code_st = fh.read().split("*)", 1)
@@ -320,11 +348,20 @@ with tempfile.TemporaryDirectory() as folder:
         same = fh.read().split("*)", 1)[1] == code_st
 print(f"greyml export: exit code {code}; it said:")
 for line in said.getvalue().replace(folder + os.sep, "").splitlines():
-    print(textwrap.fill(line.strip(), 76, initial_indent="  ", subsequent_indent="    "))
-print(f"the same code as export() below the header, which names the source: {same}")
+    print(
+        textwrap.fill(
+            line.strip(), 76, initial_indent="  ", subsequent_indent="    "
+        )
+    )
+print("the same code as export() below the header, which names")
+print(f"the source: {same}")
 header = header.splitlines()
-start = next(k for k, line in enumerate(header) if "Inputs, in this order" in line)
-end = next(k for k, line in enumerate(header) if line.lstrip().startswith("Output:"))
+start = next(
+    k for k, line in enumerate(header) if "Inputs, in this order" in line
+)
+end = next(
+    k for k, line in enumerate(header) if line.lstrip().startswith("Output:")
+)
 print("The function block's header, its inputs:")
 print("\n".join(line.rstrip() for line in header[start:end]))
 
@@ -352,10 +389,15 @@ print(f"{'':27s}{'from the':>13s}{'since the':>12s}")
 print(f"{'':27s}{'recording':>13s}{'cycle start':>12s}")
 scores = {}
 for name, values in candidates.items():
-    scores[name] = (rmse(measured, values), rmse(measured - measured[0], values - values[0]))
+    scores[name] = (
+        rmse(measured, values),
+        rmse(measured - measured[0], values - values[0]),
+    )
     print(f"{name:27s}{scores[name][0]:13.2f}{scores[name][1]:12.2f}")
 print("without readings, the lower RMSE:")
-for k, reference in enumerate(("from the recording's zero", "since cycle 5's start")):
+for k, reference in enumerate(
+    ("from the recording's zero", "since cycle 5's start")
+):
     names = ["transfer function", f"ridge, {len(sensors)} temperatures"]
     print(f"  {reference}: {min(names, key=lambda name: scores[name][k])}")
 
@@ -364,9 +406,13 @@ for k, reference in enumerate(("from the recording's zero", "since cycle 5's sta
 # The figure shows cycle 5 in both references: the interval without
 # readings, the compensator with its hourly readings, and ridge.
 def plot_cycle5():
-    fig, axes = plt.subplots(2, 1, figsize=(9, 7), sharex=True, layout="constrained")
+    fig, axes = plt.subplots(
+        2, 1, figsize=(9, 7), sharex=True, layout="constrained"
+    )
     at = np.arange(0, hours.size, EVERY_ROWS)
-    axes[0].fill_between(hours, lower, upper, alpha=0.2, color="C0", label="90 % interval")
+    axes[0].fill_between(
+        hours, lower, upper, alpha=0.2, color="C0", label="90 % interval"
+    )
     axes[0].fill_between(
         hours,
         with_readings - half_with_readings,
@@ -386,7 +432,9 @@ def plot_cycle5():
             shown = values - values[0] if since_start else values
             ax.plot(hours, shown, label=label, **style)
         shown = measured - measured[0] if since_start else measured
-        ax.plot(hours[at], shown[at], "o", color="C3", ms=4, label="probe reading")
+        ax.plot(
+            hours[at], shown[at], "o", color="C3", ms=4, label="probe reading"
+        )
     axes[0].set_ylabel(f"{target} from the\nrecording's zero (µm)")
     axes[1].set_ylabel(f"{target} since\ncycle 5's first row (µm)")
     axes[1].set_xlabel("time since cycle 5's first row (h)")
