@@ -26,7 +26,8 @@ which. To run it on the real recording after ``pip install greyml``,
 ``GREYML_CAIVIAC`` set to that folder (``<data home>/greyml/caiviac``) points
 the tutorial at it.
 
-Every number below was computed when this page was built.
+Every number the code prints below, and every figure, was computed when this
+page was built; the numbers in the text are settings.
 """
 
 # %%
@@ -90,20 +91,13 @@ def write_simulated_log(path):
     return "dz_um"
 
 
-found = [
-    f / "cycles.csv"
-    for f in caiviac_candidates()
-    if (f / "cycles.csv").is_file()
-]
-scratch = (
-    tempfile.TemporaryDirectory()
-)  # for the simulated log, removed once read
+csv = "cycles.csv"
+found = [f / csv for f in caiviac_candidates() if (f / csv).is_file()]
+scratch = tempfile.TemporaryDirectory()  # the simulated log's, if any
 if found:
     path, target = found[0], "ch1_um"
-    print(
-        "Data: the real CAIVIAC recording (CAIVIAC/FL_THERMAL, MIT licence),"
-    )
-    print(f"      {path.name}, probe channel {target}")
+    print("Data: the real CAIVIAC recording (CAIVIAC/FL_THERMAL,")
+    print(f"      MIT licence), {path.name}, probe channel {target}")
 else:
     path = os.path.join(scratch.name, "simulated_log.csv")
     target = write_simulated_log(path)
@@ -146,6 +140,7 @@ def plot_log():
     )
     axes[0].plot(clock_h, frame["spindle_rpm"], color="C0")
     axes[0].set_ylabel("spindle speed (rpm)")
+    axes[0].set_ylim(0, 1.2 * frame["spindle_rpm"].max())
     axes[1].plot(clock_h, frame[sensors], color="grey", lw=0.6)
     axes[1].set_ylabel("temperatures (°C)")
     axes[2].plot(clock_h, frame[target], color="k", lw=0.8)
@@ -202,8 +197,9 @@ print(f"displacement reference: {model.reference_!r}")
 # and the mean held-out RMSE of ``target`` with it (µm, in the model's
 # reference: here the recording's zero when ``reference_`` is
 # ``'recording'``, each cycle's first row when it is ``'start'``). The first
-# row is the speed alone.
-model.selection_.round({"held_out_rmse": 2, "alpha": 6})
+# row is the speed alone, with no sensor.
+selection = model.selection_.fillna({"sensor": "(speed only)"})
+selection.round({"held_out_rmse": 2, "alpha": 6})
 
 # %%
 # Read the gains
@@ -369,13 +365,13 @@ print("\n".join(line.rstrip() for line in header[start:end]))
 # Compare with a plain ridge regression
 # -------------------------------------
 # The baseline is what one would try first: ridge regression on every
-# temperature at the same instant (standardised, penalty by
-# ``RidgeCV``), fitted on the same rows of cycles 1 to 4. Both models are
-# scored on cycle 5 in two references. *From the recording's zero* is what
-# the controller would apply; *since cycle 5's first row* removes each
-# model's offset at the start of the cycle, as a probe reading at that row
-# would, and scores only how well the model follows the drift within the
-# cycle.
+# temperature at the same instant (standardised, its penalty chosen by
+# ``RidgeCV``'s leave-one-row-out), fitted on the same rows of cycles 1 to
+# 4. Both models are scored on cycle 5 in two references. *From the
+# recording's zero* is what the controller would apply; *since cycle 5's
+# first row* removes each model's offset at the start of the cycle, as a
+# probe reading at that row would, and scores only how well the model
+# follows the drift within the cycle.
 ridge = make_pipeline(StandardScaler(), RidgeCV(alphas=np.logspace(-3, 3, 13)))
 ridge.fit(X[~held][sensors], y[~held])
 by_ridge = ridge.predict(X[held][sensors])
@@ -426,7 +422,7 @@ def plot_cycle5():
             "measured": (measured, {"color": "k", "lw": 1}),
             "transfer function": (predicted, {"color": "C0"}),
             "with hourly readings": (with_readings, {"color": "C2"}),
-            "ridge": (by_ridge, {"color": "C1", "ls": "--"}),
+            "ridge": (by_ridge, {"color": "C1", "lw": 0.7, "alpha": 0.8}),
         }
         for label, (values, style) in lines.items():
             shown = values - values[0] if since_start else values
@@ -438,7 +434,12 @@ def plot_cycle5():
     axes[0].set_ylabel(f"{target} from the\nrecording's zero (µm)")
     axes[1].set_ylabel(f"{target} since\ncycle 5's first row (µm)")
     axes[1].set_xlabel("time since cycle 5's first row (h)")
-    axes[0].legend(fontsize=8, ncols=3, loc="best")
+    fig.legend(
+        *axes[0].get_legend_handles_labels(),
+        loc="outside lower center",
+        ncols=4,
+        fontsize=8,
+    )
     fig.suptitle("Cycle 5, held out: fitted on cycles 1-4", fontsize=10)
     return fig
 
@@ -449,9 +450,9 @@ plt.show()
 # %%
 # What to take from it
 # --------------------
-# * The reference decides the comparison. A model fitted from the
-#   recording's zero must also get the offset right at the start of a cycle;
-#   measured from each cycle's start, only the drift within the cycle counts.
+# * The reference can change the comparison. From the recording's zero, a
+#   model must also get the offset right at the start of a cycle; from each
+#   cycle's start, only the drift within the cycle counts.
 #   A probe reading at the cycle's start, or an hourly one, takes care of the
 #   offset in the machine.
 # * With five cycles, the choice of sensors and the interval's calibration
