@@ -132,8 +132,8 @@ for cycle in dict.fromkeys(cycles):
 
 # %%
 # The whole log: the speed drives the heat, the temperatures follow it, and
-# the probe reads the displacement from the recording's zero (its value at
-# the log's first row is its datum, not a rest state).
+# the probe reads the displacement from the recording's zero (its datum is
+# wherever the logger started, whatever the machine's state then).
 def plot_log():
     fig, axes = plt.subplots(
         3, 1, figsize=(9, 7), sharex=True, layout="constrained"
