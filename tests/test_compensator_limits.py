@@ -301,3 +301,27 @@ def test_set_state_refuses_a_bad_output_and_keeps_the_state():
     for output in ({"output_um": 0.05, "credit_um": 0.0, "held": False}, {"output_um": 1.0}):
         _one_line(lambda o=output: comp.set_state({**state, "output": o}), "output")
         assert comp.get_state() == state
+
+
+def test_a_transfer_functions_compensator_takes_the_limits_at_construction():
+    """``ThermalTransferFunction.compensator`` passes the output stage on: the
+    same stream through it and through one given the limits by ``set_params``."""
+    from greyml import ThermalTransferFunction, make_test_index
+
+    rng = np.random.default_rng(3)
+    n = 120
+    index = make_test_index(np.repeat(["a", "b", "c"], n), np.tile(np.arange(n) * 60.0, 3))
+    t1 = 20.0 + np.cumsum(rng.normal(0, 0.05, 3 * n))
+    import pandas as pd
+
+    X = pd.DataFrame({"T1_C": t1}, index=index)
+    model = ThermalTransferFunction(time_constants=(600.0,)).fit(X, 4.0 * (t1 - 20.0))
+    limits = dict(clamp_um=3.0, quantum_um=0.5, rate_limit_um_s=0.01, max_correction_um=50.0)
+    given = model.compensator(row_columns=["time_s", "T1_C"], **limits)
+    later = model.compensator(row_columns=["time_s", "T1_C"]).set_params(**limits)
+    rows = np.column_stack([np.arange(n) * 60.0, t1[:n]])
+    out = np.array([given.update(r) for r in rows])
+    assert np.array_equal(out, [later.update(r) for r in rows])
+    assert np.abs(out).max() <= 3.0 and np.all(np.abs(np.diff(out)) <= 0.01 * 60.0 + 1e-12)
+    assert np.all(np.abs(out / 0.5 - np.round(out / 0.5)) < 1e-9)
+    assert given.max_correction_um == 50.0

@@ -631,6 +631,12 @@ class ThermalTransferFunction(
         coverage=0.9,
         tolerance_um=None,
         probe_noise_um=0.0,
+        max_correction_um=1000.0,
+        change_threshold=5.0,
+        rate_limit_um_s=None,
+        quantum_um=None,
+        clamp_um=None,
+        on_missing="hold",
     ):
         """A :class:`greyml.dynamic.Compensator` that runs this model row by row.
 
@@ -663,6 +669,11 @@ class ThermalTransferFunction(
             most this (and the correction plausible).
         probe_noise_um : float, default=0.0
             The standard deviation of a probe reading.
+        max_correction_um, change_threshold, rate_limit_um_s, quantum_um, clamp_um, on_missing
+            The plausibility bound, the change detector's threshold and the
+            output stage (clamp, quantum, rate limit, what a missing input
+            does), as :class:`~greyml.dynamic.Compensator` takes them; they
+            can also be changed later with its ``set_params``.
 
         Returns
         -------
@@ -683,6 +694,12 @@ class ThermalTransferFunction(
             idle_inputs=[d for d in self.drivers_ if d in inputs],
             max_step_s=self.gap_limit_s_,
             row_columns=row_columns,
+            max_correction_um=max_correction_um,
+            change_threshold=change_threshold,
+            rate_limit_um_s=rate_limit_um_s,
+            quantum_um=quantum_um,
+            clamp_um=clamp_um,
+            on_missing=on_missing,
             **self._trust_parameters(coverage, tolerance_um, probe_noise_um),
         )
 
