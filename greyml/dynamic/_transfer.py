@@ -30,7 +30,8 @@ import numpy as np
 from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.utils.validation import check_is_fitted
 
-from greyml._param_validation import Hidden, Integral, Interval, StrOptions
+from greyml._caller import warn_user
+from greyml._param_validation import Hidden, Integral, Interval, Real, StrOptions
 from greyml._renamed import DEPRECATED
 from greyml._sequences import segment_label
 from greyml._validation import column_names, require_y, validate_sequences
@@ -57,7 +58,7 @@ from greyml.dynamic._transfer_intervals import _TransferIntervals
 from greyml.dynamic._transfer_readout import _round_step, _TransferReadout
 from greyml.dynamic._transfer_records import Bank, Data, longer_banks, span
 from greyml.dynamic._transfer_update import _TransferUpdate
-from greyml.exceptions import WarmStartWarning
+from greyml.exceptions import UnderdeterminedWarning, WarmStartWarning
 
 __all__ = ["ThermalTransferFunction"]
 
@@ -183,6 +184,11 @@ class ThermalTransferFunction(
         held-out tests, or the sensors chosen by at least half of the forward
         selections run without each test in turn (needs four tests; with
         fewer, ``"forward"``).
+    sample_interval : float or None, default=None
+        Seconds between rows when ``X`` has no ``time_s`` index level (a
+        NumPy array, a DataFrame with a plain index): every step is this
+        long. ``None``: one second. A ``time_s`` level, where present, always
+        wins.
 
     Attributes
     ----------
@@ -270,9 +276,29 @@ class ThermalTransferFunction(
 
     Notes
     -----
-    Without a ``time_s`` index level the rows are taken as one second apart.
-    A sampling gap longer than the largest time constant is refused: the
-    lags would have forgotten everything before it.
+    Without a ``time_s`` index level the rows are taken as
+    ``sample_interval`` seconds apart (one second without it). A sampling gap
+    longer than the largest time constant is refused: the lags would have
+    forgotten everything before it.
+
+    With fewer equations than gains (rows, less one per test in the
+    ``"start"`` reference), the ridge penalty keeps the fit defined and
+    ``fit`` warns (:class:`~greyml.exceptions.UnderdeterminedWarning`), as
+    :class:`~greyml.MLPBaseline` does; fewer than two equations are refused.
+
+    **scikit-learn's estimator checks.** With ``sample_interval`` the model
+    passes :func:`~sklearn.utils.estimator_checks.check_estimator` except
+    three checks that assume rows independent of each other, which a
+    sequence model's are not (each row's lags hold the rows before it):
+    ``check_methods_subset_invariance`` and
+    ``check_methods_sample_order_invariance`` (a subset or a reordering of the
+    rows changes every later row's lags), and
+    ``check_sample_weight_equivalence_on_dense_data`` (a row repeated or
+    removed changes the lags of every later row, which weighting it 2 or 0
+    does not). With ``reference="start"``, ``check_regressors_train`` fails
+    too: the model predicts the change since each test's first row, and the
+    check's targets are not zero there. Pass them as
+    ``expected_failed_checks``.
 
     References
     ----------
@@ -317,6 +343,7 @@ class ThermalTransferFunction(
         "reference": [StrOptions(set(REFERENCES))],
         "alphas": ["array-like", None],
         "selection": [StrOptions({"forward", "stable"})],
+        "sample_interval": [Interval(Real, 0, None, closed="neither"), None],
         "relative_to_start": ["boolean", Hidden(StrOptions({DEPRECATED}))],
     }
 
@@ -333,6 +360,7 @@ class ThermalTransferFunction(
         reference="auto",
         alphas=None,
         selection="forward",
+        sample_interval=None,
         relative_to_start=DEPRECATED,
     ):
         self.drivers = drivers
@@ -345,6 +373,7 @@ class ThermalTransferFunction(
         self.reference = reference
         self.alphas = alphas
         self.selection = selection
+        self.sample_interval = sample_interval
         self.relative_to_start = relative_to_start
 
     # -- parameters -----------------------------------------------------------
@@ -362,6 +391,8 @@ class ThermalTransferFunction(
     def _data(self, X, y, sample_weight, settings):
         """Validated training data: arrays, tests, inputs, weights and time."""
         Xa, ya, segments = validate_sequences(self, X, y, reset=True)
+        # the inputs' values first (a NaN weight is reported as such), then their layout
+        w = sample_weights(self, sample_weight, Xa.shape[0], segments)
         names = column_names(self, Xa.shape[1])
         check_magnitudes(self, Xa, names, segments)
         check_magnitudes(self, ya[:, None], ["the target y"], segments)
@@ -369,10 +400,9 @@ class ThermalTransferFunction(
         if self.max_sensors is not None and self.max_sensors > len(sensors):
             raise ValueError(
                 f"The 'max_sensors' parameter of {type(self).__name__} is {self.max_sensors}, "
-                f"more than the {len(sensors)} temperature sensor(s) given "
-                f"({', '.join(sensors) or 'none'})."
+                f"more than the {len(sensors)} temperature sensor(s) "
+                f"({', '.join(sensors) or 'none'}) among the {len(names)} feature(s) of X."
             )
-        w = sample_weights(self, sample_weight, Xa.shape[0], segments)
         tau_max = settings.taus.max()
         if drivers:
             tau_max = max(tau_max, settings.driver_taus.max())
@@ -390,18 +420,29 @@ class ThermalTransferFunction(
         return "recording" if one_recording and not zeroed else "start"
 
     def _check_enough_rows(self, data, settings, n_driver_columns, reference):
+        """Refuse fewer than two equations; warn when the gains outnumber them."""
         n_used = len(data.sensors) if self.max_sensors is None else self.max_sensors
         n_coef = n_driver_columns + n_used * (1 + len(settings.taus))
         relative = reference == "start"
         n_coef += 0 if relative else 1
         n_eq = int((data.w > 0).sum()) - (len(data.segments) if relative else 0)
-        if n_eq < n_coef:
-            n = data.X.shape[0]
+        n = data.X.shape[0]
+        rows = (
+            f"{n} sample{'' if n == 1 else 's'} in {len(data.segments)} test(s) give "
+            f"{n_eq} equation{'' if n_eq == 1 else 's'}"
+        )
+        if n_eq < 2:
             raise ValueError(
-                f"{type(self).__name__} has too few rows to fit {n_coef} coefficients: "
-                f"{n} sample{'' if n == 1 else 's'} in {len(data.segments)} "
-                f"test(s) give {n_eq} equations. "
-                "Give more rows, fewer sensors or fewer time constants."
+                f"{type(self).__name__} has too few rows to fit: {rows}, and a fit needs at "
+                "least 2. Give more rows."
+            )
+        if n_eq < n_coef:
+            warn_user(
+                f"{type(self).__name__} is under-determined: {rows} for {n_coef} "
+                "coefficients. The ridge penalty keeps the fit defined, but it can "
+                "interpolate the training rows; give more rows, fewer sensors "
+                "(max_sensors) or fewer time constants.",
+                UnderdeterminedWarning,
             )
 
     # -- fit ------------------------------------------------------------------

@@ -102,9 +102,10 @@ def sample_weights(model, sample_weight, n, segments):
     bad = first_flagged(~np.isfinite(w) | (w < 0), segments)
     if bad:
         r, test = bad
+        value = "NaN" if np.isnan(w[r]) else f"{w[r]:g}"
         raise ValueError(
             f"{type(model).__name__}: sample_weight of row {r} ({test}) is "
-            f"{w[r]!r}; weights must be finite and >= 0."
+            f"{value}; weights must be finite and >= 0."
         )
     if w.sum() <= 0:
         raise ValueError(
