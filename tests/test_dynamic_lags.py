@@ -10,8 +10,7 @@ from sklearn.model_selection import GridSearchCV, LeaveOneGroupOut, cross_val_pr
 from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import StandardScaler
 
-from greyml import AGO, LagFeatures, make_test_index
-from greyml import test_ids as groups_of
+from greyml import AGO, LagFeatures, groups_of, make_test_index
 from greyml.persist import load_model, save_model
 
 HALF = 60.0 / math.log(2.0)  # a = 1/2 for a 60 s step

@@ -150,7 +150,7 @@ class LagFeatures(TransformerMixin, BaseEstimator):
 
         Z = LagFeatures([300, 900, 2700, 8100]).fit_transform(X)  # the recording
         cross_val_score(make_pipeline(StandardScaler(), RidgeCV()), Z, y,
-                        groups=test_ids(Z), cv=LeaveOneGroupOut())
+                        groups=groups_of(Z), cv=LeaveOneGroupOut())
 
     Inside a Pipeline, with ``state="auto"``, a training fold carries state
     across the tests that follow each other on the recording's clock and
