@@ -30,7 +30,6 @@ import numpy as np
 from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.utils.validation import check_is_fitted
 
-from greyml._caller import warn_user
 from greyml._param_validation import Hidden, Integral, Interval, Real, StrOptions
 from greyml._renamed import DEPRECATED
 from greyml._sequences import segment_label
@@ -47,8 +46,10 @@ from greyml.dynamic._time import (
 from greyml.dynamic._transfer_checks import (  # noqa: F401 (DEFAULT_*: the model's defaults)
     DEFAULT_ALPHAS,
     DEFAULT_TIME_CONSTANTS,
+    check_enough_rows,
     check_fitted_state,
     check_magnitudes,
+    check_max_sensors,
     check_params,
     initial_displacements,
     sample_weights,
@@ -58,7 +59,7 @@ from greyml.dynamic._transfer_intervals import _TransferIntervals
 from greyml.dynamic._transfer_readout import _round_step, _TransferReadout
 from greyml.dynamic._transfer_records import Bank, Data, longer_banks, span
 from greyml.dynamic._transfer_update import _TransferUpdate
-from greyml.exceptions import UnderdeterminedWarning, WarmStartWarning
+from greyml.exceptions import WarmStartWarning
 
 __all__ = ["ThermalTransferFunction"]
 
@@ -287,18 +288,14 @@ class ThermalTransferFunction(
     :class:`~greyml.MLPBaseline` does; fewer than two equations are refused.
 
     **scikit-learn's estimator checks.** With ``sample_interval`` the model
-    passes :func:`~sklearn.utils.estimator_checks.check_estimator` except
-    three checks that assume rows independent of each other, which a
-    sequence model's are not (each row's lags hold the rows before it):
-    ``check_methods_subset_invariance`` and
-    ``check_methods_sample_order_invariance`` (a subset or a reordering of the
-    rows changes every later row's lags), and
-    ``check_sample_weight_equivalence_on_dense_data`` (a row repeated or
-    removed changes the lags of every later row, which weighting it 2 or 0
-    does not). With ``reference="start"``, ``check_regressors_train`` fails
-    too: the model predicts the change since each test's first row, and the
-    check's targets are not zero there. Pass them as
-    ``expected_failed_checks``.
+    passes :func:`~sklearn.utils.estimator_checks.check_estimator` but for
+    three checks that take rows as independent, which a sequence model's are
+    not: a subset, a reordering, a repeated or a removed row changes the lags
+    of every later row (``check_methods_subset_invariance``,
+    ``check_methods_sample_order_invariance``,
+    ``check_sample_weight_equivalence_on_dense_data``). With
+    ``reference="start"`` ``check_regressors_train`` fails too: the check's
+    targets are not zero at the first row. Pass them as ``expected_failed_checks``.
 
     References
     ----------
@@ -397,12 +394,7 @@ class ThermalTransferFunction(
         check_magnitudes(self, Xa, names, segments)
         check_magnitudes(self, ya[:, None], ["the target y"], segments)
         drivers, sensors = self._inputs(names)
-        if self.max_sensors is not None and self.max_sensors > len(sensors):
-            raise ValueError(
-                f"The 'max_sensors' parameter of {type(self).__name__} is {self.max_sensors}, "
-                f"more than the {len(sensors)} temperature sensor(s) "
-                f"({', '.join(sensors) or 'none'}) among the {len(names)} feature(s) of X."
-            )
+        check_max_sensors(self, sensors, names)
         tau_max = settings.taus.max()
         if drivers:
             tau_max = max(tau_max, settings.driver_taus.max())
@@ -418,32 +410,6 @@ class ThermalTransferFunction(
         one_recording = bool(data.steps.carried[1:].all())
         zeroed = all(data.y[start] == 0 for start, _ in data.bounds)
         return "recording" if one_recording and not zeroed else "start"
-
-    def _check_enough_rows(self, data, settings, n_driver_columns, reference):
-        """Refuse fewer than two equations; warn when the gains outnumber them."""
-        n_used = len(data.sensors) if self.max_sensors is None else self.max_sensors
-        n_coef = n_driver_columns + n_used * (1 + len(settings.taus))
-        relative = reference == "start"
-        n_coef += 0 if relative else 1
-        n_eq = int((data.w > 0).sum()) - (len(data.segments) if relative else 0)
-        n = data.X.shape[0]
-        rows = (
-            f"{n} sample{'' if n == 1 else 's'} in {len(data.segments)} test(s) give "
-            f"{n_eq} equation{'' if n_eq == 1 else 's'}"
-        )
-        if n_eq < 2:
-            raise ValueError(
-                f"{type(self).__name__} has too few rows to fit: {rows}, and a fit needs at "
-                "least 2. Give more rows."
-            )
-        if n_eq < n_coef:
-            warn_user(
-                f"{type(self).__name__} is under-determined: {rows} for {n_coef} "
-                "coefficients. The ridge penalty keeps the fit defined, but it can "
-                "interpolate the training rows; give more rows, fewer sensors "
-                "(max_sensors) or fewer time constants.",
-                UnderdeterminedWarning,
-            )
 
     # -- fit ------------------------------------------------------------------
 
@@ -495,7 +461,7 @@ class ThermalTransferFunction(
         n_driver_columns = (
             len(data.drivers) * len(settings.powers) * (1 + len(settings.driver_taus))
         )
-        self._check_enough_rows(data, settings, n_driver_columns, reference)
+        check_enough_rows(self, data, settings, n_driver_columns, reference)
         base = self._fit_bank(
             data, settings, y_fit, folds, reference, settings.taus, settings.driver_taus
         )
