@@ -282,10 +282,9 @@ class ThermalTransferFunction(
     longer than the largest time constant is refused: the lags would have
     forgotten everything before it.
 
-    With fewer equations than gains (rows, less one per test in the
-    ``"start"`` reference), the ridge penalty keeps the fit defined and
-    ``fit`` warns (:class:`~greyml.exceptions.UnderdeterminedWarning`), as
-    :class:`~greyml.MLPBaseline` does; fewer than two equations are refused.
+    With fewer equations than gains (rows, less one per test with reference
+    ``"start"``), the ridge penalty keeps the fit defined and ``fit`` warns
+    (:class:`~greyml.exceptions.UnderdeterminedWarning`) as ``MLPBaseline`` does.
 
     **scikit-learn's estimator checks.** With ``sample_interval`` the model
     passes :func:`~sklearn.utils.estimator_checks.check_estimator` but for
@@ -343,6 +342,7 @@ class ThermalTransferFunction(
         "sample_interval": [Interval(Real, 0, None, closed="neither"), None],
         "relative_to_start": ["boolean", Hidden(StrOptions({DEPRECATED}))],
     }
+    _added_params = ("sample_interval",)  # a file from before it lacks it (greyml._renamed)
 
     def __init__(
         self,

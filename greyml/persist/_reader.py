@@ -48,25 +48,6 @@ def _shadows_behaviour(cls, key):
     return inspect.getattr_static(cls, key, _ABSENT) is not _ABSENT
 
 
-def _add_new_parameters(attributes, cls):
-    """A greyml model file's attributes with the constructor parameters it lacks
-    set to their defaults.
-
-    A file written before a parameter existed (``sample_interval`` of the
-    dynamic models) holds every other one; the default of a parameter added to
-    greyml is the behaviour before it, so the model loads as it was saved.
-    """
-    try:
-        signature = inspect.signature(cls.__init__)
-    except (TypeError, ValueError):  # pragma: no cover - every greyml class has one
-        return attributes
-    for key in _parameter_names(cls) - attributes.keys():
-        default = signature.parameters[key].default
-        if default is not inspect.Parameter.empty:
-            attributes[key] = default
-    return attributes
-
-
 def _parameter_names(cls):
     """The names ``cls.__init__`` takes: the only attributes a function may be."""
     if hasattr(cls, "_get_param_names"):
@@ -240,8 +221,6 @@ class _Reader:
         if "memory" in attributes:  # so are folders: a cache the file names is never used
             attributes["memory"] = None
         upgrade_renamed(attributes, cls)  # a file from before a parameter was renamed
-        if name.startswith("greyml."):
-            _add_new_parameters(attributes, cls)  # ... or before one was added
         obj = cls.__new__(cls)
         if "items" in node:
             dict.update(obj, self._pairs(node, depth))
