@@ -203,10 +203,10 @@ def nested(X, y, n_jobs=N_JOBS):
     """One record per held-out cycle: the nested search's choice and the baseline."""
     from sklearn.model_selection import GridSearchCV, LeaveOneGroupOut
 
-    from greyml import test_ids
+    from greyml import groups_of
     from greyml.metrics import get_scorer, residual_band, rmse
 
-    groups = np.asarray(test_ids(X))
+    groups = np.asarray(groups_of(X))
     records = []
     for cycle in dict.fromkeys(groups):
         train, held = groups != cycle, groups == cycle
@@ -267,10 +267,10 @@ def hindsight(X, y):
     from sklearn.base import clone
     from sklearn.model_selection import ParameterGrid
 
-    from greyml import test_ids
+    from greyml import groups_of
     from greyml.metrics import rmse
 
-    groups = np.asarray(test_ids(X))
+    groups = np.asarray(groups_of(X))
     pipeline, grid, labels = search_space()
     rows = []
     for params in ParameterGrid(grid):
@@ -489,13 +489,13 @@ def dynamic_loco(X, y, rpm, reference, recording=None, raw=None):
     """
     from sklearn.base import clone
 
-    from greyml import test_ids
+    from greyml import groups_of
     from greyml.metrics import rmse
 
     # the transfer functions carry their lags through the recording: they get the
     # temperatures as read (raw), never re-zeroed at each cycle's start
     Xd = with_driver(X if raw is None else raw, rpm)
-    groups = np.asarray(test_ids(X))
+    groups = np.asarray(groups_of(X))
     models = transfer_models(reference)
     rows = []
     for cycle in dict.fromkeys(groups):
@@ -644,7 +644,7 @@ def run_sensitivity(args):
     from sklearn.base import clone
     from threadpoolctl import threadpool_limits
 
-    from greyml import ThermalTransferFunction, test_ids
+    from greyml import ThermalTransferFunction, groups_of
     from greyml.metrics import rmse
 
     out = {}
@@ -662,7 +662,7 @@ def run_sensitivity(args):
                 Xr, yr, _ = load(args.data, target, "recording", 1)
                 Xrd = with_driver(Xr, data.frame[DRIVER])
                 fits["rec-fit"] = (Xrd, yr, False, True)
-            groups = np.asarray(test_ids(X))
+            groups = np.asarray(groups_of(X))
             cycles = list(dict.fromkeys(groups))
             ridge = []
             for cycle in cycles:

@@ -116,9 +116,9 @@ def bench_lags(args, results):
     peak = tracemalloc.get_traced_memory()[1] / Z.to_numpy().nbytes
     tracemalloc.stop()
     del Z
-    # the same without pandas: an array in (sample_step_s), an array out
+    # the same without pandas: an array in (sample_interval), an array out
     plain = recording(args.rows, args.columns).to_numpy()
-    array_lags = LagFeatures(TAUS, sample_step_s=STEP).fit(plain[:10])
+    array_lags = LagFeatures(TAUS, sample_interval=STEP).fit(plain[:10])
     t_array = best_of(lambda: array_lags.transform(plain), args.repeats)
 
     n_loop = min(args.rows, args.loop_rows)

@@ -426,12 +426,12 @@ def run_row(fold, function, kwargs):
 
 
 def evaluate(path, targets, peer_step, quick):
-    from greyml import test_ids
+    from greyml import groups_of
 
     results = {}
     for target in targets:
         X, y = load(path, target)
-        groups = np.asarray(test_ids(X)).astype(str)
+        groups = np.asarray(groups_of(X)).astype(str)
         table = {label: [] for label, _, _ in rows()}
         for cycle in dict.fromkeys(groups):
             fold = prepare_fold(X, y, groups, cycle, peer_step, quick)

@@ -76,7 +76,7 @@ def models():
 def main():
     from threadpoolctl import threadpool_limits
 
-    from greyml import test_ids
+    from greyml import groups_of
     from greyml.datasets import load_vmc_tests
     from greyml.metrics import rmse
 
@@ -88,7 +88,7 @@ def main():
     Xd = X.copy()
     Xd.insert(0, DRIVER, frame[DRIVER].to_numpy())
     y = frame[TARGET]
-    groups = np.asarray(test_ids(X))
+    groups = np.asarray(groups_of(X))
     train = groups == TRAIN
     tests = [t for t in dict.fromkeys(groups) if t != TRAIN]
     speeds = frame[DRIVER].groupby(level="test", sort=False).max()

@@ -44,7 +44,7 @@ from greyml import (
     GreyInfluenceSelector,
     MLPBaseline,
     RelativeToStart,
-    test_ids,
+    groups_of,
 )
 from greyml.datasets import load_vmc_tests
 from greyml.metrics import get_scorer
@@ -126,7 +126,7 @@ def main(argv=None):
     args = parser.parse_args(argv)
 
     X, y, vmc = vmc_rises()
-    groups = test_ids(X)
+    groups = groups_of(X)
     tests = list(dict.fromkeys(groups))
     print(
         f"Simulated VMC: {len(tests)} tests ({', '.join(tests)}), {X.shape[0]} rows, "

@@ -1,7 +1,8 @@
-"""Names that moved to a family's ``kernels`` namespace, still found where they were.
+"""Names that moved or were renamed, still found under the old name for one release.
 
-A package's ``__getattr__`` hands out the object from its new place with a
-``FutureWarning`` naming that place, for one release; ``__all__`` and the
+A package's ``__getattr__`` hands out the object from its new place (a
+family's ``kernels`` namespace) or under its new name with a
+``FutureWarning`` naming it, for one release; ``__all__`` and the
 documentation name the new place only.
 """
 
@@ -37,3 +38,25 @@ def moved_getattr(package, names, new_module):
         return getattr(importlib.import_module(new_module), name)
 
     return __getattr__
+
+
+def renamed(package, old, new, value):
+    """``value``, the object now named ``new``, asked for by its old name ``old``:
+    with a FutureWarning at the caller of the package's ``__getattr__``.
+
+    Parameters
+    ----------
+    package : str
+        The package both names belong to (``"greyml"``).
+    old, new : str
+        The old and the new name.
+    value : object
+        What the new name holds.
+    """
+    warnings.warn(
+        f"{package}.{old} was renamed {package}.{new}; use the new name (the old one goes "
+        "away in the next release).",
+        FutureWarning,
+        stacklevel=3,
+    )
+    return value

@@ -7,10 +7,15 @@ says with a ``FutureWarning`` that the old name was used. A fitted attribute
 renamed the same way is declared in ``_renamed_attributes`` and kept readable
 under its old name by :func:`renamed_attribute`. :mod:`greyml.persist` maps a
 model file that still holds an old name onto the new one.
+
+A parameter added since a release is declared in ``_added_params`` (its
+name): a model file written before it existed takes its default, which is the
+behaviour before it (:func:`upgrade_renamed` does both).
 """
 
 from __future__ import annotations
 
+import inspect
 import warnings
 
 from greyml._param_validation import Hidden, StrOptions
@@ -58,7 +63,8 @@ def renamed_attribute(old, new):
 
 def upgrade_renamed(attributes, cls):
     """A model file's attributes with the old names of ``cls._renamed_params`` and
-    ``cls._renamed_attributes`` moved to the new."""
+    ``cls._renamed_attributes`` moved to the new, and the parameters of
+    ``cls._added_params`` that the file lacks at their defaults."""
     for old, new in getattr(cls, "_renamed_params", {}).items():
         if old in attributes and new not in attributes:
             attributes[new] = attributes[old]
@@ -67,4 +73,9 @@ def upgrade_renamed(attributes, cls):
         if old in attributes:
             value = attributes.pop(old)
             attributes.setdefault(new, value)
+    added = [name for name in getattr(cls, "_added_params", ()) if name not in attributes]
+    if added:
+        parameters = inspect.signature(cls.__init__).parameters
+        for name in added:
+            attributes[name] = parameters[name].default
     return attributes

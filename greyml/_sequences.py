@@ -32,12 +32,12 @@ __all__ = [
     "TEST_LEVEL",
     "TIME_LEVEL",
     "Segment",
-    "keep_test_index",
-    "test_segments",
-    "test_ids",
+    "groups_of",
     "has_test_index",
-    "segment_label",
+    "keep_test_index",
     "make_test_index",
+    "segment_label",
+    "test_segments",
 ]
 
 
@@ -188,15 +188,18 @@ def test_segments(X, n_samples: int | None = None) -> list[Segment]:
     return segments
 
 
-def test_ids(X) -> np.ndarray:
+def groups_of(X) -> np.ndarray:
     """The test label of every row, for ``groups=`` of scikit-learn splitters.
+
+    Called ``test_ids`` until this release (a name pytest would collect as a
+    test); that name still works, with a ``FutureWarning``.
 
     Examples
     --------
     >>> import pandas as pd
     >>> idx = pd.MultiIndex.from_tuples(
     ...     [("I", 0), ("I", 10), ("II", 0)], names=["test", "time_s"])
-    >>> test_ids(pd.DataFrame({"T1_C": [20.0, 20.5, 21.0]}, index=idx)).tolist()
+    >>> groups_of(pd.DataFrame({"T1_C": [20.0, 20.5, 21.0]}, index=idx)).tolist()
     ['I', 'I', 'II']
     """
     segments = test_segments(X)
@@ -215,13 +218,13 @@ def make_test_index(tests, times) -> pd.MultiIndex:
     Two tests, the second starting its clock again at 0 s:
 
     >>> import pandas as pd
-    >>> from greyml import make_test_index, test_ids
+    >>> from greyml import make_test_index, groups_of
     >>> index = make_test_index(["I", "I", "II"], [0, 60, 0])
     >>> list(index.names)
     ['test', 'time_s']
     >>> index.tolist()
     [('I', 0.0), ('I', 60.0), ('II', 0.0)]
-    >>> test_ids(pd.DataFrame({"T1_C": [20.0, 20.5, 21.0]}, index=index)).tolist()
+    >>> groups_of(pd.DataFrame({"T1_C": [20.0, 20.5, 21.0]}, index=index)).tolist()
     ['I', 'I', 'II']
     """
     return pd.MultiIndex.from_arrays(

@@ -27,9 +27,9 @@ Every command takes ``--quiet`` (no progress on standard error; progress is
 shown only when standard error is a terminal). Every command that reads a CSV
 file (``select``, ``fit``, ``predict``, ``gap``) takes ``--time-unit s|min|h``
 (the unit of the file's ``time_s`` column), ``--sep`` and ``--decimal`` (see
-:func:`greyml.io.read_tests_csv`). The spellings ``--seed`` (simulate), ``--n``
-(select), ``--select`` (fit) and ``--train-test`` (select) still work in this
-release, with a one-line deprecation message on standard error.
+:func:`greyml.io.read_tests_csv`). Options renamed in this release still
+work under their old spellings, which ``--help`` no longer shows, with a
+one-line deprecation message on standard error that names the new one.
 
 ``greyml gap`` compares measured tests (``REAL.csv``) with a simulation of
 the same tests (``SIM.csv``), both in greyml's CSV layout: the columns

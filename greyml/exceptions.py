@@ -148,13 +148,15 @@ class GreyWarmStartWarning(WarmStartWarning):
 
 
 class UnderdeterminedWarning(UserWarning):
-    """A network has more weights than training rows.
+    """A model has more weights than training rows (equations).
 
-    :class:`~greyml.MLPBaseline` still trains it: Levenberg–Marquardt's damping μ keeps
-    every step defined, and the goal or the validation stop ends training. But
-    many weight vectors then fit the training rows equally well, so the
-    network can interpolate them and generalise poorly; fewer hidden units or
-    more rows make the fit determined.
+    :class:`~greyml.MLPBaseline` still trains such a network: Levenberg–Marquardt's
+    damping μ keeps every step defined, and the goal or the validation stop ends
+    training. :class:`~greyml.ThermalTransferFunction` still fits its gains: the
+    ridge penalty keeps the solve defined. But many weight vectors then fit the
+    training rows equally well, so the model can interpolate them and
+    generalise poorly; a smaller model (fewer hidden units, fewer sensors or
+    time constants) or more rows make the fit determined.
 
     Examples
     --------

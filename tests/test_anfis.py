@@ -17,8 +17,7 @@ from sklearn.model_selection import (
 from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import StandardScaler
 
-from greyml import ANFISFCM, ANFISGrid, make_test_index
-from greyml import test_ids as groups_of
+from greyml import ANFISFCM, ANFISGrid, groups_of, make_test_index
 from greyml.fuzzy.kernels import (
     JangStepSize,
     anfis_forward,

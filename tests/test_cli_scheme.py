@@ -168,6 +168,46 @@ def test_fit_select_is_n_sensors(case, capsys, tmp_path):
     assert "--n-sensors 9" in err and "3 candidate" in err
 
 
+def _subcommands():
+    """The ``greyml`` parser and its subcommands' parsers, by name."""
+    import argparse
+
+    from greyml._cli._parser import build_parser
+
+    parser = build_parser()
+    (subs,) = [a for a in parser._actions if isinstance(a, argparse._SubParsersAction)]
+    return parser, subs.choices
+
+
+def test_no_help_shows_a_deprecated_flag(capsys):
+    from greyml._cli._flags import _Deprecated
+
+    parser, commands = _subcommands()
+    old = {
+        flag
+        for sub in commands.values()
+        for action in sub._actions
+        if isinstance(action, _Deprecated)
+        for flag in action.option_strings
+    }
+    assert old == {"--n", "--select", "--seed", "--train-test"}
+    flag = re.compile(r"(?<![\w-])(" + "|".join(map(re.escape, sorted(old))) + r")(?![\w-])")
+    assert re.search(r"--n-sensors N\s", commands["select"].format_help())  # help is read
+    for name, text in [("greyml", parser.format_help())] + [
+        (f"greyml {command}", sub.format_help()) for command, sub in commands.items()
+    ]:
+        shown = sorted({m.group(1) for m in flag.finditer(text)})
+        assert shown == [], f"{name} --help shows {shown}"
+        assert "deprecat" not in text.lower(), name
+    # hidden, not gone: an old spelling still parses, with its one line
+    args = parser.parse_args(["select", "a.csv", "--target", "z", "--n", "3"])
+    assert args.n == 3
+    assert capsys.readouterr().err == (
+        "greyml select: warning: --n is deprecated and will be removed in the next release; "
+        "use --n-sensors\n"
+    )
+
+
 def test_simulate_seed_is_random_state(capsys, tmp_path):
     argv = ["simulate", "--machine", "vmc-probe", "--programme", "10:spindle_rpm=3000,5"]
     code, _, err = _run(capsys, [*argv, "--random-state", "3", "--out", tmp_path / "new.csv"])

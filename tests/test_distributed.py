@@ -22,8 +22,14 @@ from sklearn.model_selection import GridSearchCV, LeaveOneGroupOut
 from sklearn.pipeline import Pipeline
 from threadpoolctl import threadpool_info
 
-from greyml import ANFISFCM, ANFISGrid, GreyInfluenceSelector, MLPBaseline, RelativeToStart
-from greyml import test_ids as groups_of
+from greyml import (
+    ANFISFCM,
+    ANFISGrid,
+    GreyInfluenceSelector,
+    MLPBaseline,
+    RelativeToStart,
+    groups_of,
+)
 from greyml.datasets import load_vmc_tests
 from greyml.metrics import get_scorer
 

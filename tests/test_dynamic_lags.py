@@ -10,8 +10,7 @@ from sklearn.model_selection import GridSearchCV, LeaveOneGroupOut, cross_val_pr
 from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import StandardScaler
 
-from greyml import AGO, LagFeatures, make_test_index
-from greyml import test_ids as groups_of
+from greyml import AGO, LagFeatures, groups_of, make_test_index
 from greyml.persist import load_model, save_model
 
 HALF = 60.0 / math.log(2.0)  # a = 1/2 for a 60 s step
@@ -97,17 +96,38 @@ def test_uneven_sampling_equals_the_loop():
         np.testing.assert_allclose(Z.iloc[:, j], _lag_loop(x, t, tau, {0}), rtol=1e-13)
 
 
-def test_array_needs_sample_step_and_set_output_keeps_names():
+def test_array_needs_sample_interval_and_set_output_keeps_names():
     x = np.array([[0.0], [1.0], [1.0]])
-    with pytest.raises(ValueError, match="no 'time_s' index level.*sample_step_s"):
+    with pytest.raises(ValueError, match="no 'time_s' index level.*sample_interval="):
         LagFeatures([HALF]).fit(x)
-    lags = LagFeatures([10.0 / math.log(2.0)], sample_step_s=10.0).set_output(transform="pandas")
+    lags = LagFeatures([10.0 / math.log(2.0)], sample_interval=10.0).set_output(transform="pandas")
     Z = lags.fit_transform(x)
     assert list(Z.columns) == ["x0", "x0|lag 14.4269504089 s"]
+    # a half-life of one 10-s row: half the way, then three quarters
     np.testing.assert_allclose(Z.iloc[:, 1], [0.0, 0.5, 0.75], atol=1e-15)
+    assert lags.nominal_step_s_ == 10.0
     # plain array out by default, Fortran-ordered (one block for pandas)
-    out = LagFeatures([5.0], sample_step_s=1.0).fit_transform(x)
+    out = LagFeatures([5.0], sample_interval=1.0).fit_transform(x)
     assert isinstance(out, np.ndarray) and out.flags.f_contiguous
+    # a time_s level wins over sample_interval: a half-life of one 20-s row
+    timed = pd.DataFrame({"T1_C": x[:, 0]}, index=make_test_index(["A"] * 3, [0.0, 20.0, 40.0]))
+    Z = LagFeatures([20.0 / math.log(2.0)], sample_interval=10.0).fit_transform(timed)
+    np.testing.assert_allclose(Z.iloc[:, 1], [0.0, 0.5, 0.75], atol=1e-15)
+
+
+def test_the_old_name_sample_step_s_still_works_with_a_future_warning():
+    x = np.array([[0.0], [1.0], [1.0]])
+    lags = LagFeatures([10.0 / math.log(2.0)], sample_step_s=10.0)
+    with pytest.warns(FutureWarning, match=r"'sample_step_s' .* renamed 'sample_interval'"):
+        out = lags.fit_transform(x)
+    np.testing.assert_allclose(out[:, 1], [0.0, 0.5, 0.75], atol=1e-15)
+
+
+@pytest.mark.parametrize("bad", [0.0, -15.0, np.inf, np.nan, "15 s"])
+def test_a_sample_interval_that_is_not_a_finite_positive_number_is_refused(bad):
+    x = np.array([[0.0], [1.0], [1.0]])
+    with pytest.raises(ValueError, match=r"^The 'sample_interval' parameter of LagFeatures must"):
+        LagFeatures([60.0], sample_interval=bad).fit(x)
 
 
 def _machine(seed=0, n_tests=4, n=240, step=30.0):
@@ -183,7 +203,10 @@ def test_saved_and_loaded(tmp_path):
     "params, match",
     [
         ({"time_constants": [600.0, 0.0]}, r"time constant 0\.0 s \(entry 1\) is not a finite"),
-        ({"time_constants": list(range(1, 1003))}, r"holds 1,002 time constants, more than the 1,000"),
+        (
+            {"time_constants": list(range(1, 1003))},
+            r"holds 1,002 time constants, more than the 1,000",
+        ),
         ({"time_constants": [-5.0]}, r"time constant -5\.0 s \(entry 0\)"),
         ({"time_constants": [np.inf]}, r"time constant inf s \(entry 0\)"),
         ({"time_constants": [np.nan]}, r"time constant nan s \(entry 0\)"),

@@ -19,8 +19,8 @@ from greyml import (
     MLPBaseline,
     RelativeToStart,
     TrainOnOneTest,
+    groups_of,
 )
-from greyml import test_ids as groups_of
 from greyml.datasets import load_vmc_tests
 from greyml.metrics import get_scorer, rmse
 

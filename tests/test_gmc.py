@@ -15,10 +15,10 @@ from greyml import (
     GreyConditioningWarning,
     GreyStabilityWarning,
     GreyWarmStartWarning,
+    groups_of,
     make_test_index,
     simulate_gmc,
 )
-from greyml import test_ids as groups_of
 from greyml.grey.kernels import gmc_design
 from greyml.optimize import ParticleSwarm
 

@@ -10,8 +10,7 @@ from sklearn.model_selection import GridSearchCV, LeaveOneGroupOut, cross_val_sc
 from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import StandardScaler
 
-from greyml import GMC, GNNMCI, GreyStabilityWarning, make_test_index, simulate_gmc
-from greyml import test_ids as groups_of
+from greyml import GMC, GNNMCI, GreyStabilityWarning, groups_of, make_test_index, simulate_gmc
 from greyml.grey._response import gmc_forcing, gmc_initial
 from greyml.grey.kernels import ago, gmc_response, gnnmci_layers
 

@@ -16,8 +16,7 @@ from sklearn.model_selection import (
 from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import StandardScaler
 
-from greyml import make_test_index
-from greyml import test_ids as groups_of
+from greyml import groups_of, make_test_index
 from greyml.neural import MLPBaseline, UnderdeterminedWarning
 from greyml.neural.kernels import (
     hidden,

@@ -27,8 +27,8 @@ from greyml import (
     ANFISGrid,
     GreyInfluenceSelector,
     MLPBaseline,
+    groups_of,
 )
-from greyml import test_ids as _test_ids
 from greyml.optimize import CuckooSearch
 from greyml.persist import (
     ALLOWED_CLASSES,
@@ -55,7 +55,7 @@ def _gridsearch_best(X, y):
         {"ridge__alpha": [0.1, 10.0]},
         cv=LeaveOneGroupOut(),
     )
-    return search.fit(X, y, groups=_test_ids(X)).best_estimator_
+    return search.fit(X, y, groups=groups_of(X)).best_estimator_
 
 
 MODELS = {

@@ -7,8 +7,7 @@ from sklearn.linear_model import Ridge
 from sklearn.model_selection import LeaveOneGroupOut, cross_val_predict
 from sklearn.pipeline import make_pipeline
 
-from greyml import RelativeToStart, make_test_index
-from greyml import test_ids as groups_of
+from greyml import RelativeToStart, groups_of, make_test_index
 from greyml.persist import load_model, save_model
 
 

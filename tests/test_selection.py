@@ -7,8 +7,7 @@ from sklearn.linear_model import Ridge
 from sklearn.model_selection import GridSearchCV, LeaveOneGroupOut, cross_validate
 from sklearn.pipeline import make_pipeline
 
-from greyml import GreyInfluenceSelector, TrainOnOneTest, make_test_index
-from greyml import test_ids as groups_of
+from greyml import GreyInfluenceSelector, TrainOnOneTest, groups_of, make_test_index
 from greyml.datasets import load_vmc_tests
 from greyml.grey.kernels import gm1n_lstsq
 

@@ -3,12 +3,11 @@ import pandas as pd
 import pytest
 
 from greyml import _sequences as seq
-from greyml import make_test_index
+from greyml import groups_of, make_test_index
 from greyml._sequences import Segment
 
-# aliases: pytest would collect functions named test_* imported here
+# an alias: pytest would collect a function named test_* imported here
 segments_of = seq.test_segments
-ids_of = seq.test_ids
 
 
 def frame(tests, times):
@@ -25,7 +24,7 @@ def test_plain_array_is_one_test():
 def test_segments_in_given_order():
     X = frame(["B", "B", "A", "A", "A"], [0, 10, 0, 10, 20])
     assert segments_of(X) == [Segment("B", 0, 2), Segment("A", 2, 5)]
-    assert ids_of(X).tolist() == ["B", "B", "A", "A", "A"]
+    assert groups_of(X).tolist() == ["B", "B", "A", "A", "A"]
 
 
 def test_split_test_is_rejected():
@@ -59,3 +58,14 @@ def test_index_survives_sklearn_indexing():
     X = frame(["A", "A", "B", "B"], [0, 10, 0, 10])
     sub = _safe_indexing(X, np.array([2, 3]))
     assert segments_of(sub) == [Segment("B", 0, 2)]
+
+
+def test_no_public_name_is_collected_by_pytest_and_the_old_name_still_works():
+    import greyml
+
+    # pytest collects from a test module the functions named test* and classes Test*
+    # that it imports (TEST_LEVEL, a string, is not one)
+    assert [name for name in greyml.__all__ if name.startswith(("test", "Test"))] == []
+    with pytest.warns(FutureWarning, match=r"^greyml\.test_ids was renamed greyml\.groups_of;"):
+        old = greyml.test_ids
+    assert old is groups_of

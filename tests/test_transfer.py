@@ -1,11 +1,13 @@
 """ThermalTransferFunction: known gains and time constants recovered, sensors chosen,
 held-out scores exact, terms that stream, clear messages for bad input."""
 
+import io
+
 import numpy as np
 import pandas as pd
 import pytest
 
-from greyml import ThermalTransferFunction, make_test_index
+from greyml import LagFeatures, ThermalTransferFunction, UnderdeterminedWarning, make_test_index
 
 STEP = 60.0
 
@@ -247,11 +249,27 @@ def test_step_response_and_describe(data, capsys):
     r2 = model.step_response("T2_C", times=[900.0])
     assert r2.iloc[0] == pytest.approx(3.0 * (1 - np.exp(-1)), abs=1e-3)
     text = model.describe()
-    printed = capsys.readouterr().out
-    assert text in printed
-    line = text.splitlines()[0]
-    assert line.startswith("spindle_rpm: 1.2 µm per 1000 rpm at steady state, 0.2 µm at once"), line
-    assert "63 % of the lagged part within 45 min" in line
+    # one line per input, the driver first, then the sensors in the order selected
+    assert capsys.readouterr().out == text + "\n"
+    lines = text.splitlines()
+    assert [line.split(":")[0] for line in lines] == ["spindle_rpm", *model.selected_sensors_]
+    assert model.selected_sensors_ == ["T2_C", "T1_C"]
+    # the gains _tests() made y with: 2e-4 µm/rpm at once and 1e-3 µm/rpm through a
+    # 45-min lag, 3 µm/K through a 15-min lag for T2, 0.8 µm/K at once for T1
+    spindle = (1000 * 2e-4, 1000 * (2e-4 + 1e-3), 1000 * (2e-4 + 1e-3 * (1 - np.exp(-1))))
+    t2_45 = 3.0 * (1 - np.exp(-2700.0 / 900.0))
+    assert lines[0] == (
+        f"spindle_rpm: {spindle[1]:.3g} µm per 1000 rpm at steady state, {spindle[0]:.3g} µm "
+        f"at once, {spindle[2]:.3g} µm after 45 min; 63 % of the lagged part within 45 min"
+    )
+    assert lines[1].startswith("T2_C: 3 µm per 1 K at steady state, ")
+    assert lines[1].endswith(f" {t2_45:.3g} µm after 45 min; 63 % of the lagged part within 15 min")
+    assert lines[2].startswith("T1_C: 0.8 µm per 1 K at steady state, 0.8 µm at once, 0.8 µm after")
+    # file= takes the lines instead of standard output
+    buffer = io.StringIO()
+    assert model.describe(unit="mm", file=buffer) == buffer.getvalue().rstrip("\n")
+    assert capsys.readouterr().out == ""
+    assert buffer.getvalue().startswith("spindle_rpm: 1.2 mm per 1000 rpm")
     with pytest.raises(ValueError, match="'T9_C' is not an input"):
         model.step_response("T9_C")
 
@@ -288,11 +306,52 @@ def test_gap_longer_than_largest_time_constant(data):
         model.predict(cut)
 
 
-def test_too_few_rows():
+def test_fewer_rows_than_gains_fits_with_the_penalty_and_warns():
     X, y = _tests(n_tests=1, hours=0.25)
-    # one test whose displacement does not start at 0: the recording's reference, an intercept
-    with pytest.raises(ValueError, match=r"too few rows to fit 38 coefficients: 15 samples"):
-        ThermalTransferFunction(drivers=["spindle_rpm"]).fit(X, y)
+    # one test whose displacement does not start at 0: the recording's reference, an
+    # intercept; 2 x 6 driver gains + 5 x 5 sensor gains + 1 = 38 for 15 rows
+    with pytest.warns(
+        UnderdeterminedWarning,
+        match=r"^ThermalTransferFunction is under-determined: 15 samples in 1 test\(s\) give "
+        r"15 equations for 38 coefficients\. The ridge penalty keeps",
+    ):
+        model = ThermalTransferFunction(drivers=["spindle_rpm"]).fit(X, y)
+    # one test: the penalty is chosen on training error, the smallest, which interpolates
+    assert model.reference_ == "recording" and model.alpha_ == 1e-6
+    assert np.abs(model.predict(X) - y).max() < 1e-4 * np.ptp(y)
+    # a penalty of 1 per row shrinks the gains: the fit no longer interpolates
+    with pytest.warns(UnderdeterminedWarning):
+        shrunk = ThermalTransferFunction(drivers=["spindle_rpm"], alphas=[1.0]).fit(X, y)
+    assert shrunk.alpha_ == 1.0
+    assert np.abs(shrunk.predict(X) - y).max() > 1e-2 * np.ptp(y)
+
+
+def test_fewer_than_two_equations_are_refused():
+    X, y = _tests(n_tests=1, hours=0.25)
+    # the change since the first row: two rows give one equation
+    with pytest.raises(
+        ValueError,
+        match=r"too few rows to fit: 2 samples in 1 test\(s\) give 1 equation, and a fit "
+        r"needs at least 2\.",
+    ):
+        ThermalTransferFunction(reference="start").fit(X.iloc[:2], y.iloc[:2])
+
+
+def test_a_non_finite_value_is_reported_before_the_rows_and_columns():
+    X, y = _tests(n_tests=1, hours=0.25)
+    bad = X.iloc[:1].copy()
+    bad.iloc[0, 2] = np.nan
+    # one row (too few) and max_sensors beyond the sensors: the NaN is named first
+    with pytest.raises(ValueError, match=r"^Input X contains NaN: column 'T2_C' has NaN in test "):
+        ThermalTransferFunction(max_sensors=9).fit(bad, y.iloc[:1])
+    with pytest.raises(ValueError, match=r"^Input y contains infinity .* row 1 "):
+        ThermalTransferFunction(max_sensors=9).fit(X.iloc[:2], [0.0, np.inf])
+    w = np.ones(len(X))
+    w[3] = np.nan
+    with pytest.raises(ValueError, match=r"sample_weight of row 3 \(test 't0'\) is NaN;"):
+        ThermalTransferFunction(max_sensors=9).fit(X, y, sample_weight=w)
+    with pytest.raises(ValueError, match=r"^Input X contains infinity .*'T1_C'"):
+        LagFeatures([60.0], columns=["nope"]).fit(X.assign(T1_C=np.inf))
 
 
 def test_driver_not_a_column(data):
@@ -414,3 +473,22 @@ def test_an_input_beyond_any_measurement_is_one_line(data):
     model = _model(max_sensors=2).fit(X, y)
     with pytest.raises(ValueError, match=r"beyond 1e\+100, which no measurement reaches"):
         model.predict(huge)
+
+
+def test_sample_interval_spaces_the_rows_of_an_array():
+    X, y = _tests(n_tests=1, hours=1.0)  # rows 60 s apart on a time_s level
+    # an array's columns are x0, x1, ...: the spindle is x0
+    kw = dict(drivers=["x0"], time_constants=[900.0, 2700.0], driver_time_constants=[2700.0])
+    timed = ThermalTransferFunction(**{**kw, "drivers": ["spindle_rpm"]}).fit(X, y)
+    array = ThermalTransferFunction(**kw, sample_interval=STEP).fit(X.to_numpy(), y.to_numpy())
+    np.testing.assert_allclose(array.feature_coef_, timed.feature_coef_, rtol=1e-9, atol=1e-12)
+    np.testing.assert_allclose(array.predict(X.to_numpy()), timed.predict(X), atol=1e-9)
+    assert array.nominal_step_s_ == STEP
+    # without it, an array's rows are one second apart, as before sample_interval
+    plain = ThermalTransferFunction(**kw).fit(X.to_numpy(), y.to_numpy())
+    one_second = X.set_axis(make_test_index(["t0"] * len(X), np.arange(len(X))), axis=0)
+    again = ThermalTransferFunction(**{**kw, "drivers": ["spindle_rpm"]}).fit(one_second, y)
+    np.testing.assert_allclose(plain.feature_coef_, again.feature_coef_, rtol=1e-9, atol=1e-12)
+    assert plain.nominal_step_s_ == 1.0
+    with pytest.raises(ValueError, match=r"^The 'sample_interval' parameter of Thermal"):
+        ThermalTransferFunction(sample_interval=-60.0).fit(X, y)

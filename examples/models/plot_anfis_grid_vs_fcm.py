@@ -57,7 +57,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
 
-from greyml import ANFISFCM, ANFISGrid, RelativeToStart, test_ids
+from greyml import ANFISFCM, ANFISGrid, RelativeToStart, groups_of
 from greyml.datasets import load_vmc_tests
 from greyml.fuzzy.kernels import log_firing, normalised_firing
 from greyml.metrics import rmse
@@ -69,7 +69,7 @@ vmc = load_vmc_tests()
 X = vmc.frame[SENSORS]
 X = RelativeToStart().fit_transform(X)  # rises, °C
 y = vmc.frame["dy_um"]
-tests = np.asarray(test_ids(X))
+tests = np.asarray(groups_of(X))
 train = tests == TRAIN
 rpm = vmc.frame["spindle_rpm"].groupby(level="test", sort=False).max()
 print(

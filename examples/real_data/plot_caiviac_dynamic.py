@@ -43,7 +43,7 @@ from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import StandardScaler
 from threadpoolctl import threadpool_limits
 
-from greyml import ThermalTransferFunction, WarmStartWarning, test_ids
+from greyml import ThermalTransferFunction, WarmStartWarning, groups_of
 from greyml.datasets import caiviac_candidates
 from greyml.io import read_tests_csv
 from greyml.metrics import rmse
@@ -85,7 +85,7 @@ def change(values):
 # alone; ridge-16 (all sixteen temperatures as rises from each cycle's first
 # row, no dynamics) sees the four training cycles.
 def leave_one_cycle_out(X, y):
-    groups = np.asarray(test_ids(X))
+    groups = np.asarray(groups_of(X))
     sensors = [c for c in X.columns if c != DRIVER]
     rises = X[sensors] - X[sensors].groupby(level="test", sort=False).transform("first")
     y_rise = y - y.groupby(level="test", sort=False).transform("first")

@@ -53,7 +53,7 @@ from greyml import (
     GreyConditioningWarning,
     GreyInfluenceSelector,
     RelativeToStart,
-    test_ids,
+    groups_of,
 )
 from greyml.datasets import load_caiviac
 from greyml.metrics import rmse
@@ -94,7 +94,7 @@ def ridge_16():
 # GM(1,N) can be rank deficient; the selector then warns and uses the
 # minimum-norm weights.
 def leave_one_cycle_out(X, y):
-    groups = np.asarray(test_ids(X))
+    groups = np.asarray(groups_of(X))
     results = []
     for cycle in dict.fromkeys(groups):
         train, held = groups != cycle, groups == cycle

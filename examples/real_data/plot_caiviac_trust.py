@@ -32,7 +32,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 from threadpoolctl import threadpool_limits
 
-from greyml import ThermalTransferFunction, test_ids
+from greyml import ThermalTransferFunction, groups_of
 from greyml.datasets import caiviac_candidates
 from greyml.io import read_tests_csv
 from greyml.metrics import rmse
@@ -139,7 +139,7 @@ if loaded is None:
     print("CAIVIAC data not found (see greyml.datasets.load_caiviac); skipping this example.")
 else:
     X, y = loaded
-    held = np.asarray(test_ids(X)) == HELD_OUT
+    held = np.asarray(groups_of(X)) == HELD_OUT
     measured = y.to_numpy()[held]
     times = X.index.get_level_values("time_s").to_numpy()[held]
     hours = (times - times[0]) / 3600.0

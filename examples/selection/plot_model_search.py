@@ -79,7 +79,7 @@ from greyml import (
     MLPBaseline,
     RelativeToStart,
     TrainOnOneTest,
-    test_ids,
+    groups_of,
 )
 from greyml.datasets import load_vmc_tests
 from greyml.metrics import get_scorer, rmse
@@ -88,7 +88,7 @@ vmc = load_vmc_tests()
 X = vmc.frame[vmc.sensors]
 X = RelativeToStart().fit_transform(X)  # rises, °C
 y = vmc.frame["dy_um"]
-groups = np.asarray(test_ids(X))
+groups = np.asarray(groups_of(X))
 tests = list(dict.fromkeys(groups))
 rpm = vmc.frame["spindle_rpm"].groupby(level="test", sort=False).max()
 print(

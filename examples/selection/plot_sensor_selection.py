@@ -52,7 +52,7 @@ from collections import Counter
 import matplotlib.pyplot as plt
 import numpy as np
 
-from greyml import ANFISFCM, GreyInfluenceSelector, RelativeToStart, test_ids
+from greyml import ANFISFCM, GreyInfluenceSelector, RelativeToStart, groups_of
 from greyml.datasets import load_vmc_tests
 from greyml.metrics import rmse
 
@@ -63,7 +63,7 @@ vmc = load_vmc_tests()
 X = vmc.frame[vmc.sensors]
 X = RelativeToStart().fit_transform(X)  # rises, °C
 y = vmc.frame["dy_um"]
-tests = np.asarray(test_ids(X))
+tests = np.asarray(groups_of(X))
 train = tests == TRAIN
 names = np.asarray(vmc.sensors)
 part = vmc.sensor_groups

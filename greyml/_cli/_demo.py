@@ -107,11 +107,11 @@ def _split(X, train_tests):
     """
     import numpy as np
 
-    from greyml import TrainOnOneTest, test_ids
+    from greyml import TrainOnOneTest, groups_of
 
     if len(train_tests) == 1:
         return next(TrainOnOneTest(train_tests=list(train_tests)).split(X))
-    train = np.isin(test_ids(X), list(train_tests))
+    train = np.isin(groups_of(X), list(train_tests))
     return np.flatnonzero(train), np.flatnonzero(~train)
 
 
@@ -121,7 +121,7 @@ def _demo_machine(machine, progress, *, quick):
     import pandas as pd
     from sklearn.pipeline import Pipeline
 
-    from greyml import datasets, test_ids
+    from greyml import datasets, groups_of
     from greyml._seeds import make_model, rises, scores
 
     progress.step(f"simulating the {machine.label} tests")
@@ -129,7 +129,7 @@ def _demo_machine(machine, progress, *, quick):
     X = rises(data.frame[data.sensors])
     y = data.frame[machine.target]
     train, valid = _split(X, machine.train)
-    valid_tests = list(dict.fromkeys(test_ids(X.iloc[valid])))
+    valid_tests = list(dict.fromkeys(groups_of(X.iloc[valid])))
     # the dynamic model sees what the controller knows (speeds, feed) beside the
     # temperature rises, and chooses its own sensors
     drivers = [c for c in OPERATING_COLUMNS if c in data.frame.columns and c != "ambient_C"]
@@ -173,7 +173,7 @@ def _demo_machine(machine, progress, *, quick):
         b1 = getattr(_final_step(pipe), "development_coef_", None)
         result["b1"] = None if b1 is None else float(b1)
         result["scores"] = scores(y_valid.to_numpy(), pred)
-        groups = test_ids(y_valid)
+        groups = groups_of(y_valid)
         result["per_test"] = {
             t: scores(y_valid.to_numpy()[groups == t], pred[groups == t]) for t in valid_tests
         }

@@ -179,9 +179,9 @@ def _candidates(frame, target, sensors, path):
 def _rows_of_tests(frame, tests, path, flag):
     import numpy as np
 
-    from greyml import test_ids
+    from greyml import groups_of
 
-    labels = test_ids(frame)
+    labels = groups_of(frame)
     have = list(dict.fromkeys(labels))
     missing = [t for t in tests if t not in have]
     if missing:

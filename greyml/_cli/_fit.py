@@ -81,8 +81,7 @@ def _add_fit_parser(subparsers):
         type=flags._count,
         metavar="N",
         dest="select",
-        help="keep N sensors with GreyInfluenceSelector before the model; --select N is "
-        "its deprecated spelling",
+        help="keep N sensors with GreyInfluenceSelector before the model",
     )
     flags._add_old_spelling(
         parser, "--select", dest="select", new="--n-sensors", type=flags._count, metavar="N"

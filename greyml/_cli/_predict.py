@@ -25,8 +25,8 @@ from greyml._cli._printing import _progress, _warn, printable
 from greyml._docstrings import shared_doc
 
 _PREDICT_EPILOG = """\
-DATA.csv needs the sensor columns the model reads (a model fitted with --select
-reads only the sensors it kept). PRED.csv has the columns test, time_s,
+DATA.csv needs the sensor columns the model reads (a model fitted with
+--n-sensors reads only the sensors it kept). PRED.csv has the columns test, time_s,
 predicted_<target> (the thermal error the model predicts, in the target's
 unit) and compensation_<target> = -predicted_<target> (the correction to add to
 the axis); a model that predicts the change since each test's first row names
@@ -61,7 +61,7 @@ of a test or time that is not in DATA.csv, or out of order, is an error.
 Examples:
   greyml simulate --machine vmc --tests IV --out train.csv
   greyml simulate --machine vmc --tests V,VI --out new-tests.csv
-  greyml fit train.csv --target dy_um --model anfis-fcm --select 5 --out vmc.greyml
+  greyml fit train.csv --target dy_um --model anfis-fcm --n-sensors 5 --out vmc.greyml
   greyml predict vmc.greyml new-tests.csv --out compensation.csv
   greyml predict gmc.greyml tail.csv --out comp.csv --initial-displacement V=-48.5
   greyml predict ch1.greyml cycles.csv --test-column cycle --out ch1-pred.csv \\

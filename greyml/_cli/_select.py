@@ -35,7 +35,7 @@ def _add_select_parser(subparsers):
         default=5,
         metavar="N",
         dest="n",
-        help="sensors to keep (default: 5); --n N is its deprecated spelling",
+        help="sensors to keep (default: 5)",
     )
     flags._add_old_spelling(
         parser, "--n", dest="n", new="--n-sensors", type=flags._count, metavar="N"
@@ -44,8 +44,7 @@ def _add_select_parser(subparsers):
     flags._add_names(
         parser,
         "--train-tests",
-        "select on these tests only (default: all tests); --train-test LABEL is its "
-        "deprecated spelling",
+        "select on these tests only (default: all tests)",
     )
     flags._add_old_spelling(
         parser,

@@ -63,8 +63,7 @@ def _add_simulate_parser(subparsers):
     )
     flags._add_random_state(
         parser,
-        "seed of the measurement noise (default: 0, the data of greyml.datasets); "
-        "--seed N is its deprecated spelling",
+        "seed of the measurement noise (default: 0, the data of greyml.datasets)",
         dest="seed",
     )
     flags._add_old_spelling(

@@ -9,7 +9,8 @@ import pandas as pd
 from sklearn.base import BaseEstimator, TransformerMixin
 from sklearn.utils.validation import check_is_fitted
 
-from greyml._param_validation import Integral, Interval, Real, StrOptions
+from greyml._param_validation import Hidden, Integral, Interval, Real, StrOptions
+from greyml._renamed import DEPRECATED, renamed_value
 from greyml._time import format_duration
 from greyml._validation import first_flagged, validate_sequences
 from greyml.dynamic._kernels import lag_filter
@@ -95,11 +96,14 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         needs the column to be ≥ 0.
     include_input : bool, default=True
         Pass the chosen columns (and their powers) through beside their lags.
-    sample_step_s : float, optional
+    sample_interval : float, optional
         Seconds between rows when ``X`` has no ``time_s`` index level (a
         NumPy array, a DataFrame with a plain index): every step is this long.
         ``None`` (the default) refuses such ``X``, since the lags need the
         time. A ``time_s`` level, where present, always wins.
+    sample_step_s : float, default="deprecated"
+        The old name of ``sample_interval``: still accepted in this release,
+        with a ``FutureWarning``.
 
     Attributes
     ----------
@@ -111,7 +115,7 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         Each lagged column's powers, as a tuple of floats.
     nominal_step_s_ : float
         The median step between rows within the tests seen in ``fit`` (or
-        ``sample_step_s``): the step into a carried test whose clock restarts.
+        ``sample_interval``): the step into a carried test whose clock restarts.
         NaN when no test seen in ``fit`` has two rows.
     terms_ : list of tuple
         ``(input, power, tau_s)`` of every output column, in order: the input
@@ -146,7 +150,7 @@ class LagFeatures(TransformerMixin, BaseEstimator):
 
         Z = LagFeatures([300, 900, 2700, 8100]).fit_transform(X)  # the recording
         cross_val_score(make_pipeline(StandardScaler(), RidgeCV()), Z, y,
-                        groups=test_ids(Z), cv=LeaveOneGroupOut())
+                        groups=groups_of(Z), cv=LeaveOneGroupOut())
 
     Inside a Pipeline, with ``state="auto"``, a training fold carries state
     across the tests that follow each other on the recording's clock and
@@ -156,6 +160,13 @@ class LagFeatures(TransformerMixin, BaseEstimator):
     **Gaps.** A step longer than the largest time constant inside a test is
     refused: every lag would forget the test's history in it, and a logging
     gap that long usually means two recordings were joined.
+
+    **scikit-learn's estimator checks.** With ``sample_interval`` the
+    transformer passes :func:`~sklearn.utils.estimator_checks.check_estimator`
+    except ``check_methods_subset_invariance`` and
+    ``check_methods_sample_order_invariance``: a lag holds the rows before it,
+    so a subset or a reordering of the rows changes every later row's output.
+    Pass them as ``expected_failed_checks``.
 
     Examples
     --------
@@ -180,8 +191,16 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         "state": [StrOptions(set(STATES))],
         "powers": [Interval(Real, 0, None, closed="neither"), dict, "array-like"],
         "include_input": ["boolean"],
-        "sample_step_s": [Interval(Real, 0, None, closed="neither"), None],
+        "sample_interval": [Interval(Real, 0, None, closed="neither"), None],
+        "sample_step_s": [
+            Interval(Real, 0, None, closed="neither"),
+            None,
+            Hidden(StrOptions({DEPRECATED})),
+        ],
     }
+
+    #: old parameter names, still accepted for one release (greyml._renamed)
+    _renamed_params = {"sample_step_s": "sample_interval"}
 
     def __init__(
         self,
@@ -191,13 +210,15 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         state="auto",
         powers=(1,),
         include_input=True,
-        sample_step_s=None,
+        sample_interval=None,
+        sample_step_s=DEPRECATED,
     ):
         self.time_constants = time_constants
         self.columns = columns
         self.state = state
         self.powers = powers
         self.include_input = include_input
+        self.sample_interval = sample_interval
         self.sample_step_s = sample_step_s
 
     # -- parameters ---------------------------------------------------------
@@ -324,6 +345,12 @@ class LagFeatures(TransformerMixin, BaseEstimator):
 
     # -- time ---------------------------------------------------------------
 
+    def _sample_interval(self):
+        """``sample_interval``, or the deprecated ``sample_step_s`` if it was given
+        (``fit`` says so with a FutureWarning)."""
+        old = self.sample_step_s
+        return self.sample_interval if isinstance(old, str) and old == DEPRECATED else old
+
     def _timeline(self, X, segments, taus, nominal=None):
         """Steps into every row and the tests that carry state (:mod:`greyml.dynamic._time`)."""
         return timeline(
@@ -333,7 +360,7 @@ class LagFeatures(TransformerMixin, BaseEstimator):
             tau_max=float(taus.max()),
             state=self.state,
             nominal=nominal,
-            default_step=self.sample_step_s,
+            default_step=self._sample_interval(),
         )
 
     # -- estimator ----------------------------------------------------------
@@ -352,6 +379,7 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         self : LagFeatures
         """
         self._validate_params()
+        renamed_value(self, "sample_step_s", "sample_interval")  # the old name: a FutureWarning
         taus = self._check_params()
         Xa, _, segments = validate_sequences(self, X, reset=True)
         names = self._input_names()

@@ -126,7 +126,7 @@ def _times(X, segments, owner, default_step):
         raise ValueError(
             f"{owner} needs the time of every row: X has no '{TIME_LEVEL}' index level. "
             "Give X greyml's (test, time_s) index (greyml.make_test_index), or set "
-            "sample_step_s= for rows evenly spaced in time."
+            "sample_interval= (seconds per row) for rows evenly spaced in time."
         )
     n = segments[-1].stop if segments else 0
     t = np.empty(n)

@@ -30,7 +30,7 @@ import numpy as np
 from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.utils.validation import check_is_fitted
 
-from greyml._param_validation import Hidden, Integral, Interval, StrOptions
+from greyml._param_validation import Hidden, Integral, Interval, Real, StrOptions
 from greyml._renamed import DEPRECATED
 from greyml._sequences import segment_label
 from greyml._validation import column_names, require_y, validate_sequences
@@ -46,8 +46,10 @@ from greyml.dynamic._time import (
 from greyml.dynamic._transfer_checks import (  # noqa: F401 (DEFAULT_*: the model's defaults)
     DEFAULT_ALPHAS,
     DEFAULT_TIME_CONSTANTS,
+    check_enough_rows,
     check_fitted_state,
     check_magnitudes,
+    check_max_sensors,
     check_params,
     initial_displacements,
     sample_weights,
@@ -183,6 +185,11 @@ class ThermalTransferFunction(
         held-out tests, or the sensors chosen by at least half of the forward
         selections run without each test in turn (needs four tests; with
         fewer, ``"forward"``).
+    sample_interval : float or None, default=None
+        Seconds between rows when ``X`` has no ``time_s`` index level (a
+        NumPy array, a DataFrame with a plain index): every step is this
+        long. ``None``: one second. A ``time_s`` level, where present, always
+        wins.
 
     Attributes
     ----------
@@ -270,9 +277,24 @@ class ThermalTransferFunction(
 
     Notes
     -----
-    Without a ``time_s`` index level the rows are taken as one second apart.
-    A sampling gap longer than the largest time constant is refused: the
-    lags would have forgotten everything before it.
+    Without a ``time_s`` index level the rows are taken as
+    ``sample_interval`` seconds apart (one second without it). A sampling gap
+    longer than the largest time constant is refused: the lags would have
+    forgotten everything before it.
+
+    With fewer equations than gains (rows, less one per test with reference
+    ``"start"``), the ridge penalty keeps the fit defined and ``fit`` warns
+    (:class:`~greyml.exceptions.UnderdeterminedWarning`) as ``MLPBaseline`` does.
+
+    **scikit-learn's estimator checks.** With ``sample_interval`` the model
+    passes :func:`~sklearn.utils.estimator_checks.check_estimator` but for
+    three checks that take rows as independent, which a sequence model's are
+    not: a subset, a reordering, a repeated or a removed row changes the lags
+    of every later row (``check_methods_subset_invariance``,
+    ``check_methods_sample_order_invariance``,
+    ``check_sample_weight_equivalence_on_dense_data``). With
+    ``reference="start"`` ``check_regressors_train`` fails too: the check's
+    targets are not zero at the first row. Pass them as ``expected_failed_checks``.
 
     References
     ----------
@@ -317,8 +339,10 @@ class ThermalTransferFunction(
         "reference": [StrOptions(set(REFERENCES))],
         "alphas": ["array-like", None],
         "selection": [StrOptions({"forward", "stable"})],
+        "sample_interval": [Interval(Real, 0, None, closed="neither"), None],
         "relative_to_start": ["boolean", Hidden(StrOptions({DEPRECATED}))],
     }
+    _added_params = ("sample_interval",)  # a file from before it lacks it (greyml._renamed)
 
     def __init__(
         self,
@@ -333,6 +357,7 @@ class ThermalTransferFunction(
         reference="auto",
         alphas=None,
         selection="forward",
+        sample_interval=None,
         relative_to_start=DEPRECATED,
     ):
         self.drivers = drivers
@@ -345,6 +370,7 @@ class ThermalTransferFunction(
         self.reference = reference
         self.alphas = alphas
         self.selection = selection
+        self.sample_interval = sample_interval
         self.relative_to_start = relative_to_start
 
     # -- parameters -----------------------------------------------------------
@@ -362,17 +388,13 @@ class ThermalTransferFunction(
     def _data(self, X, y, sample_weight, settings):
         """Validated training data: arrays, tests, inputs, weights and time."""
         Xa, ya, segments = validate_sequences(self, X, y, reset=True)
+        # the inputs' values first (a NaN weight is reported as such), then their layout
+        w = sample_weights(self, sample_weight, Xa.shape[0], segments)
         names = column_names(self, Xa.shape[1])
         check_magnitudes(self, Xa, names, segments)
         check_magnitudes(self, ya[:, None], ["the target y"], segments)
         drivers, sensors = self._inputs(names)
-        if self.max_sensors is not None and self.max_sensors > len(sensors):
-            raise ValueError(
-                f"The 'max_sensors' parameter of {type(self).__name__} is {self.max_sensors}, "
-                f"more than the {len(sensors)} temperature sensor(s) given "
-                f"({', '.join(sensors) or 'none'})."
-            )
-        w = sample_weights(self, sample_weight, Xa.shape[0], segments)
+        check_max_sensors(self, sensors, names)
         tau_max = settings.taus.max()
         if drivers:
             tau_max = max(tau_max, settings.driver_taus.max())
@@ -388,21 +410,6 @@ class ThermalTransferFunction(
         one_recording = bool(data.steps.carried[1:].all())
         zeroed = all(data.y[start] == 0 for start, _ in data.bounds)
         return "recording" if one_recording and not zeroed else "start"
-
-    def _check_enough_rows(self, data, settings, n_driver_columns, reference):
-        n_used = len(data.sensors) if self.max_sensors is None else self.max_sensors
-        n_coef = n_driver_columns + n_used * (1 + len(settings.taus))
-        relative = reference == "start"
-        n_coef += 0 if relative else 1
-        n_eq = int((data.w > 0).sum()) - (len(data.segments) if relative else 0)
-        if n_eq < n_coef:
-            n = data.X.shape[0]
-            raise ValueError(
-                f"{type(self).__name__} has too few rows to fit {n_coef} coefficients: "
-                f"{n} sample{'' if n == 1 else 's'} in {len(data.segments)} "
-                f"test(s) give {n_eq} equations. "
-                "Give more rows, fewer sensors or fewer time constants."
-            )
 
     # -- fit ------------------------------------------------------------------
 
@@ -454,7 +461,7 @@ class ThermalTransferFunction(
         n_driver_columns = (
             len(data.drivers) * len(settings.powers) * (1 + len(settings.driver_taus))
         )
-        self._check_enough_rows(data, settings, n_driver_columns, reference)
+        check_enough_rows(self, data, settings, n_driver_columns, reference)
         base = self._fit_bank(
             data, settings, y_fit, folds, reference, settings.taus, settings.driver_taus
         )

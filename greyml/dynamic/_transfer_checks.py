@@ -2,9 +2,10 @@
 
 Functions of the model (its first argument), kept apart from the estimator's
 fitting code in :mod:`greyml.dynamic._transfer`: the parameters the
-constraints cannot check, the sample weights, inputs too large for float64,
-the initial displacements of :meth:`~greyml.ThermalTransferFunction.predict`,
-and the fitted state of a model read from a file.
+constraints cannot check, the sensors and rows a fit needs, the sample
+weights, inputs too large for float64, the initial displacements of
+:meth:`~greyml.ThermalTransferFunction.predict`, and the fitted state of a
+model read from a file.
 """
 
 from __future__ import annotations
@@ -15,17 +16,21 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from greyml._caller import warn_user
 from greyml._renamed import DEPRECATED
 from greyml._validation import MAX_INPUT, check_magnitudes, first_flagged
 from greyml.dynamic._time import MAX_TERMS, check_time_constants
 from greyml.dynamic._transfer_records import Settings
+from greyml.exceptions import UnderdeterminedWarning
 
 __all__ = [
     "DEFAULT_ALPHAS",
     "DEFAULT_TIME_CONSTANTS",
     "MAX_INPUT",
+    "check_enough_rows",
     "check_fitted_state",
     "check_magnitudes",
+    "check_max_sensors",
     "check_params",
     "initial_displacements",
     "sample_weights",
@@ -90,6 +95,49 @@ def _reference_asked(model):
     return new
 
 
+def check_max_sensors(model, sensors, names):
+    """``max_sensors`` at most the temperature sensors (the columns of X that are
+    not drivers)."""
+    if model.max_sensors is not None and model.max_sensors > len(sensors):
+        raise ValueError(
+            f"The 'max_sensors' parameter of {type(model).__name__} is {model.max_sensors}, "
+            f"more than the {len(sensors)} temperature sensor(s) "
+            f"({', '.join(sensors) or 'none'}) among the {len(names)} feature(s) of X."
+        )
+
+
+def check_enough_rows(model, data, settings, n_driver_columns, reference):
+    """Refuse fewer than two equations; warn when the gains outnumber them.
+
+    An equation is a row of positive weight, less the first row of each test
+    in the ``"start"`` reference. With fewer equations than gains the ridge
+    penalty keeps the solve defined, and the model says so as
+    :class:`~greyml.MLPBaseline` does (:class:`~greyml.exceptions.UnderdeterminedWarning`).
+    """
+    name = type(model).__name__
+    n_used = len(data.sensors) if model.max_sensors is None else model.max_sensors
+    n_coef = n_driver_columns + n_used * (1 + len(settings.taus))
+    relative = reference == "start"
+    n_coef += 0 if relative else 1
+    n_eq = int((data.w > 0).sum()) - (len(data.segments) if relative else 0)
+    n = data.X.shape[0]
+    rows = (
+        f"{n} sample{'' if n == 1 else 's'} in {len(data.segments)} test(s) give "
+        f"{n_eq} equation{'' if n_eq == 1 else 's'}"
+    )
+    if n_eq < 2:
+        raise ValueError(
+            f"{name} has too few rows to fit: {rows}, and a fit needs at least 2. Give more rows."
+        )
+    if n_eq < n_coef:
+        warn_user(
+            f"{name} is under-determined: {rows} for {n_coef} coefficients. The ridge "
+            "penalty keeps the fit defined, but it can interpolate the training rows; "
+            "give more rows, fewer sensors (max_sensors) or fewer time constants.",
+            UnderdeterminedWarning,
+        )
+
+
 def sample_weights(model, sample_weight, n, segments):
     """``sample_weight`` as finite weights >= 0, not all 0 (ones without it)."""
     if sample_weight is None:
@@ -102,9 +150,10 @@ def sample_weights(model, sample_weight, n, segments):
     bad = first_flagged(~np.isfinite(w) | (w < 0), segments)
     if bad:
         r, test = bad
+        value = "NaN" if np.isnan(w[r]) else f"{w[r]:g}"
         raise ValueError(
             f"{type(model).__name__}: sample_weight of row {r} ({test}) is "
-            f"{w[r]!r}; weights must be finite and >= 0."
+            f"{value}; weights must be finite and >= 0."
         )
     if w.sum() <= 0:
         raise ValueError(

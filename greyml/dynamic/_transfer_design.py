@@ -21,6 +21,8 @@ class _TransferDesign:
     """The design of a transfer function's lag features (see the module)."""
 
     def _timeline(self, X, segments, tau_max, nominal=None):
+        # without a time_s level: sample_interval seconds per row, else one
+        # second (the model's behaviour before it had sample_interval)
         return timeline(
             X,
             segments,
@@ -28,7 +30,7 @@ class _TransferDesign:
             tau_max=tau_max,
             state=self.state,
             nominal=nominal,
-            default_step=1.0,
+            default_step=1.0 if self.sample_interval is None else self.sample_interval,
         )
 
     def _inputs(self, names):

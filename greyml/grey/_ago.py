@@ -30,7 +30,7 @@ class AGO(OneToOneFeatureMixin, TransformerMixin, BaseEstimator):
     x⁽⁰⁾(1) = x⁽¹⁾(1), x⁽⁰⁾(k) = x⁽¹⁾(k) − x⁽¹⁾(k−1).
 
     Tests are read from the ``test`` level of the row index (see
-    :func:`greyml.test_ids`); a plain array is one test. With a ``test``-indexed
+    :func:`greyml.groups_of`); a plain array is one test. With a ``test``-indexed
     DataFrame in, a DataFrame with the same index comes out, so the boundaries
     survive a Pipeline.
 

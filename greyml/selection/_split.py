@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 from sklearn.model_selection import BaseCrossValidator
 
-from greyml._sequences import has_test_index, test_ids
+from greyml._sequences import groups_of, has_test_index
 
 __all__ = ["TrainOnOneTest"]
 
@@ -14,9 +14,9 @@ def _groups_of(X, groups):
     if groups is not None:
         return np.asarray(groups, dtype=object)
     if X is not None and has_test_index(X):
-        return np.asarray(test_ids(X), dtype=object)
+        return np.asarray(groups_of(X), dtype=object)
     raise ValueError(
-        "TrainOnOneTest needs the test of every row: pass groups=greyml.test_ids(X), "
+        "TrainOnOneTest needs the test of every row: pass groups=greyml.groups_of(X), "
         "or give X with a 'test' index level."
     )
 
@@ -41,7 +41,7 @@ class TrainOnOneTest(BaseCrossValidator):
 
     See Also
     --------
-    greyml.test_ids : the test label of every row, for ``groups=``.
+    greyml.groups_of : the test label of every row, for ``groups=``.
     greyml.GreyInfluenceSelector : the sensor selection validated this way by
         Abdulshahed et al. (2015).
 
