@@ -16,6 +16,8 @@ programme, a few of its sensors and the tool-point displacement:
   delay, the FBG strain sensors without.
 """
 
+# sphinx_gallery_multi_image = "single"
+
 import matplotlib.pyplot as plt
 
 from greyml.datasets import load_gantry_tests, load_vmc_tests

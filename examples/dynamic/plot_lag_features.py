@@ -16,6 +16,8 @@ machine's controller would, and gives the same prediction as the batch
 pipeline.
 """
 
+# sphinx_gallery_multi_image = "single"
+
 # %%
 import matplotlib.pyplot as plt
 import numpy as np
