@@ -455,9 +455,10 @@ class GapReport:
         if axes is None:
             fig, named = plt.subplot_mosaic(
                 [["time"] * 3, ["phase", "band", "rank"]],
-                figsize=(12, 7),
+                figsize=(10, 6.5),
                 layout="constrained",
                 height_ratios=(1, 1.1),
+                width_ratios=(1, 1, 1.5),
             )
             axes = [named[k] for k in ("time", "phase", "band", "rank")]
         axes = list(np.ravel(axes))
@@ -503,7 +504,7 @@ class GapReport:
             xlabel="time, tests end to end (h, from each test's start)",
             ylabel=f"{self.target} ({unit})",
         )
-        ax_time.legend(fontsize=8, loc="lower left")
+        ax_time.legend(fontsize=8, loc="best")
         ax_time.set_title(
             f"The gap of {self.target}, and what the named effects leave", fontsize=10
         )
@@ -531,11 +532,11 @@ class GapReport:
             s=250,
             color="k",
             zorder=3,
-            label="best placebo of its step (the bar to beat)",
+            label="best placebo (the bar to beat)",
         )
         ax_rank.set_yticks(positions, names)
         ax_rank.axvline(0.0, color="0.5", lw=0.8)
-        ax_rank.set_xlabel("held-out shrinkage (1 − RMSE after/before)")
+        ax_rank.set_xlabel("held-out shrinkage\n(1 − RMSE after / before)")
         ax_rank.set_title("Effects (red: significant)", fontsize=10)
-        ax_rank.legend(fontsize=7, loc="best")
+        ax_rank.legend(fontsize=7, loc="lower right")
         return fig
