@@ -194,7 +194,16 @@ html_theme_options = {
     "header_links_before_dropdown": 6,
     "navbar_align": "left",
     # the landing page needs its width, not an empty "On this page"
-    "secondary_sidebar_items": {"**": ["page-toc", "sourcelink"], "index": []},
+    # the gallery's pages need the width for code and printed tables (lines
+    # of up to 100 characters), not an "On this page"
+    # (the theme refuses a page that two wildcards match: no "**")
+    "secondary_sidebar_items": {
+        "*": ["page-toc", "sourcelink"],
+        "api/*": ["page-toc", "sourcelink"],
+        "generated/*": ["page-toc", "sourcelink"],
+        "index": [],
+        "auto_examples/**": [],
+    },
 }
 html_sidebars = {"index": []}
 # docs/_static/greyml.css: full titles of API pages, wrapped method names

@@ -16,8 +16,6 @@ programme, a few of its sensors and the tool-point displacement:
   delay, the FBG strain sensors without.
 """
 
-# sphinx_gallery_multi_image = "single"
-
 import matplotlib.pyplot as plt
 
 from greyml.datasets import load_gantry_tests, load_vmc_tests
@@ -74,3 +72,4 @@ ax.legend(loc="upper left", fontsize=8)
 _ = strain.legend(loc="upper right", fontsize=8)
 
 plt.show()
+# sphinx_gallery_multi_image = "single"

@@ -21,8 +21,6 @@ ambient air as the cause, and, once the simulation couples the air, find
 nothing left.
 """
 
-# sphinx_gallery_multi_image = "single"
-
 # %%
 import matplotlib.pyplot as plt
 import numpy as np
@@ -375,3 +373,4 @@ if OUT:
     print(f"\nplots written to {OUT}")
 # sphinx_gallery_end_ignore
 plt.show()
+# sphinx_gallery_multi_image = "single"

@@ -45,8 +45,6 @@ When to pick which:
   count that does not grow with the inputs, and a fit that stays fast.
 """
 
-# sphinx_gallery_multi_image = "single"
-
 # %%
 
 import matplotlib.pyplot as plt
@@ -198,3 +196,4 @@ if out:
     print(f"\nplot written to {path}")
 # sphinx_gallery_end_ignore
 plt.show()
+# sphinx_gallery_multi_image = "single"

@@ -23,8 +23,6 @@ as a reference, plain and after accumulation (the grey recipe), and plots measur
 against predicted with the residual band.
 """
 
-# sphinx_gallery_multi_image = "single"
-
 # %%
 import os
 import warnings
@@ -125,3 +123,4 @@ if out:
     fig.savefig(path, dpi=100)
     print(f"\nplot written to {path}")
 # sphinx_gallery_end_ignore
+# sphinx_gallery_multi_image = "single"

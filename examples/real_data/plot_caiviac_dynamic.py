@@ -32,8 +32,6 @@ beside the same model given the cycle alone, without its history.
 on both probes.
 """
 
-# sphinx_gallery_multi_image = "single"
-
 # %%
 import warnings
 
@@ -235,3 +233,4 @@ else:
         print(f"plots written: {', '.join(figures)}")
     # sphinx_gallery_end_ignore
     plt.show()
+# sphinx_gallery_multi_image = "single"

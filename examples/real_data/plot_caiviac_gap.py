@@ -90,8 +90,6 @@ repeated with the simulation calibrated on each other cycle.
   positions would be needed to name it.
 """
 
-# sphinx_gallery_multi_image = "single"
-
 # %%
 import warnings
 
@@ -380,3 +378,4 @@ else:
         print("plots written: caiviac_gap.png, caiviac_gap_report.png")
     # sphinx_gallery_end_ignore
     plt.show()
+# sphinx_gallery_multi_image = "single"

@@ -37,8 +37,6 @@ cycles, the choice among pipelines is as uncertain as the differences
 between them.
 """
 
-# sphinx_gallery_multi_image = "single"
-
 # %%
 import warnings
 
@@ -194,3 +192,4 @@ else:
         print(f"plot written to {path}")
     # sphinx_gallery_end_ignore
     plt.show()
+# sphinx_gallery_multi_image = "single"

@@ -25,8 +25,6 @@ from the recording's zero). Three views of cycle 5:
 :doc:`/trust` explains what the interval promises and what it does not.
 """
 
-# sphinx_gallery_multi_image = "single"
-
 # %%
 
 import matplotlib.pyplot as plt
@@ -199,3 +197,4 @@ else:
         print(f"plots written: {', '.join(figures)}")
     # sphinx_gallery_end_ignore
     plt.show()
+# sphinx_gallery_multi_image = "single"

@@ -52,8 +52,6 @@ from 16 candidates on the same folds. Nesting the search in an outer loop
 would remove that bias, at 6 times the cost.
 """
 
-# sphinx_gallery_multi_image = "single"
-
 # %%
 import time
 import warnings
@@ -283,3 +281,4 @@ if out:
     print(f"\nplot written to {path}")
 # sphinx_gallery_end_ignore
 plt.show()
+# sphinx_gallery_multi_image = "single"

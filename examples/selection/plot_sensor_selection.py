@@ -39,8 +39,6 @@ What comes out:
   sensors lead. Grouping the series still spreads the picks over the parts.
 """
 
-# sphinx_gallery_multi_image = "single"
-
 # %%
 
 from collections import Counter
@@ -262,3 +260,4 @@ for name, figure in (("sensor_selection.png", fig), ("sensor_groups.png", fig2))
         print(f"plot written to {path}")
 # sphinx_gallery_end_ignore
 plt.show()
+# sphinx_gallery_multi_image = "single"
