@@ -181,7 +181,8 @@ plot_include_source = False
 plot_html_show_source_link = False
 plot_html_show_formats = False
 plot_formats = [("png", 100)]
-plot_rcparams = {"figure.autolayout": False}
+# a figure drawn at 10 in or wider is shown at about 7 in beside the side bars
+plot_rcparams = {"figure.autolayout": False, "font.size": 11.5}
 
 # -- HTML -------------------------------------------------------------------
 html_theme = "pydata_sphinx_theme"
@@ -278,9 +279,9 @@ def _public_bases(app, name, obj, options, bases):
 
 
 # -- the README, read where it lies ------------------------------------------
-# The landing page shows the README's purpose, quick start (which
-# tests/test_readme.py runs) and command-line table, read from README.md at
-# build time so that the two never drift apart.
+# The landing page shows the README's purpose and command-line table, and
+# the command-line page its table, read from README.md at build time so that
+# the two never drift apart.
 from docutils import nodes  # noqa: E402
 from docutils.parsers.rst import Directive, directives  # noqa: E402
 from docutils.statemachine import StringList  # noqa: E402

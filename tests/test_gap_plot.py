@@ -45,7 +45,7 @@ def test_four_panels_each_labelled_for_what_it_draws(report):
             widths = [bar.get_width() for bar in ax.patches]
             assert sum(widths) == pytest.approx(1.0)
             assert sorted(widths) == pytest.approx(sorted(where.loc[where["by"] == by, "share"]))
-        assert "time since the start" in ax_first.get_title()
+        assert "time since start" in ax_first.get_title()
         assert "period" in ax_band.get_title()
     finally:
         plt.close(fig)

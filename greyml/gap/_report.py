@@ -22,7 +22,7 @@ NOISE_RATIO = 1.5
 #: Units of greyml's column suffixes, for axis labels.
 _UNITS = {"um": "µm", "mm": "mm", "C": "°C", "ue": "µε"}
 #: the families of ``GapReport.where`` that :meth:`GapReport.plot` draws
-_FAMILIES = {"phase": "by phase", "time": "by time since the start", "band": "by period"}
+_FAMILIES = {"phase": "by phase", "time": "by time since start", "band": "by period"}
 
 
 def _plain(value):
@@ -451,6 +451,7 @@ class GapReport:
         fig : matplotlib Figure
         """
         import matplotlib.pyplot as plt
+        from matplotlib.patches import Patch
 
         if axes is None:
             fig, named = plt.subplot_mosaic(
@@ -496,7 +497,7 @@ class GapReport:
                 f" {label}",
                 transform=ax_time.get_xaxis_transform(),
                 va="top",
-                fontsize=8,
+                fontsize="small",
             )
             offset += t[-1] + 0.5
         ax_time.axhline(0.0, color="0.7", lw=0.6)
@@ -504,18 +505,16 @@ class GapReport:
             xlabel="time, tests end to end (h, from each test's start)",
             ylabel=f"{self.target} ({unit})",
         )
-        ax_time.legend(fontsize=8, loc="best")
-        ax_time.set_title(
-            f"The gap of {self.target}, and what the named effects leave", fontsize=10
-        )
+        ax_time.legend(fontsize="small", loc="best")
+        ax_time.set_title(f"The gap of {self.target}, and what the named effects leave")
         # the phases need drivers; without them, the time since each test's start
         first = "phase" if (self.where["by"] == "phase").any() else "time"
         for ax, by in ((ax_phase, first), (ax_band, "band")):
             part = self.where[self.where["by"] == by]
             ax.barh(part["segment"].astype(str).to_numpy()[::-1], part["share"].to_numpy()[::-1])
             ax.set_xlim(0.0, 1.0)
-            ax.set_xlabel("share of the squared gap (sums to 1)")
-            ax.set_title(f"Where the gap lies: {_FAMILIES[by]}", fontsize=10)
+            ax.set_xlabel("share of the squared gap\n(sums to 1)")
+            ax.set_title(f"Gap {_FAMILIES[by]}")
         ranked = self.causes.dropna(subset=["shrinkage"])
         names = ranked["effect"].to_numpy()[::-1]
         positions = np.arange(len(names))
@@ -532,11 +531,15 @@ class GapReport:
             s=250,
             color="k",
             zorder=3,
-            label="best placebo (the bar to beat)",
+            label="best placebo",
         )
         ax_rank.set_yticks(positions, names)
         ax_rank.axvline(0.0, color="0.5", lw=0.8)
         ax_rank.set_xlabel("held-out shrinkage\n(1 − RMSE after / before)")
-        ax_rank.set_title("Effects (red: significant)", fontsize=10)
-        ax_rank.legend(fontsize=7, loc="lower right")
+        ax_rank.set_title("Effects")
+        handles = ax_rank.get_legend_handles_labels()[0] + [
+            Patch(color="C3", label="significant"),
+            Patch(color="0.6", label="not significant"),
+        ]
+        ax_rank.legend(handles=handles, fontsize="x-small", loc="lower right")
         return fig
