@@ -329,7 +329,7 @@ ax_t.set(
     ylabel=f"gap of {TARGET} (µm)",
     title=f"Test {worst}, held out",
 )
-ax_t.legend(fontsize=8)
+_ = ax_t.legend(fontsize=8)
 
 # %%
 # What next
