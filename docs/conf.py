@@ -53,6 +53,9 @@ extensions = [
 templates_path = ["_templates"]
 exclude_patterns = ["_build", "Thumbs.db", ".DS_Store"]
 root_doc = "index"
+# "On this page" of an API page lists fit(), predict()..., not the class's
+# name before each
+toc_object_entries_show_parents = "hide"
 
 # -- autodoc / autosummary / numpydoc --------------------------------------
 autosummary_generate = True
@@ -156,11 +159,30 @@ sphinx_gallery_conf = {
 }
 
 # -- the landing page's figure (matplotlib's plot directive) ---------------
+# docs/landing_figure.py draws the CAIVIAC recording when it lies beside this
+# checkout (greyml.datasets.caiviac_candidates), else the simulated VMC; the
+# caption under it (|landing-data| in index.rst) says which.
+from greyml.datasets import caiviac_candidates  # noqa: E402
+
+if any((folder / "cycles.csv").is_file() for folder in caiviac_candidates()):
+    _LANDING_DATA = (
+        "the CAIVIAC recording of a real machine tool (probe ch1, five 8 h cycles "
+        "at 1250 to 5000 rpm), found beside this checkout when the page was "
+        "built; displacement from each cycle's first row"
+    )
+else:
+    _LANDING_DATA = (
+        "greyml's simulated VMC (six simulated heating and cooling tests), because "
+        "the CAIVIAC recording was not found when this page was built; displacement "
+        "from each test's first row"
+    )
+rst_epilog = f"\n.. |landing-data| replace:: {_LANDING_DATA}\n"
 plot_include_source = False
 plot_html_show_source_link = False
 plot_html_show_formats = False
 plot_formats = [("png", 100)]
-plot_rcparams = {"figure.autolayout": False}
+# a figure drawn at 10 in or wider is shown at about 7 in beside the side bars
+plot_rcparams = {"figure.autolayout": False, "font.size": 11.5}
 
 # -- HTML -------------------------------------------------------------------
 html_theme = "pydata_sphinx_theme"
@@ -173,10 +195,21 @@ html_theme_options = {
     "header_links_before_dropdown": 6,
     "navbar_align": "left",
     # the landing page needs its width, not an empty "On this page"
-    "secondary_sidebar_items": {"**": ["page-toc", "sourcelink"], "index": []},
+    # the gallery's pages need the width for code and printed tables (lines
+    # of up to 100 characters), not an "On this page"
+    # (the theme refuses a page that two wildcards match: no "**")
+    "secondary_sidebar_items": {
+        "*": ["page-toc", "sourcelink"],
+        "api/*": ["page-toc", "sourcelink"],
+        "generated/*": ["page-toc", "sourcelink"],
+        "index": [],
+        "auto_examples/**": [],
+    },
 }
 html_sidebars = {"index": []}
-html_static_path = []
+# docs/_static/greyml.css: full titles of API pages, wrapped method names
+html_static_path = ["_static"]
+html_css_files = ["greyml.css"]
 
 
 # -- module constants -------------------------------------------------------
@@ -211,6 +244,19 @@ def _constant_doc(app, what, name, obj, options, lines):
         lines[:] = []
 
 
+# -- fitted attributes that are properties -----------------------------------
+def _skip_fitted_properties(app, what, name, obj, skip, options):
+    """Leave a fitted attribute that is a property (``gains_``) out of the members.
+
+    numpydoc shows it in the class's Attributes, with the property's own
+    docstring; listed again among the methods it would be described twice.
+    """
+    fitted = name.endswith("_") and not name.startswith("_")
+    if what == "class" and fitted and isinstance(obj, property):
+        return True
+    return None
+
+
 # -- private base classes ---------------------------------------------------
 def _public_bases(app, name, obj, options, bases):
     """Show a class's public bases: a private one is replaced by its own.
@@ -233,9 +279,9 @@ def _public_bases(app, name, obj, options, bases):
 
 
 # -- the README, read where it lies ------------------------------------------
-# The landing page shows the README's purpose, quick start (which
-# tests/test_readme.py runs) and command-line table, read from README.md at
-# build time so that the two never drift apart.
+# The landing page shows the README's purpose and command-line table, and
+# the command-line page its table, read from README.md at build time so that
+# the two never drift apart.
 from docutils import nodes  # noqa: E402
 from docutils.parsers.rst import Directive, directives  # noqa: E402
 from docutils.statemachine import StringList  # noqa: E402
@@ -328,5 +374,6 @@ def setup(app):
     # before numpydoc (priority 500) rewrites the docstring
     app.connect("autodoc-process-docstring", _constant_doc, priority=100)
     app.connect("autodoc-process-bases", _public_bases)
+    app.connect("autodoc-skip-member", _skip_fitted_properties)
     app.add_directive("readme", ReadmeDirective)
     app.add_directive("greyml-help", CommandHelpDirective)

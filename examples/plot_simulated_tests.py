@@ -72,3 +72,4 @@ ax.legend(loc="upper left", fontsize=8)
 _ = strain.legend(loc="upper right", fontsize=8)
 
 plt.show()
+# sphinx_gallery_multi_image = "single"

@@ -73,3 +73,4 @@ axes[1].plot(minutes, streamed, color="C3", ls=":", lw=2, label="the same, strea
 axes[0].set_ylabel("Y drift of the tool (µm)")
 axes[1].legend(fontsize=8)
 plt.show()
+# sphinx_gallery_multi_image = "single"

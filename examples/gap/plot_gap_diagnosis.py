@@ -22,13 +22,6 @@ nothing left.
 """
 
 # %%
-import os
-
-import matplotlib
-
-if not os.environ.get("MPLBACKEND"):
-    matplotlib.use("Agg")
-
 import matplotlib.pyplot as plt
 import numpy as np
 import pandas as pd
@@ -36,15 +29,6 @@ import pandas as pd
 from greyml.datasets import make_tests
 from greyml.gap import diagnose_gap
 from greyml.simulation import Effects, HeatingTest, Programme, diurnal
-
-#: run as a script with GREYML_EXAMPLE_OUT set, the figures are also saved there
-OUT = os.environ.get("GREYML_EXAMPLE_OUT")
-
-
-def save(fig, name):
-    if OUT:
-        fig.savefig(os.path.join(OUT, name), dpi=100)
-
 
 TARGET = "dy_um"
 DRIVERS = ["spindle_rpm", "feed_mm_min"]
@@ -209,7 +193,6 @@ fig_a.suptitle(
     "Gap, measured minus simulated (black, left); air change since the start (blue, °C); "
     "shaded: heating"
 )
-save(fig_a, "gap_diagnosis_where.png")
 
 # %%
 # Which effect
@@ -287,7 +270,6 @@ ax.set(
     xlabel="held-out shrinkage of the gap (1 − RMSE after / before)",
     title="Held-out shrinkage by effect (red: significant)",
 )
-save(fig_b, "gap_diagnosis_effects.png")
 
 # %%
 # Before and after
@@ -347,8 +329,7 @@ ax_t.set(
     ylabel=f"gap of {TARGET} (µm)",
     title=f"Test {worst}, held out",
 )
-ax_t.legend(fontsize=8)
-save(fig_c, "gap_diagnosis_before_after.png")
+_ = ax_t.legend(fontsize=8)
 
 # %%
 # What next
@@ -375,10 +356,21 @@ print(again)
 
 # %%
 # ``report.plot()`` draws a one-figure summary: the gap of all tests end to
-# end before and after, where it lies by phase and band, and the ranking.
+# end and what the named effects leave of it on held-out tests, where it lies
+# by phase and by period, and each effect's shrinkage beside the best placebo
+# of its step.
 
 fig_d = report.plot()
-save(fig_d, "gap_diagnosis_summary.png")
+# sphinx_gallery_start_ignore
+# as a script with $GREYML_EXAMPLE_OUT naming a folder, the figures are saved there too
+import os  # noqa: E402
+
+OUT = os.environ.get("GREYML_EXAMPLE_OUT")
 if OUT:
+    names = ("where", "effects", "before_after", "summary")
+    for name, figure in zip(names, (fig_a, fig_b, fig_c, fig_d)):
+        figure.savefig(os.path.join(OUT, f"gap_diagnosis_{name}.png"), dpi=100)
     print(f"\nplots written to {OUT}")
+# sphinx_gallery_end_ignore
 plt.show()
+# sphinx_gallery_multi_image = "single"

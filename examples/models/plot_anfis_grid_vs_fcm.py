@@ -46,12 +46,6 @@ When to pick which:
 """
 
 # %%
-import os
-
-import matplotlib
-
-if not os.environ.get("MPLBACKEND"):
-    matplotlib.use("Agg")
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -191,10 +185,15 @@ for ax, (name, model) in zip(axes[1], models.items()):
     ax.set_ylabel("membership")
     ax.legend(fontsize=8, loc="upper right")
 
-# run as a script with GREYML_EXAMPLE_OUT set, the figure is also saved there
+# sphinx_gallery_start_ignore
+# as a script with $GREYML_EXAMPLE_OUT naming a folder, the figures are saved there too
+import os  # noqa: E402
+
 out = os.environ.get("GREYML_EXAMPLE_OUT")
 if out:
     path = os.path.join(out, "anfis_grid_vs_fcm.png")
     fig.savefig(path, dpi=100)
     print(f"\nplot written to {path}")
+# sphinx_gallery_end_ignore
 plt.show()
+# sphinx_gallery_multi_image = "single"

@@ -27,11 +27,6 @@ against predicted with the residual band.
 import os
 import warnings
 
-import matplotlib
-
-if not os.environ.get("MPLBACKEND"):
-    matplotlib.use("Agg")
-
 import matplotlib.pyplot as plt
 import numpy as np
 from sklearn.linear_model import LinearRegression
@@ -120,9 +115,12 @@ ax_r.axhspan(-band, band, color="0.3", alpha=0.15)
 ax_r.set_ylabel("CS-GMC residual (µm)")
 ax_r.set_xlabel("time (min)")
 fig.tight_layout()
-# run as a script with GREYML_EXAMPLE_OUT set, the figure is also saved there
+# sphinx_gallery_start_ignore
+# as a script with $GREYML_EXAMPLE_OUT naming a folder, the figures are saved there too
 out = os.environ.get("GREYML_EXAMPLE_OUT")
 if out:
     path = os.path.join(out, "gmc_calibration.png")
     fig.savefig(path, dpi=100)
     print(f"\nplot written to {path}")
+# sphinx_gallery_end_ignore
+# sphinx_gallery_multi_image = "single"

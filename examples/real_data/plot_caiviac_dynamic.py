@@ -33,7 +33,6 @@ on both probes.
 """
 
 # %%
-import os
 import warnings
 
 import matplotlib.pyplot as plt
@@ -143,7 +142,10 @@ def report(results):
 # --------------------------
 # The vertical line is where the spindle stops.
 def plot_cycles(results):
-    fig, axes = plt.subplots(len(results), 1, figsize=(9, 11), sharex=True, layout="constrained")
+    fig, grid = plt.subplots(3, 2, figsize=(12, 9.5), layout="constrained")
+    axes = grid.ravel()
+    for ax in axes[len(results) :]:
+        ax.set_axis_off()
     for ax, r in zip(axes, results):
         ax.plot(r["hours"], r["measured"], color="k", label="measured")
         ax.plot(r["hours"], r["ttf"], label=f"transfer function ({r['rmse']:.1f} µm)")
@@ -152,9 +154,9 @@ def plot_cycles(results):
         )
         ax.axvline(4, color="grey", lw=0.5)
         ax.set_title(f"cycle {r['cycle']} held out, {SPEEDS[r['cycle']]} rpm", fontsize=9)
-        ax.set_ylabel("ch1 change (µm)")
+        ax.set_ylabel("ch1 from the cycle's start (µm)", fontsize=8)
         ax.legend(fontsize=7, loc="upper right")
-    axes[-1].set_xlabel("time from the cycle's start (h)")
+        ax.set_xlabel("time from the cycle's start (h)", fontsize=8)
     fig.suptitle("CAIVIAC/FL_THERMAL (MIT licence): each cycle predicted from the other four")
     return fig
 
@@ -220,9 +222,15 @@ else:
         "caiviac_dynamic_cycles.png": plot_cycles(results),
         "caiviac_dynamic_steps.png": plot_steps(full),
     }
+    # sphinx_gallery_start_ignore
+    # as a script with $GREYML_EXAMPLE_OUT naming a folder, the figures are saved there too
+    import os
+
     out = os.environ.get("GREYML_EXAMPLE_OUT")
     if out:
         for name, fig in figures.items():
             fig.savefig(os.path.join(out, name), dpi=100)
         print(f"plots written: {', '.join(figures)}")
+    # sphinx_gallery_end_ignore
     plt.show()
+# sphinx_gallery_multi_image = "single"

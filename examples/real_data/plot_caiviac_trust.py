@@ -26,7 +26,6 @@ from the recording's zero). Three views of cycle 5:
 """
 
 # %%
-import os
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -187,9 +186,15 @@ else:
         (changed, fixed, fixed_half, fixed_fired),
     ]
     figures = {"caiviac_trust.png": plot(hours, views)}
+    # sphinx_gallery_start_ignore
+    # as a script with $GREYML_EXAMPLE_OUT naming a folder, the figures are saved there too
+    import os
+
     out = os.environ.get("GREYML_EXAMPLE_OUT")
     if out:
         for name, fig in figures.items():
             fig.savefig(os.path.join(out, name), dpi=100)
         print(f"plots written: {', '.join(figures)}")
+    # sphinx_gallery_end_ignore
     plt.show()
+# sphinx_gallery_multi_image = "single"

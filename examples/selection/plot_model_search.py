@@ -53,14 +53,8 @@ would remove that bias, at 6 times the cost.
 """
 
 # %%
-import os
 import time
 import warnings
-
-import matplotlib
-
-if not os.environ.get("MPLBACKEND"):
-    matplotlib.use("Agg")
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -276,10 +270,15 @@ for ax_t in axes[-1]:
 for ax_t in axes[:, 0]:
     ax_t.set_ylabel("dy (µm)", fontsize=8)
 
-# run as a script with GREYML_EXAMPLE_OUT set, the figure is also saved there
+# sphinx_gallery_start_ignore
+# as a script with $GREYML_EXAMPLE_OUT naming a folder, the figures are saved there too
+import os  # noqa: E402
+
 out = os.environ.get("GREYML_EXAMPLE_OUT")
 if out:
     path = os.path.join(out, "model_search.png")
     fig.savefig(path, dpi=100)
     print(f"\nplot written to {path}")
+# sphinx_gallery_end_ignore
 plt.show()
+# sphinx_gallery_multi_image = "single"

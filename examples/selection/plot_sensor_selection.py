@@ -40,12 +40,6 @@ What comes out:
 """
 
 # %%
-import os
-
-import matplotlib
-
-if not os.environ.get("MPLBACKEND"):
-    matplotlib.use("Agg")
 
 from collections import Counter
 
@@ -254,11 +248,16 @@ for k, ax in enumerate(axes2):
         ax.legend(fontsize=7, loc="lower right")
 axes2[0].set_ylabel(f"rise on Test {TRAIN}, scaled")
 
-# run as a script with GREYML_EXAMPLE_OUT set, the figures are also saved there
+# sphinx_gallery_start_ignore
+# as a script with $GREYML_EXAMPLE_OUT naming a folder, the figures are saved there too
+import os  # noqa: E402
+
 out = os.environ.get("GREYML_EXAMPLE_OUT")
 for name, figure in (("sensor_selection.png", fig), ("sensor_groups.png", fig2)):
     if out:
         path = os.path.join(out, name)
         figure.savefig(path, dpi=100)
         print(f"plot written to {path}")
+# sphinx_gallery_end_ignore
 plt.show()
+# sphinx_gallery_multi_image = "single"

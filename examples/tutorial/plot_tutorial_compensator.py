@@ -55,7 +55,7 @@ from sklearn.linear_model import RidgeCV
 from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import StandardScaler
 
-from greyml import ThermalTransferFunction, test_ids
+from greyml import ThermalTransferFunction, groups_of
 from greyml.cli import main as greyml_command
 from greyml.datasets import caiviac_candidates, make_tests
 from greyml.io import read_tests_csv
@@ -114,11 +114,11 @@ else:
 frame = read_tests_csv(path, test_column="cycle")
 scratch.cleanup()
 
-cycles = np.asarray(test_ids(frame))
+cycles = np.asarray(groups_of(frame))
 frame = frame[
     np.isin(cycles, ["1", "2", "3", "4", "5"])
 ]  # a longer log: its first five
-cycles = np.asarray(test_ids(frame))
+cycles = np.asarray(groups_of(frame))
 clock_h = frame.index.get_level_values("time_s").to_numpy() / 3600.0
 sensors = [c for c in frame.columns if c.endswith("_C")]
 print(f"{len(frame):,} rows, {len(sensors)} temperatures, every 15 s")

@@ -46,14 +46,18 @@ def _real_tuple(values):
 
 
 class LagFeatures(TransformerMixin, BaseEstimator):
-    """First-order thermal lags of chosen columns, for a bank of time constants.
+    r"""First-order thermal lags of chosen columns, for a bank of time constants.
 
-    For each chosen column x and each time constant τ (in seconds), the lag
+    For each chosen column :math:`x` and each time constant :math:`\tau` (in
+    seconds), the lag
 
-        s_k = a_k · s_{k−1} + (1 − a_k) · x_k,    a_k = exp(−Δt_k / τ),
+    .. math::
 
-    with Δt_k the step from the previous row, read from the ``time_s`` level of
-    the row index (greyml's ``(test, time_s)`` layout, see
+        s_k = a_k\, s_{k-1} + (1 - a_k)\, x_k, \qquad
+        a_k = e^{-\Delta t_k / \tau},
+
+    with :math:`\Delta t_k` the step from the previous row, read from the
+    ``time_s`` level of the row index (greyml's ``(test, time_s)`` layout, see
     :func:`greyml.make_test_index`). The lag is exact for an input held
     between samples, and right for uneven sampling. A displacement that
     follows its heat sources through a few time constants is close to linear
@@ -170,14 +174,17 @@ class LagFeatures(TransformerMixin, BaseEstimator):
 
     Examples
     --------
-    The spindle starts at 3000 rpm; its lag with τ = 5 min covers 1 − e^−1 of
-    the way in each 5 min step:
+    The spindle starts at 3000 rpm; its lag with :math:`\tau` = 5 min covers
+    :math:`1 - e^{-1}` of the way in each 5 min step:
 
     >>> import pandas as pd
     >>> from greyml import LagFeatures, make_test_index
+    >>> index = make_test_index(["I"] * 4, [0, 300, 600, 900])
     >>> X = pd.DataFrame(
-    ...     {"T1_C": [20.0, 21.0, 21.0, 21.0], "spindle_rpm": [0, 3000, 3000, 3000.0]},
-    ...     index=make_test_index(["I"] * 4, [0, 300, 600, 900]))
+    ...     {"T1_C": [20.0, 21.0, 21.0, 21.0],
+    ...      "spindle_rpm": [0.0, 3000.0, 3000.0, 3000.0]},
+    ...     index=index,
+    ... )
     >>> lags = LagFeatures([300, 3600], columns=["spindle_rpm"]).fit(X)
     >>> list(lags.get_feature_names_out())
     ['T1_C', 'spindle_rpm', 'spindle_rpm|lag 5 min', 'spindle_rpm|lag 1 h']

@@ -77,55 +77,26 @@ class ThermalTransferFunction(
     RegressorMixin,
     BaseEstimator,
 ):
-    """Displacement as a sum of each input's first-order thermal responses.
+    r"""Displacement as a sum of each input's first-order thermal responses.
 
-    Every input reaches the displacement through a transfer function of its
-    own: a static gain (what moves at once) plus one gain per first-order lag
-    ``s_k = a_k s_{k-1} + (1 - a_k) x_k``, ``a_k = exp(-Δt_k / τ)``, for a bank
-    of time constants τ. Drivers (columns the controller knows, such as the
-    spindle speed) enter with their powers (``n`` and ``n²`` by default:
-    bearing friction heat grows faster than linearly with speed) and a slower
-    extra lag; every other column is a temperature sensor. This is the
-    structure of the thermal transfer functions that Mareš, Horejš et al.
-    (2020) identify per heat source and run in real time in the CNC.
+    Every input :math:`x` reaches the displacement through a static gain and
+    one gain per first-order lag of it, for a bank of time constants
+    :math:`\tau` (seconds):
 
-    For fixed time constants the model is linear in its gains: they are one
-    ridge regression on the standardised lag features. Everything else is
-    chosen inside ``fit`` on whole held-out tests (leave one test out) when
-    ``fit`` has three tests or more, never on rows of a test being predicted:
+    .. math::
 
-    * the ridge penalty, from ``alphas``;
-    * with ``max_sensors``, which temperature sensors: **forward selection**
-      of whole sensors (a sensor's static term and all its lags enter
-      together), each step adding the sensor that lowers the mean held-out
-      RMSE most, then keeping the shortest list (up to ``max_sensors``)
-      whose mean held-out RMSE is within one standard error (over the
-      held-out tests) of the lowest, the one-standard-error rule of Breiman
-      et al. (1984): with a handful of tests, smaller differences are noise
-      (and never within less than one part in a million of the first step's
-      RMSE, so that rounding never adds a sensor). Forward selection rather
-      than a group
-      lasso because it scores exactly what is asked (held-out error of whole
-      tests with a hard budget of sensors), its penalty does not shrink the
-      gains that are kept, and with per-test Gram matrices a step costs only
-      small linear solves;
-    * with ``time_constants="fit"``, the time constants (variable
-      projection: a Nelder–Mead search over their logarithms, the gains
-      solved for each candidate), after the sensors are chosen on the bank.
+        s_k = a_k\, s_{k-1} + (1 - a_k)\, x_k, \qquad
+        a_k = e^{-\Delta t_k / \tau},
 
-    ``selection="stable"`` (four tests or more) repeats the forward selection
-    without each test in turn and keeps the sensors that at least half of the
-    runs chose (stability selection, Meinshausen and Bühlmann (2010)): fewer
-    sensors that fit one test's peculiarities.
-
-    With fewer than three tests the penalty and the sensors are chosen by
-    training error (which favours the smallest penalty), and
-    ``time_constants="fit"`` keeps the default bank: there is no whole test
-    to hold out that leaves two to fit.
-
-    The time constants' search starts from the given driver lags and the
-    default sensor bank, and fits the drivers' and the chosen sensors' lags
-    (a shared bank for the sensors).
+    with :math:`\Delta t_k` the step from the previous row. Drivers (columns
+    the controller knows, such as the spindle speed) enter with their powers
+    (:math:`n` and :math:`n^2` by default: bearing friction heat grows faster
+    than linearly with speed) and a slower extra lag; every other column is a
+    temperature sensor. The gains are one ridge regression; the
+    penalty, the sensors (``max_sensors``) and, on request, the time
+    constants are chosen inside ``fit`` on whole held-out tests (see Notes).
+    This is the structure of the thermal transfer functions that Mareš,
+    Horejš et al. (2020) identify per heat source and run in the CNC.
 
     Read more in the :ref:`User Guide <ug-thermal-transfer-function>`.
 
@@ -279,7 +250,44 @@ class ThermalTransferFunction(
 
     Notes
     -----
-    Without a ``time_s`` index level the rows are taken as
+    **What fit chooses.** For fixed time constants the model is linear in its
+    gains: they are one ridge regression on the standardised lag features.
+    Everything else is chosen inside ``fit`` on whole held-out tests (leave
+    one test out) when ``fit`` has three tests or more, never on rows of a
+    test being predicted:
+
+    * the ridge penalty, from ``alphas``;
+    * with ``max_sensors``, which temperature sensors: **forward selection**
+      of whole sensors (a sensor's static term and all its lags enter
+      together), each step adding the sensor that lowers the mean held-out
+      RMSE most, then keeping the shortest list (up to ``max_sensors``)
+      whose mean held-out RMSE is within one standard error (over the
+      held-out tests) of the lowest, the one-standard-error rule of Breiman
+      et al. (1984): with a handful of tests, smaller differences are noise
+      (and never within less than one part in a million of the first step's
+      RMSE, so that rounding never adds a sensor). Forward selection rather
+      than a group lasso because it scores exactly what is asked (held-out
+      error of whole tests with a hard budget of sensors), its penalty does
+      not shrink the gains that are kept, and with per-test Gram matrices a
+      step costs only small linear solves;
+    * with ``time_constants="fit"``, the time constants (variable
+      projection: a Nelder–Mead search over their logarithms, the gains
+      solved for each candidate), after the sensors are chosen on the bank.
+      The search starts from the given driver lags and the default sensor
+      bank, and fits the drivers' and the chosen sensors' lags (a shared
+      bank for the sensors).
+
+    ``selection="stable"`` (four tests or more) repeats the forward selection
+    without each test in turn and keeps the sensors that at least half of the
+    runs chose (stability selection, Meinshausen and Bühlmann (2010)): fewer
+    sensors that fit one test's peculiarities.
+
+    With fewer than three tests the penalty and the sensors are chosen by
+    training error (which favours the smallest penalty), and
+    ``time_constants="fit"`` keeps the default bank: there is no whole test
+    to hold out that leaves two to fit.
+
+    **Time.** Without a ``time_s`` index level the rows are taken as
     ``sample_interval`` seconds apart (one second without it). A sampling gap
     longer than the largest time constant is refused: the lags would have
     forgotten everything before it.
@@ -314,14 +322,17 @@ class ThermalTransferFunction(
     A displacement that follows a heat source through a 15-minute lag, from a
     machine at rest (spindle on from minute 10 to minute 120):
 
-    >>> import numpy as np, pandas as pd
+    >>> import numpy as np
+    >>> import pandas as pd
     >>> from greyml import ThermalTransferFunction, make_test_index
     >>> t = np.arange(0.0, 4 * 3600, 60.0)
     >>> rpm = np.where((t >= 600) & (t < 2 * 3600), 3000.0, 0.0)
-    >>> lag = np.empty_like(rpm); s = 0.0
-    >>> for k, x in enumerate(rpm):
-    ...     s = np.exp(-60.0 / 900.0) * s + (1 - np.exp(-60.0 / 900.0)) * x; lag[k] = s
-    >>> X = pd.DataFrame({"spindle_rpm": rpm}, index=make_test_index(["I"] * t.size, t))
+    >>> a = np.exp(-60.0 / 900.0)  # one 60 s step of a 15 min lag
+    >>> lag = np.zeros_like(rpm)
+    >>> for k in range(1, rpm.size):
+    ...     lag[k] = a * lag[k - 1] + (1 - a) * rpm[k]
+    >>> index = make_test_index(["I"] * t.size, t)
+    >>> X = pd.DataFrame({"spindle_rpm": rpm}, index=index)
     >>> y = 0.002 * lag
     >>> model = ThermalTransferFunction(drivers=["spindle_rpm"]).fit(X, y)
     >>> float(np.abs(model.predict(X) - y).max()) < 0.05

@@ -28,13 +28,21 @@ class _TransferReadout:
 
     @property
     def selection_(self):
-        """The selection's path as a table (see the class's Attributes)."""
+        """Forward selection step by step, as a table: the sensor added, the mean
+        held-out RMSE and the penalty, one row per step (empty without
+        ``max_sensors``); with ``selection="stable"``, each sensor any run
+        chose and the share of runs that chose it.
+        """
         check_is_fitted(self)
         return pd.DataFrame(self._selection_path_, columns=self._selection_columns_)
 
     @property
     def gains_(self):
-        """Each input's gains as a table (see the class's Attributes)."""
+        """Each input's gains as a table: one row per input and power, one column
+        per term (``static``, ``lag 5 min`` and so on), each the weight of its
+        term in ``terms_`` (µm per unit of the input raised to the power, for a
+        displacement in µm).
+        """
         check_is_fitted(self)
         return self._gain_table()
 

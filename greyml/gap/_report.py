@@ -21,6 +21,8 @@ NOISE_RATIO = 1.5
 
 #: Units of greyml's column suffixes, for axis labels.
 _UNITS = {"um": "µm", "mm": "mm", "C": "°C", "ue": "µε"}
+#: the families of ``GapReport.where`` that :meth:`GapReport.plot` draws
+_FAMILIES = {"phase": "by phase", "time": "by time since start", "band": "by period"}
 
 
 def _plain(value):
@@ -429,25 +431,65 @@ class GapReport:
         return "\n".join(lines)
 
     def plot(self, axes=None):
-        """Gap over time by test (before and after), where it lies, and the ranking.
+        """The gap over time, where it lies, and the effects against the placebos.
+
+        Four panels: the gap (measured − simulated) of every test end to end
+        with what is left of it on held-out tests once the named effects are
+        added; its share by phase (by time since the start without drivers);
+        its share by period, or frequency band (each family's shares sum to 1);
+        and each effect's held-out shrinkage beside the best placebo of its
+        step, the bar an effect has to beat.
+
+        Parameters
+        ----------
+        axes : sequence of 4 matplotlib Axes, optional
+            Where to draw the four panels, in that order. ``None``: a new
+            figure, the gap over the full width above the three others.
 
         Returns
         -------
         fig : matplotlib Figure
         """
         import matplotlib.pyplot as plt
+        from matplotlib.patches import Patch
 
         if axes is None:
-            fig, axes = plt.subplots(1, 3, figsize=(14, 4), layout="constrained")
-        else:
-            fig = np.ravel(axes)[0].figure
-        ax_time, ax_where, ax_rank = np.ravel(axes)[:3]
+            fig, named = plt.subplot_mosaic(
+                [["time"] * 3, ["phase", "band", "rank"]],
+                figsize=(10, 6.5),
+                layout="constrained",
+                height_ratios=(1, 1.1),
+                width_ratios=(1, 1, 1.5),
+            )
+            axes = [named[k] for k in ("time", "phase", "band", "rank")]
+        axes = list(np.ravel(axes))
+        if len(axes) != 4:
+            raise ValueError(
+                "GapReport.plot: axes must hold 4 Axes (gap over time, phase, band, "
+                f"effects); got {len(axes)}."
+            )
+        fig = axes[0].figure
+        ax_time, ax_phase, ax_band, ax_rank = axes
+        unit = _UNITS.get(self.target.rpartition("_")[2], "target's unit")
         offset = 0.0
         for label, r in self.gap.groupby(level="test", sort=False):
             t = r.index.get_level_values("time_s").to_numpy() / 3600.0
             after = self.corrected.loc[r.index]
-            ax_time.plot(offset + t, r.to_numpy(), color="0.6", lw=1)
-            ax_time.plot(offset + t, after.to_numpy(), color="C3", lw=1)
+            first = offset == 0.0
+            ax_time.plot(
+                offset + t,
+                r.to_numpy(),
+                color="0.55",
+                lw=1,
+                label="gap: measured − simulated" if first else None,
+            )
+            ax_time.plot(
+                offset + t,
+                after.to_numpy(),
+                color="C3",
+                lw=1,
+                label="left after the named effects (held-out tests)" if first else None,
+            )
             ax_time.axvline(offset, color="0.85", lw=0.8)
             ax_time.text(
                 offset,
@@ -455,25 +497,49 @@ class GapReport:
                 f" {label}",
                 transform=ax_time.get_xaxis_transform(),
                 va="top",
-                fontsize=8,
+                fontsize="small",
             )
             offset += t[-1] + 0.5
-        unit = _UNITS.get(self.target.rpartition("_")[2], "target's unit")
-        ax_time.set(xlabel="time, tests end to end (h)", ylabel=f"gap of {self.target} ({unit})")
-        ax_time.set_title("held-out gap (grey), after the effects (red)", fontsize=10)
-        parts = self.where[self.where["by"].isin(["phase", "band"])]
-        ax_where.barh(
-            [f"{b}: {s}" for b, s in zip(parts["by"], parts["segment"])], parts["share"].to_numpy()
+        ax_time.axhline(0.0, color="0.7", lw=0.6)
+        ax_time.set(
+            xlabel="time, tests end to end (h, from each test's start)",
+            ylabel=f"{self.target} ({unit})",
         )
-        ax_where.set(xlabel="share of the squared gap (fraction)")
-        ax_where.set_title("where the gap lies", fontsize=10)
+        ax_time.legend(fontsize="small", loc="best")
+        ax_time.set_title(f"The gap of {self.target}, and what the named effects leave")
+        # the phases need drivers; without them, the time since each test's start
+        first = "phase" if (self.where["by"] == "phase").any() else "time"
+        for ax, by in ((ax_phase, first), (ax_band, "band")):
+            part = self.where[self.where["by"] == by]
+            ax.barh(part["segment"].astype(str).to_numpy()[::-1], part["share"].to_numpy()[::-1])
+            ax.set_xlim(0.0, 1.0)
+            ax.set_xlabel("share of the squared gap\n(sums to 1)")
+            ax.set_title(f"Gap {_FAMILIES[by]}")
         ranked = self.causes.dropna(subset=["shrinkage"])
-        colors = ["C3" if s else "0.6" for s in ranked["significant"]]
+        names = ranked["effect"].to_numpy()[::-1]
+        positions = np.arange(len(names))
         ax_rank.barh(
-            ranked["effect"].to_numpy()[::-1],
+            positions,
             ranked["shrinkage"].to_numpy()[::-1],
-            color=colors[::-1],
+            color=["C3" if s else "0.6" for s in ranked["significant"]][::-1],
         )
-        ax_rank.set(xlabel="held-out shrinkage (fraction of the RMSE)")
-        ax_rank.set_title("effects (red: significant)", fontsize=10)
+        placebo = ranked["placebo_shrinkage"].to_numpy(dtype=float)[::-1]
+        ax_rank.scatter(
+            placebo,
+            positions,
+            marker="|",
+            s=250,
+            color="k",
+            zorder=3,
+            label="best placebo",
+        )
+        ax_rank.set_yticks(positions, names)
+        ax_rank.axvline(0.0, color="0.5", lw=0.8)
+        ax_rank.set_xlabel("held-out shrinkage\n(1 − RMSE after / before)")
+        ax_rank.set_title("Effects")
+        handles = ax_rank.get_legend_handles_labels()[0] + [
+            Patch(color="C3", label="significant"),
+            Patch(color="0.6", label="not significant"),
+        ]
+        ax_rank.legend(handles=handles, fontsize="x-small", loc="lower right")
         return fig
