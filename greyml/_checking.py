@@ -1,12 +1,13 @@
 """Checking (validation) data for the learning models, taken the seeds' way.
 
-ANFIS (Abdulshahed et al. (2015), after MATLAB's ``anfis``) and the MLP (Abdulshahed et al. (2016), after
-MATLAB's ``trainlm``) keep the parameters of the epoch with the lowest error on
-*checking* data. With several tests, checking data must be whole tests: rows of
-a test are strongly autocorrelated, so rows held out from a test that is also
-trained on measure interpolation, not generalisation. With a single test the
-checking part is the end of that test (Abdulshahed et al. (2015) splits Test IV into training,
-checking and testing parts in time order).
+ANFIS (Abdulshahed et al. (2015), after MATLAB's ``anfis``) and the MLP
+(Abdulshahed et al. (2016), after MATLAB's ``trainlm``) keep the parameters of
+the epoch with the lowest error on *checking* data. With several tests,
+checking data must be whole tests: rows of a test are strongly autocorrelated,
+so rows held out from a test that is also trained on measure interpolation, not
+generalisation. With a single test the checking part is the end of that test
+(Abdulshahed et al. (2015) splits Test IV into training, checking and testing
+parts in time order).
 """
 
 from __future__ import annotations
@@ -24,7 +25,7 @@ def checking_split(segments: list[Segment], fraction: float, rng: np.random.Gene
     Parameters
     ----------
     segments : list of Segment
-        The tests, as :func:`greyml._sequences.test_segments` returns them.
+        The tests, as :func:`greyml._sequences.segments_by_test` returns them.
     fraction : float in [0, 1)
         Share of the data to hold out. 0 holds nothing out.
     rng : numpy.random.Generator

@@ -115,12 +115,13 @@ SEED_RESULTS = {
             "anfis-fcm": {"RMSE": "1.7 (a)", "band": "<=4", "improvement": "80-94"},
         },
         "notes": (
-            "Abdulshahed et al. (2015) gives per-test values in its Tables 6 and 7; the text that greyml "
-            "holds states only the bounds quoted here: both ANFIS models keep the residual "
-            "within ±5 µm on every validation test and improve accuracy by over 80 %; "
-            "ANFIS-FCM keeps it within ±4 µm, with up to 94 % improvement.",
-            "(a) ANFIS-FCM's RMSE is on the testing part of Test IV (Abdulshahed et al. (2015), Table 4), "
-            "not on the other tests.",
+            "Abdulshahed et al. (2015) gives per-test values in its Tables 6 and 7; the "
+            "text that greyml holds states only the bounds quoted here: both ANFIS models"
+            " keep the residual within ±5 µm on every validation test and improve "
+            "accuracy by over 80 %; ANFIS-FCM keeps it within ±4 µm, with up to 94 % "
+            "improvement.",
+            "(a) ANFIS-FCM's RMSE is on the testing part of Test IV "
+            "(Abdulshahed et al. (2015), Table 4), not on the other tests.",
             "Abdulshahed et al. (2015) reports no GMC, GNNMCI or MLP on this machine.",
         ),
     },
@@ -137,9 +138,9 @@ SEED_RESULTS = {
             "gmc": {"R": 0.83, "RMSE": 15.26, "E": 0.60, "band": 26.0},
         },
         "notes": (
-            "Abdulshahed et al.'s (2016) models use its five inputs FBG-1..4 and one temperature; its MLP "
-            "is a 5-10-1 network, its GMC is calibrated by least squares (GMC-LS). It "
-            "reports no improvement on the helical test and no ANFIS.",
+            "Abdulshahed et al.'s (2016) models use its five inputs FBG-1..4 and one "
+            "temperature; its MLP is a 5-10-1 network, its GMC is calibrated by least "
+            "squares (GMC-LS). It reports no improvement on the helical test and no ANFIS.",
         ),
     },
 }

@@ -14,7 +14,7 @@ import numpy as np
 import pandas as pd
 from sklearn.utils.validation import validate_data
 
-from greyml._sequences import TIME_LEVEL, Segment, has_test_index, segment_label, test_segments
+from greyml._sequences import TIME_LEVEL, Segment, has_test_index, segment_label, segments_by_test
 
 __all__ = [
     "validate_sequences",
@@ -261,7 +261,7 @@ def _check_constant(A, names, segments):
 
 def _segments_of(X, y):
     if has_test_index(X):
-        segments = test_segments(X)
+        segments = segments_by_test(X)
         if y is not None and has_test_index(y):
             if not np.array_equal(
                 np.asarray(X.index.get_level_values("test"), dtype=object),
@@ -273,7 +273,7 @@ def _segments_of(X, y):
                 )
         return segments
     if y is not None and has_test_index(y):
-        return test_segments(y)
+        return segments_by_test(y)
     return None
 
 

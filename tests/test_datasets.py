@@ -4,7 +4,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from greyml._sequences import test_segments as segments_of
+from greyml._sequences import segments_by_test
 from greyml.datasets import (
     caiviac_candidates,
     load_caiviac,
@@ -23,7 +23,7 @@ def test_loader_layout_and_determinism(loader):
     data = loader()
     frame = data.frame
     assert frame.index.names == ["test", "time_s"]
-    segments = segments_of(frame)
+    segments = segments_by_test(frame)
     assert [s.label for s in segments] == data.tests
     for seg in segments:
         assert frame.index.get_level_values("time_s")[seg.start] == 0.0
@@ -118,7 +118,7 @@ def test_caiviac_layout():
     assert data.tests == [f"cycle{k}" for k in range(1, 6)]
     assert frame.shape == (9631, 22)
     assert len(data.sensors) == 16 and data.targets == [f"ch{k}_um" for k in range(1, 6)]
-    for seg in segments_of(frame):
+    for seg in segments_by_test(frame):
         part = frame.iloc[seg.slice]
         assert part.index[0][1] == 0.0
         np.testing.assert_array_equal(part[data.targets].iloc[0].to_numpy(), 0.0)

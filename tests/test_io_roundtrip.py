@@ -125,7 +125,7 @@ def frames(draw):
     names = list(dict.fromkeys(draw(st.lists(text(), min_size=1, max_size=3))))
     if draw(st.integers(0, 19)) == 0:  # now and then a name twice
         names.append(names[0])
-    # times within ±1e307, so that the steps between them stay finite (test_segments
+    # times within ±1e307, so that the steps between them stay finite (segments_by_test
     # takes np.diff of the times, which overflows near the largest float)
     time = st.one_of(
         st.sampled_from([-0.0, 5e-324, -5e-324, 2.225073858507201e-308, 1e307, -1e307]),

@@ -7,7 +7,6 @@ from greyml import groups_of, make_test_index
 from greyml._sequences import Segment
 
 # an alias: pytest would collect a function named test_* imported here
-segments_of = seq.test_segments
 
 
 def frame(tests, times):
@@ -18,12 +17,12 @@ def frame(tests, times):
 
 
 def test_plain_array_is_one_test():
-    assert segments_of(np.zeros((5, 2))) == [Segment(None, 0, 5)]
+    assert seq.segments_by_test(np.zeros((5, 2))) == [Segment(None, 0, 5)]
 
 
 def test_segments_in_given_order():
     X = frame(["B", "B", "A", "A", "A"], [0, 10, 0, 10, 20])
-    assert segments_of(X) == [Segment("B", 0, 2), Segment("A", 2, 5)]
+    assert seq.segments_by_test(X) == [Segment("B", 0, 2), Segment("A", 2, 5)]
     assert groups_of(X).tolist() == ["B", "B", "A", "A", "A"]
 
 
@@ -33,14 +32,14 @@ def test_split_test_is_rejected():
         ValueError,
         match=r"Test 'A' appears in two separate runs of rows \(rows 0-1 and 3-3\)",
     ):
-        segments_of(X)
+        seq.segments_by_test(X)
 
 
 @pytest.mark.parametrize("times, word", [([0, 10, 10], "repeats"), ([0, 20, 10], "goes back")])
 def test_time_must_increase(times, word):
     X = frame(["A", "A", "A"], times)
     with pytest.raises(ValueError, match=f"Time does not increase within test 'A'.*{word}.*row 2"):
-        segments_of(X)
+        seq.segments_by_test(X)
 
 
 def test_missing_label():
@@ -49,7 +48,7 @@ def test_missing_label():
         index=pd.MultiIndex.from_arrays([["A", None], [0, 1]], names=["test", "time_s"]),
     )
     with pytest.raises(ValueError, match="missing test label at row 1"):
-        segments_of(X)
+        seq.segments_by_test(X)
 
 
 def test_index_survives_sklearn_indexing():
@@ -57,7 +56,7 @@ def test_index_survives_sklearn_indexing():
 
     X = frame(["A", "A", "B", "B"], [0, 10, 0, 10])
     sub = _safe_indexing(X, np.array([2, 3]))
-    assert segments_of(sub) == [Segment("B", 0, 2)]
+    assert seq.segments_by_test(sub) == [Segment("B", 0, 2)]
 
 
 def test_no_public_name_is_collected_by_pytest_and_the_old_name_still_works():

@@ -443,7 +443,7 @@ def test_held_out_spread_is_the_standard_error_of_the_refits(data):
     rmses = _refit_rmses(X, noisy)
     F = model._design(
         X.to_numpy(),
-        model._timeline(X, __import__("greyml")._sequences.test_segments(X), model.gap_limit_s_),
+        model._timeline(X, __import__("greyml")._sequences.segments_by_test(X), model.gap_limit_s_),
         [(i * 360, (i + 1) * 360) for i in range(4)],
         model._spec_,
         model._groups_,

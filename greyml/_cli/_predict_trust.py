@@ -90,7 +90,7 @@ def read_probes(path, csv_options, target, frame, data):
     """
     import numpy as np
 
-    from greyml._sequences import test_segments
+    from greyml._sequences import segments_by_test
 
     probes = _read(path, csv_options)
     if target not in probes.columns:
@@ -101,7 +101,7 @@ def read_probes(path, csv_options, target, frame, data):
         )
     _require_values(probes, [target], path, "probe reading")
     times = frame.index.get_level_values("time_s").to_numpy(dtype=float)
-    spans = {str(seg.label): (seg.start, seg.stop) for seg in test_segments(frame)}
+    spans = {str(seg.label): (seg.start, seg.stop) for seg in segments_by_test(frame)}
     order = {label: k for k, label in enumerate(spans)}
     values = probes[target].to_numpy(dtype=float)
     readings, last = [], None
@@ -200,7 +200,7 @@ def replay(estimator, X, readings, *, params, coverage, tolerance, bound):
     """
     import numpy as np
 
-    from greyml._sequences import test_segments
+    from greyml._sequences import segments_by_test
     from greyml.dynamic._time import timeline
 
     final = _final_step(estimator)
@@ -220,7 +220,7 @@ def replay(estimator, X, readings, *, params, coverage, tolerance, bound):
     comp.set_params(max_correction_um=min(bound, np.finfo(float).max))
     times = Xt.index.get_level_values("time_s").to_numpy(dtype=float)
     rows = np.column_stack([times, Xt.to_numpy(dtype=float)])
-    segments = test_segments(Xt)
+    segments = segments_by_test(Xt)
     carried = timeline(
         Xt,
         segments,

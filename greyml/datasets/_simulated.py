@@ -118,7 +118,8 @@ def bunch_from_frame(frame, *, sensors, targets, sensor_groups, description, inp
 
 
 def main_target(machine) -> str:
-    """The machine's main displacement: ``dy_um`` for the VMC of Abdulshahed et al. (2015), else ``dz_um``."""
+    """The machine's main displacement: ``dy_um`` for the VMC of Abdulshahed et al.
+    (2015), else ``dz_um``."""
     return "dy_um" if _machine(machine).name == "vmc" else "dz_um"
 
 

@@ -169,7 +169,7 @@ def timeline(X, segments, *, owner, tau_max, state, nominal=None, default_step=N
     inner[starts] = False
     index = X.index if isinstance(X, (pd.DataFrame, pd.Series)) else None
     if clocked and TEST_LEVEL not in (index.names or []):
-        # with a test level, test_segments has checked the time already
+        # with a test level, segments_by_test has checked the time already
         bad = np.flatnonzero(~np.isfinite(t) | (inner & ~(dt > 0)))
         if bad.size:
             k = int(bad[0])

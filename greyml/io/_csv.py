@@ -28,7 +28,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from greyml._sequences import TEST_LEVEL, TIME_LEVEL, make_test_index, test_segments
+from greyml._sequences import TEST_LEVEL, TIME_LEVEL, make_test_index, segments_by_test
 from greyml._validation import check_unique_columns
 from greyml.io._csv_numbers import _data_columns, _read_wide
 from greyml.io._csv_records import (
@@ -148,7 +148,7 @@ def check_test_frame(frame, *, what="The frame"):
                 f"Column {c!r} of {lower} is not numeric (non-numeric dtype {dtype}); every "
                 "data column must hold numbers."
             )
-    test_segments(frame)
+    segments_by_test(frame)
     return frame
 
 
@@ -527,7 +527,7 @@ def read_tests_csv(
     frame = data
     frame.index = make_test_index(labels.to_numpy(dtype=object), time.to_numpy())
     try:
-        test_segments(frame)
+        segments_by_test(frame)
     except ValueError as exc:
         if np.array_equal(lines.all(), np.arange(len(labels)) + 2):
             where = "row r of the data is line r + 2 of the file"

@@ -392,8 +392,8 @@ def vmc(measurement="ncdt"):
     """
     if measurement not in ("ncdt", "probe"):
         raise ValueError(
-            f"measurement must be 'ncdt' (Abdulshahed et al. (2015)) or 'probe' (Abdulshahed et al. (2017)); "
-            f"got {measurement!r}."
+            "measurement must be 'ncdt' (Abdulshahed et al. (2015)) or 'probe' "
+            f"(Abdulshahed et al. (2017)); got {measurement!r}."
         )
     names = tuple(_VMC_NODES)
     capacity = tuple(m * c for m, c in _VMC_NODES.values())

@@ -81,7 +81,8 @@ class Programme:
 
     Examples
     --------
-    Abdulshahed et al.'s (2015) Test IV: 4000 rpm for 120 min, 60 min pause, 120 min, 180 min stopped.
+    Abdulshahed et al.'s (2015) Test IV: 4000 rpm for 120 min, 60 min pause,
+    120 min, 180 min stopped.
 
     >>> p = (Programme(name="Test IV").run(120, spindle_rpm=4000).dwell(60)
     ...      .run(120, spindle_rpm=4000).dwell(180))
