@@ -122,47 +122,6 @@ def test_the_library_is_one_record_per_effect():
     assert needs["initial_state"] == ("sensors", "ambient") and needs["drift"] == ()
 
 
-def test_initial_states_placebo_gives_the_sensors_offsets_to_the_tests_at_random():
-    # the sensors' start offsets move together over the tests; the placebo
-    # keeps that (the mean over tests and the cross products of the
-    # deviations of every variant) and draws which test has which deviation,
-    # instead of an unrelated random offset per sensor
-    from greyml.gap._effects import library_effects, tau_grid
-    from greyml.gap._prepare import prepare
-
-    frame = _tests()
-    real, sim = _with_gap(frame, _gap_of("initial_state", frame))
-    _, ctx, _ = prepare(
-        real,
-        sim,
-        None,
-        target="dz_um",
-        ambient="ambient_C",
-        drivers=["spindle_rpm"],
-        sensors=["T1_C", "T2_C", "T3_C"],
-        fbgs=(),
-    )
-    (effect,) = library_effects(["initial_state"])
-    cand = effect.build(ctx, tau_grid(ctx.dt, ctx.durations))
-    starts = [a for a, _ in BOUNDS]
-    rng = np.random.default_rng(0)
-    draws = [cand.placebo(rng).values for _ in range(2)]
-    own = cand.get_bank().values
-    # at each test's last row (all tests are as long) the slowest relaxation
-    # is one factor times the offsets: as (test, variant) matrices
-    ends = [b - 1 for _, b in BOUNDS]
-    offsets = own[ends, :, -1]
-    for drawn in draws:
-        mine = drawn[ends, :, -1]
-        assert np.allclose(mine.mean(axis=0), offsets.mean(axis=0))
-        d, e = mine - mine.mean(axis=0), offsets - offsets.mean(axis=0)
-        assert np.allclose(d.T @ d, e.T @ e)
-        assert not np.allclose(mine, offsets)
-        # through the same relaxations, from 0 at each test's start
-        assert np.allclose(drawn[starts], 0.0)
-    assert not np.allclose(draws[0], draws[1])
-
-
 def test_a_pair_is_named_when_neither_effect_is_alone():
     # the air and a drift, each too small to beat the placebos alone
     frame = _tests(seed=4)
@@ -193,9 +152,9 @@ def test_a_spike_is_one_event():
     from greyml.gap._events import locate_events
 
     times = report.gap.index.get_level_values("time_s").to_numpy(dtype=float)
-    event = locate_events(report.gap.to_numpy(), BOUNDS, times, [DT] * N_TESTS, report.noise_floor)[
-        0
-    ]
+    event = locate_events(
+        report.gap.to_numpy(), BOUNDS, times, [DT] * N_TESTS, report.noise_floor
+    )[0]
     assert event.kind == "spike" and event.row == 2 * N + 200
     assert event.last_row == pytest.approx(2 * N + 219, abs=2)
 

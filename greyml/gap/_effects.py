@@ -385,59 +385,21 @@ def _initial_state(effect, ctx, grid):
         grid,
         grid,
     )
-    per_test = offset[[a for a, _ in ctx.bounds]]
-    cand.placebo = partial(_offset_placebo, per_test, shapes, ctx.bounds, picks)
+    cand.placebo = partial(_offset_placebo, shapes, ctx.bounds, len(names), picks)
     return cand
 
 
-def rotate_between_tests(per_test, rng):
-    """Per-test values given to the tests at random, as free as they are.
-
-    ``per_test`` (T, V) holds one value per test and variant. What all tests
-    share (the mean over tests of each variant) is kept; the deviations from
-    it are turned by a random rotation of the T − 1 contrasts between tests
-    (uniform over rotations, Mezzadri (2007)). The variants keep their
-    relations to one another (the same mean and the same cross products of
-    deviations), so that offsets that move together, as a machine's sensors
-    do, stay as few independent choices as they are; which test has which
-    deviation is drawn.
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> offsets = np.array([[0.0, 1.0], [2.0, 5.0], [1.0, 3.0], [3.0, 7.0]])
-    >>> drawn = rotate_between_tests(offsets, np.random.default_rng(0))
-    >>> np.allclose(drawn.mean(axis=0), offsets.mean(axis=0))
-    True
-    >>> d, e = drawn - drawn.mean(axis=0), offsets - offsets.mean(axis=0)
-    >>> np.allclose(d.T @ d, e.T @ e), np.allclose(drawn, offsets)
-    (True, False)
-    """
-    T = per_test.shape[0]
-    mean = per_test.mean(axis=0)
-    # an orthonormal basis of the contrasts (orthogonal to all-ones)
-    contrasts = np.linalg.qr(np.column_stack([np.ones(T), np.eye(T)[:, : T - 1]]))[0][:, 1:]
-    q, r = np.linalg.qr(rng.standard_normal((T - 1, T - 1)))
-    turn = contrasts @ (q * np.sign(np.diag(r))) @ contrasts.T
-    return mean + turn @ (per_test - mean)
-
-
-def _offset_placebo(per_test, shapes, bounds, picks, rng):
-    """``initial_state``'s placebo: the start offsets given to the tests at random.
+def _offset_placebo(shapes, bounds, n_variants, picks, rng):
+    """``initial_state``'s placebo: random start offsets through the same relaxations.
 
     Any smooth gap that starts at 0 in each test is fitted in part by some
     per-test amplitude times a relaxation; the effect is credited only if the
-    offsets the sensors give do better than offsets as free as theirs, drawn
-    by :func:`rotate_between_tests`, through the same relaxations. The
-    sensors' offsets move together (nearly one direction over the tests);
-    independent random offsets per sensor would give a placebo a choice among
-    as many unrelated amplitudes as there are sensors, which the effect does
-    not have.
+    offsets the sensors give do better than as many random ones (one per
+    test and variant).
     """
-    drawn = rotate_between_tests(per_test, rng)
-    offset = np.empty((shapes.shape[0], per_test.shape[1]))
-    for t, (start, stop) in enumerate(bounds):
-        offset[start:stop] = drawn[t]
+    offset = np.empty((shapes.shape[0], n_variants))
+    for start, stop in bounds:
+        offset[start:stop] = rng.standard_normal(n_variants)
     return Bank(offset[:, :, None] * shapes, picks)
 
 
