@@ -150,7 +150,15 @@ def test_caiviac_events_at_spindle_speed_changes_are_labelled(tmp_path, capsys):
     gap = ["gap", data, str(pred), "--target", "ch1_um", "--drivers", "spindle_rpm"]
     code, out, err = _run(capsys, [*gap, "--random-state", "0", "--json", str(report), *common])
     assert code == 0, err
-    events = json.loads(report.read_text(encoding="utf-8"))["events"]
+    saved = json.loads(report.read_text(encoding="utf-8"))
+    events = saved["events"]
+    # given only a driver, the effects that need sensors or an air column are
+    # listed as not tried, with the columns they need, in the JSON and the text
+    assert set(saved["not_tried"]) == {"ambient", "sensor_lag", "initial_state", "fbg_temperature"}
+    assert "the ambient column" in saved["not_tried"]["ambient"]
+    assert "temperature sensor columns" in saved["not_tried"]["sensor_lag"]
+    not_tried = [line for line in out.splitlines() if line.startswith("Not tried: ")]
+    assert len(not_tried) == 1 and all(e in not_tried[0] for e in saved["not_tried"])
     frame = pd.read_csv(data)
     switches = frame["time_s"].to_numpy()[np.flatnonzero(np.diff(frame["spindle_rpm"])) + 1]
     labelled = [e for e in events if e["at_driver_change"] == "spindle_rpm"]

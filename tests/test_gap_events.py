@@ -119,6 +119,28 @@ def test_opposite_steps_close_together_are_one_spike():
     assert re.search(r"a spike of -(1|0\.9\d*) until time_s=8340 ", spike.describe())
 
 
+def test_a_20_min_dip_at_5_min_rows_is_one_spike_from_its_first_row():
+    # four rows low on a smooth lag (a door open for 20 min, read every 5 min):
+    # each edge alone is one row, which a bend of the smooth part mimics, so
+    # the dip is sought as one; found edge by edge, the drop of test 7 was
+    # missed and its return taken for a step 24 min late
+    dt = 300.0
+    t = dt * np.arange(int(6 * 3600 / dt))
+    rng = np.random.default_rng(5)
+    parts, starts = [], []
+    for k in range(10):
+        start = 60.0 * int(rng.integers(60, 300))  # a whole minute, 1-5 h in
+        starts.append(start)
+        dip = np.where((t >= start) & (t < start + 1200.0), 1.0, 0.0) * rng.choice([-1.0, 1.0])
+        parts.append(_smooth(t, 100 + k, 20 * NOISE) + dip + NOISE * rng.standard_normal(t.size))
+    events = _locate(np.concatenate(parts), dt, 10)
+    assert [e.test for e in events] == [str(k) for k in range(10)]
+    for event, start in zip(events, starts):
+        first = dt * np.ceil(start / dt)  # the first row of the dip
+        assert (event.kind, event.time_s, event.end_s) == ("spike", first, first + 900.0)
+        assert abs(event.size) == pytest.approx(1.0, abs=0.25)
+
+
 def test_an_event_is_a_frozen_record():
     event = Event(test="A", time_s=60.0, kind="step", size=1.0, z=9.0)
     with pytest.raises(dataclasses.FrozenInstanceError):

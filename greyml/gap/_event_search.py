@@ -4,8 +4,9 @@ The kernels of :mod:`greyml.gap._events` (which states the method): the
 smooth part of a test is a cubic spline plus bends; steps (ramps completed
 within the step time) and bends are scanned at every row in closed form
 from running sums of an orthonormal basis of the design and of the
-residual, added one at a time, and each step is tested against the slower
-changes that could stand for it. Pure array functions; ``settings`` is an
+residual, added one at a time (where a step time holds one row, a spike's
+two edges also as one), and each step is tested against the slower changes
+that could stand for it. Pure array functions; ``settings`` is an
 :class:`~greyml.gap._events.EventSettings`.
 """
 
@@ -166,11 +167,16 @@ def _greedy(x, basis, g, dt, lo, hi, per_row, quantum, settings, masked):
     smooth explanation (two heat-source switches, an on and an off) is
     preferred. Bends are at least ``BEND_APART`` step times apart, so that
     two of them cannot pass for a step. Steps are not sought at ``masked``
-    rows.
+    rows. Where a step time holds one row (``g == 1``), a spike of whole
+    rows (:func:`_best_pulse`) also competes, both its edges added at once.
+
+    Returns the ramps (end row, jump row or None), the bends' rows and the
+    spikes taken as one (first row, row back), whose rows are among the
+    ramps'.
     """
     n = x.size
     reach = max(1, int(round(0.5 * knot_spacing(settings, dt) / dt)))
-    ramps, bends = [], []
+    ramps, bends, pulses = [], [], []
     while len(ramps) < MAX_EVENTS_PER_TEST:
         columns = [_step_column(n, s, g) for s in ramps] + [_hinge(n, j) for j in bends]
         q, e = _project(x, np.column_stack([basis, *columns]))
@@ -192,19 +198,33 @@ def _greedy(x, basis, g, dt, lo, hi, per_row, quantum, settings, masked):
             score[np.abs(k - chosen) <= g] = -np.inf
         best = int(np.argmax(score))
         step_gain = size[best] ** 2 * den[best] if np.isfinite(score[best]) else 0.0
+        # where a step time holds one row, each edge of a spike is one row,
+        # which a bend of the smooth part mimics: the spike is sought as one,
+        # and taken when it explains clearly more than one step (by ABRUPT_Z²
+        # noise variances) or no step passes, and more than any bend
+        pulse = None
+        if g == 1:
+            pulse = _best_pulse(q, e, dt, lo, hi, per_row, quantum, settings, ramps, masked)
+            clearly = (ABRUPT_Z * per_row) ** 2
+            if pulse is not None and score[best] > settings.z and pulse[2] - step_gain <= clearly:
+                pulse = None
         if len(bends) < MAX_BENDS_PER_TEST:
             j, gain = _scan_bends(q, e, lo, hi)
             for chosen in bends:
                 gain[np.abs(j - chosen) < BEND_APART * g] = 0.0
             bend = int(np.argmax(gain))
-            if gain[bend] > max(step_gain, (BEND_Z * per_row) ** 2):
+            if gain[bend] > max(step_gain, pulse[2] if pulse else 0.0, (BEND_Z * per_row) ** 2):
                 bends.append(int(j[bend]))
                 continue
-            if score[best] > settings.z:
+            if pulse is None and score[best] > settings.z:
                 local = _smoother(q, e, j, gain, int(k[best]), g, reach, lo, hi)
                 if local is not None and local[1] >= step_gain:
                     bends.append(local[0])
                     continue
+        if pulse is not None:
+            ramps.extend([(pulse[0], pulse[0]), (pulse[1], pulse[1])])
+            pulses.append(pulse[:2])
+            continue
         if not score[best] > settings.z:
             break
         kb = int(k[best])
@@ -216,7 +236,41 @@ def _greedy(x, basis, g, dt, lo, hi, per_row, quantum, settings, masked):
         rows, jumps = _gains(q, e, 1, kb - g + 1, kb + 1)
         jump = int(rows[np.argmax(jumps)]) if rows.size else kb
         ramps.append((kb, jump if rows.size and jumps.max() >= step_gain else None))
-    return ramps, bends
+    return ramps, bends, pulses
+
+
+def _best_pulse(q, e, dt, lo, hi, per_row, quantum, settings, ramps, masked):
+    """The best spike of whole rows given the design: (first row, row back, gain), or None.
+
+    A spike leaves at row k and is back at row k + w, w rows within the
+    spike time: the column H_k − H_{k+w}, scanned at every k and w in closed
+    form like a step (:func:`_scan`). Only one whose size, less one quantum,
+    passes ``settings.z`` standard errors counts; rows within one row of a
+    step already found are not tried.
+    """
+    tail_q = np.cumsum(q[::-1], axis=0)[::-1]  # Q'H_m
+    tail_e = np.cumsum(e[::-1])[::-1]
+    chosen = np.array([c for c, _ in ramps], dtype=np.intp)
+    best = None
+    for w in range(1, int(settings.spike_s // dt) + 1):
+        k = np.arange(lo, hi - w)
+        if not k.size:
+            break
+        qp = tail_q[k] - tail_q[k + w]
+        den = w - np.einsum("ij,ij->i", qp, qp)
+        ok = (den > 1e-9 * w) & ~masked[k] & ~masked[k + w]
+        for c in chosen:
+            ok &= (np.abs(k - c) > 1) & (np.abs(k + w - c) > 1)
+        if not ok.any():
+            continue
+        den = np.where(ok, den, 1.0)
+        size = (tail_e[k] - tail_e[k + w]) / den
+        z = np.where(ok, (np.abs(size) - quantum) * np.sqrt(den) / per_row, -np.inf)
+        i = int(np.argmax(z))
+        gain = float(size[i] ** 2 * den[i])
+        if z[i] > settings.z and (best is None or gain > best[2]):
+            best = (int(k[i]), int(k[i] + w), gain)
+    return best
 
 
 def _step_column(n, step, g):
@@ -318,7 +372,7 @@ def steps_in_test(x, t, dt, floor, quantum, correlation, settings):
     masked = np.zeros(n + 1, dtype=bool)
     smooth = basis
     for _ in range(MAX_EVENTS_PER_TEST):
-        ramps, bends = _greedy(x, basis, g, dt, lo, hi, per_row, quantum, settings, masked)
+        ramps, bends, pulses = _greedy(x, basis, g, dt, lo, hi, per_row, quantum, settings, masked)
         smooth = np.column_stack([basis] + [_hinge(n, j) for j in bends])
         # a change that takes longer than the step time is not a step: leave
         # it (and its neighbours) out, and look again without it
@@ -337,10 +391,13 @@ def steps_in_test(x, t, dt, floor, quantum, correlation, settings):
             continue
         others = [_step_column(n, r, g) for j, r in enumerate(ramps) if j != i]
         rows.append(_refine(x, np.column_stack([basis, *others]), k, g))
-    # the joint fit: drop the weakest step until every one holds
-    while rows:
-        steps = np.column_stack([(np.arange(n) >= m).astype(float) for m in rows])
-        design = np.column_stack([basis, steps])
+    # the joint fit: drop the weakest event until every one holds; a spike
+    # sought as one is one column (the gap leaves and comes back by one height)
+    groups = _groups(rows, pulses)
+    index = np.arange(n)
+    while groups:
+        columns = [_event_column(index, m) for m in groups]
+        design = np.column_stack([basis, *columns])
         coef, *_ = np.linalg.lstsq(design, x, rcond=None)
         cov = np.linalg.pinv(design.T @ design)
         sizes = coef[basis.shape[1] :]
@@ -348,6 +405,24 @@ def steps_in_test(x, t, dt, floor, quantum, correlation, settings):
         z = (np.abs(sizes) - quantum) / se
         weakest = int(np.argmin(z))
         if z[weakest] > settings.z:
-            return sorted(zip(rows, sizes.tolist(), z.tolist()))
-        rows.pop(weakest)
+            out = []
+            for m, size, zm in zip(groups, sizes.tolist(), z.tolist()):
+                out += [(m[0], size, zm)] + ([(m[1], -size, zm)] if len(m) == 2 else [])
+            return sorted(out)
+        groups.pop(weakest)
     return []
+
+
+def _event_column(index, rows):
+    """A step's column (1 from its row on), or a spike's (1 from its first row to the row back)."""
+    column = (index >= rows[0]).astype(float)
+    if len(rows) == 2:
+        column[rows[1] :] = 0.0
+    return column
+
+
+def _groups(rows, pulses):
+    """The joint fit's columns: a spike sought as one is its two rows; any other row, a step."""
+    pairs = [tuple(p) for p in pulses if p[0] in rows and p[1] in rows]
+    paired = {m for p in pairs for m in p}
+    return pairs + [(m,) for m in rows if m not in paired]

@@ -22,6 +22,13 @@ or every 5 min gives the same events:
   a bend, placed over it) fits clearly better and leaves no abrupt part on
   top of it. At rows further apart than the step time, a change between two
   rows is a step as far as the rows can tell;
+- where a step time holds a single row (rows more than about 80 s apart
+  at the default 2 min), each edge of a spike is one row, which a bend of
+  the smooth part mimics as well; there a spike (the gap leaves at one row
+  and is back at a later row within the spike time) is also sought as one,
+  every row and width in closed form, and taken when it explains more than
+  any bend and clearly more than one step (by nine noise variances), its
+  two rows then fitted as one column, of one height;
 - the standard errors count the noise's own row-to-row correlation
   (:func:`~greyml.gap._noise.row_correlation`), up to one independent
   reading per step time: noise that a sensor averages is not averaged
