@@ -247,7 +247,3 @@ def keep_test_index(estimator, X, out, method="transform"):
         columns = estimator.get_feature_names_out()
         return pd.DataFrame(out, index=X.index, columns=columns)
     return out
-
-
-# the name before issue 30: a test module importing it would have pytest collect it
-test_segments = segments_by_test

@@ -15,7 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from greyml._sequences import segment_label, test_segments
+from greyml._sequences import segment_label, segments_by_test
 from greyml._validation import (
     MAX_INPUT,
     _upper_first,
@@ -227,7 +227,7 @@ def build_context(real, sim, *, target, ambient, drivers, sensors, fbgs):
                     f"The {role} column {name!r} is not in the measured data; its columns "
                     f"are {list(real.columns)}."
                 )
-    segments = test_segments(real)
+    segments = segments_by_test(real)
     small = [s for s in segments if s.n < 10]
     if small:
         n = small[0].n
@@ -292,7 +292,7 @@ def custom_specs(custom_effects, real, ctx):
     if custom_effects is None:
         return []
     out = []
-    segments = test_segments(real)
+    segments = segments_by_test(real)
     for name, spec in custom_effects.items():
         if not isinstance(name, str) or not name:
             raise TypeError(f"custom_effects= needs effect names as strings; got {name!r}.")

@@ -14,7 +14,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from greyml._sequences import test_segments
+from greyml._sequences import segments_by_test
 from greyml.gap._effects import recalibration_candidate
 from greyml.gap._events import EventSettings, event_columns, events_in
 from greyml.gap._fit import evaluate, fit_recalibration
@@ -52,7 +52,7 @@ class Start:
 def _recalibration(ctx, real, base, sensitivities, tolerance):
     """The simulation's parameters (or gain and timing) refitted within ``tolerance``."""
     if sensitivities is not None:
-        S, names = _sensitivity_design(sensitivities, real, ctx.index, test_segments(real))
+        S, names = _sensitivity_design(sensitivities, real, ctx.index, segments_by_test(real))
         recal = fit_recalibration(ctx.r, lambda s: S, [()], ctx.bounds, tolerance)
         mean = np.mean(recal.theta, axis=0)
         detail = "parameters refitted within ±{:.0%}: {}".format(

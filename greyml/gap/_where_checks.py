@@ -12,8 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from greyml._sequences import TEST_LEVEL, TIME_LEVEL, Segment, segment_label
-from greyml._sequences import test_segments as _test_segments  # not collected by pytest
+from greyml._sequences import TEST_LEVEL, TIME_LEVEL, Segment, segment_label, segments_by_test
 from greyml._validation import (
     MAX_INPUT,
     check_sampling_interval,
@@ -78,7 +77,7 @@ def _check_gap(r) -> tuple[np.ndarray, _Layout]:
             f"start of each test) and, for several tests, a {TEST_LEVEL!r} level; its "
             f"levels are {names}."
         )
-    segments = _test_segments(r)  # also checks that time increases within each test
+    segments = segments_by_test(r)  # also checks that time increases within each test
     time = np.asarray(r.index.get_level_values(TIME_LEVEL), dtype=np.float64)
     labels = np.empty(len(r), dtype=object)
     dt = np.empty(len(segments))
