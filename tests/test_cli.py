@@ -135,7 +135,9 @@ def test_null_case_has_no_cause(null_case, capsys):
     assert "No effect tried is supported by the held-out tests." in out
     # what was not tried is said, with the columns it would need
     assert data["not_tried"] == {"fbg_temperature": "needs an FBG target (the target among fbgs=)"}
-    assert "Not tried: fbg_temperature (needs an FBG target" in out
+    # in the command's words: the flag, not the Python keyword
+    assert "Not tried: fbg_temperature (needs an FBG target (the target among --fbgs))." in out
+    assert "fbgs=" not in out
 
 
 def _error(capsys, argv):

@@ -310,5 +310,22 @@ def _run_gap(args):
         # ASCII-only JSON reads back the same through any stdout encoding.
         sys.stdout.write(json.dumps(data, indent=2, allow_nan=False, ensure_ascii=True) + "\n")
         return flags.EXIT_OK
-    print(report)
+    print(_as_flags(str(report)))
     return flags.EXIT_OK
+
+
+#: How the report names what to give, and the flag that gives it here.
+_FLAGS = {
+    "(ambient=)": "(--ambient)",
+    "(drivers=)": "(--drivers)",
+    "(sensors=)": "(--sensors)",
+    "(the target among fbgs=)": "(the target among --fbgs)",
+    "(effects=)": "(--effects)",
+}
+
+
+def _as_flags(text):
+    """The report's text with the keyword arguments it suggests as this command's flags."""
+    for keyword, flag in _FLAGS.items():
+        text = text.replace(keyword, flag)
+    return text
