@@ -1,6 +1,6 @@
 """Cases built like real measurements: quantised probes, and one case at three row rates.
 
-The withheld-effect cases (:mod:`greyml.gap_validation._withheld`) read the probe with
+The withheld-effect cases (:mod:`greyml.gap_validation._cases`) read the probe with
 white noise at the simulator's row rate. Real recordings differ in two ways
 that the diagnosis must survive:
 
@@ -48,7 +48,7 @@ import pandas as pd
 from greyml.datasets import make_tests
 from greyml.datasets._simulated import _machine, main_target
 from greyml.gap._report import GapWarning
-from greyml.gap_validation._withheld import WithheldCase, _case, _simulated, random_tests
+from greyml.gap_validation._cases import WithheldCase, _case, _simulated, random_tests
 from greyml.simulation import door_openings
 
 __all__ = [
