@@ -6,16 +6,15 @@ name (or nothing, and it should stay silent). The diagnosis never imports
 this package.
 """
 
-from greyml.gap_validation._withheld import (
+from greyml.gap_validation._cases import (
     WITHHELD,
     WithheldCase,
-    WithheldValidation,
     perturb_parameters,
     random_tests,
     simulator_sensitivities,
-    validate_withheld,
     withheld_case,
 )
+from greyml.gap_validation._withheld import WithheldValidation, validate_withheld
 
 __all__ = [
     "WITHHELD",

@@ -26,24 +26,10 @@ from greyml.gap_validation._cases import (
     _EXTRA,
     CUSTOM_NAME,
     FOREIGN_NAME,
-    WITHHELD,
-    WithheldCase,
-    perturb_parameters,
-    random_tests,
-    simulator_sensitivities,
     withheld_case,
 )
 
-__all__ = [
-    "WITHHELD",
-    "WithheldCase",
-    "WithheldValidation",
-    "perturb_parameters",
-    "random_tests",
-    "simulator_sensitivities",
-    "validate_withheld",
-    "withheld_case",
-]
+__all__ = ["WithheldValidation", "validate_withheld"]
 
 
 def _rms(x):
