@@ -59,24 +59,17 @@ def _as_floats(text: pd.Series) -> pd.Series:
     ``float``, which is. Only a column pandas' reader could not read as
     numbers comes here."""
     try:
-        numbers = pd.to_numeric(text, errors="coerce").astype(float)
+        is_number = pd.to_numeric(text, errors="coerce").notna().to_numpy()
     except OverflowError:  # a Python int beyond 64 bits among the cells
-        numbers = pd.Series(
-            [
-                v
-                if isinstance(v, int)
-                else pd.to_numeric(pd.Series([v], dtype=object), errors="coerce").iloc[0]
-                for v in text
-            ],
-            index=text.index,
-            dtype=object,
-        ).notna()
-        numbers = pd.Series(np.where(numbers, 0.0, np.nan), index=text.index)
-    found = np.flatnonzero(numbers.notna().to_numpy())
-    if len(found):
-        numbers = numbers.copy()
-        numbers.iloc[found] = [_one_number(text.iloc[k]) for k in found]
-    return numbers
+        is_number = np.array([isinstance(v, int) or _numeric(v) for v in text], dtype=bool)
+    numbers = np.full(len(text), np.nan)
+    numbers[is_number] = [_one_number(v) for v in text[is_number]]
+    return pd.Series(numbers, index=text.index)
+
+
+def _numeric(value):
+    """Whether pandas reads the one cell ``value`` as a number."""
+    return bool(pd.notna(pd.to_numeric(pd.Series([value], dtype=object), errors="coerce").iloc[0]))
 
 
 def _one_number(value):
