@@ -146,10 +146,11 @@ class ThermalTransferFunction(
         features minus their first-row values, without intercept.
         ``"recording"``: the recording's own zero (the probe's datum), with an
         intercept; right for one recording cut into pieces, whose pieces start
-        where the previous one left off. ``"auto"``: ``"recording"`` when
-        every test continues the one before it (one recording) and the
-        displacement is not zero at every test's first row, else
-        ``"start"``. The choice is ``reference_``.
+        where the previous one left off. ``"auto"``: ``"recording"`` when the
+        tests are pieces of one recording (each starts on one clock after the
+        last row of the one before, directly or after a gap, where its lags
+        restart) and the displacement is not zero at every test's first row,
+        else ``"start"``. The choice is ``reference_``.
     alphas : sequence of float or None, default=None
         Ridge penalties per row of the standardised design; ``None``: 13
         values from 1e-6 to 1 (log spaced).
@@ -420,7 +421,11 @@ class ThermalTransferFunction(
         """``reference`` as given, or the one ``"auto"`` means for these tests."""
         if asked != "auto":
             return asked
-        one_recording = bool(data.steps.carried[1:].all())
+        # one clock: every test starts after the last row of the one before it
+        # (carried on, or after a gap that restarts its lags): one recording;
+        # without a time_s level each test's rows count from 0 (carried only)
+        firsts = [start for start, _ in data.bounds[1:]]
+        one_recording = bool((data.steps.carried[1:] | (data.steps.dt[firsts] > 0)).all())
         zeroed = all(data.y[start] == 0 for start, _ in data.bounds)
         return "recording" if one_recording and not zeroed else "start"
 
