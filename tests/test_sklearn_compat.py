@@ -59,11 +59,15 @@ ESTIMATORS = [
     LagFeatures(time_constants=(300.0, 2700.0), sample_interval=15.0),
     # scikit-learn's checks fit as few as 10 rows of up to 4 columns: fewer than
     # the 4 x 5 gains of the default bank of four lags, which the model refuses;
-    # one lag (2 gains per column; rows are 1 s apart without a time_s level)
-    # fits them
-    ThermalTransferFunction(time_constants=[30.0]),
-    ThermalTransferFunction(time_constants=[30.0], max_sensors=1, reference="recording"),
-    ThermalTransferFunction(time_constants=[30.0], reference="start", state="restart"),
+    # one lag (2 gains per column; the checks' arrays have no time_s level, so
+    # the rows are said to be 1 s apart) fits them
+    ThermalTransferFunction(time_constants=[30.0], sample_interval=1.0),
+    ThermalTransferFunction(
+        time_constants=[30.0], max_sensors=1, reference="recording", sample_interval=1.0
+    ),
+    ThermalTransferFunction(
+        time_constants=[30.0], reference="start", state="restart", sample_interval=1.0
+    ),
     # issue 30's instance: the default bank of four lags, rows 15 s apart; the
     # checks' 10-20 rows are fewer than its 11 gains, which the ridge penalty
     # fits (UnderdeterminedWarning, see below)

@@ -484,11 +484,16 @@ def test_sample_interval_spaces_the_rows_of_an_array():
     np.testing.assert_allclose(array.feature_coef_, timed.feature_coef_, rtol=1e-9, atol=1e-12)
     np.testing.assert_allclose(array.predict(X.to_numpy()), timed.predict(X), atol=1e-9)
     assert array.nominal_step_s_ == STEP
-    # without it, an array's rows are one second apart, as before sample_interval
-    plain = ThermalTransferFunction(**kw).fit(X.to_numpy(), y.to_numpy())
-    one_second = X.set_axis(make_test_index(["t0"] * len(X), np.arange(len(X))), axis=0)
-    again = ThermalTransferFunction(**{**kw, "drivers": ["spindle_rpm"]}).fit(one_second, y)
-    np.testing.assert_allclose(plain.feature_coef_, again.feature_coef_, rtol=1e-9, atol=1e-12)
-    assert plain.nominal_step_s_ == 1.0
+    # without it, rows with no time are refused in one line that says what to give
+    # (a guessed spacing would stretch every time constant by the true step)
+    untimed = r"^ThermalTransferFunction needs the time of every row: .* set sample_interval="
+    with pytest.raises(ValueError, match=untimed):
+        ThermalTransferFunction(**kw).fit(X.to_numpy(), y.to_numpy())
+    with pytest.raises(ValueError, match=untimed):  # a DataFrame with a plain index
+        ThermalTransferFunction(**{**kw, "drivers": ["spindle_rpm"]}).fit(
+            X.reset_index(drop=True), y.to_numpy()
+        )
+    with pytest.raises(ValueError, match=untimed):
+        timed.predict(X.reset_index(drop=True))
     with pytest.raises(ValueError, match=r"^The 'sample_interval' parameter of Thermal"):
         ThermalTransferFunction(sample_interval=-60.0).fit(X, y)

@@ -162,8 +162,9 @@ class ThermalTransferFunction(
     sample_interval : float or None, default=None
         Seconds between rows when ``X`` has no ``time_s`` index level (a
         NumPy array, a DataFrame with a plain index): every step is this
-        long. ``None``: one second. A ``time_s`` level, where present, always
-        wins.
+        long. ``None``: such rows are refused, in one line that asks for
+        this or for the ``time_s`` level (as :class:`LagFeatures` does). A
+        ``time_s`` level, where present, always wins.
 
     Attributes
     ----------
@@ -289,7 +290,9 @@ class ThermalTransferFunction(
     to hold out that leaves two to fit.
 
     **Time.** Without a ``time_s`` index level the rows are taken as
-    ``sample_interval`` seconds apart (one second without it). A sampling gap
+    ``sample_interval`` seconds apart (without either, ``fit`` and
+    ``predict`` refuse them: a guessed spacing would scale every time
+    constant by the true step). A sampling gap
     longer than the largest time constant is refused: the lags would have
     forgotten everything before it.
 

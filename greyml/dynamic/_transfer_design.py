@@ -21,8 +21,8 @@ class _TransferDesign:
     """The design of a transfer function's lag features (see the module)."""
 
     def _timeline(self, X, segments, tau_max, nominal=None):
-        # without a time_s level: sample_interval seconds per row, else one
-        # second (the model's behaviour before it had sample_interval)
+        # without a time_s level: sample_interval seconds per row; without
+        # either, refused in one line that names both (as LagFeatures does)
         return timeline(
             X,
             segments,
@@ -30,7 +30,7 @@ class _TransferDesign:
             tau_max=tau_max,
             state=self.state,
             nominal=nominal,
-            default_step=1.0 if self.sample_interval is None else self.sample_interval,
+            default_step=self.sample_interval,
         )
 
     def _inputs(self, names):
