@@ -355,6 +355,17 @@ def test_error_orderings(pair):
             assert -1.0 <= correlation(y, y_hat) <= 1.0
 
 
+def test_residuals_far_below_the_values_keep_their_digits():
+    # found by the property below: scaled by the values' peak (4e177), the
+    # residuals (2.8e16) squared into subnormal numbers, and the RMSE came out
+    # 3.12e16, above the largest residual
+    y = np.array([4.0522613e177] + [0.0] * 6)
+    y_hat = np.array([4.0522613e177] + [2.8483265e16] * 6)
+    e = y - y_hat  # [0, -2.8e16, ...]: exact
+    assert rmse(y, y_hat) == pytest.approx(math.sqrt(np.mean(e**2)), rel=1e-15)
+    assert rmse(y, y_hat) <= residual_band(y, y_hat) == pytest.approx(np.max(np.abs(e)), rel=0)
+
+
 @settings(max_examples=200, deadline=None)
 @given(pairs(max_magnitude=1.7e308))
 def test_any_finite_input_gives_a_number(pair):

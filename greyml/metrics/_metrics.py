@@ -167,9 +167,16 @@ def _times_pow2(x, e):
 
 
 def _scaled_residuals(y_true, y_pred):
-    """Return ``(d, e)`` with ``y_true - y_pred == d * 2**e`` and ``|d| < 2``."""
+    """Return ``(d, e)`` with ``y_true - y_pred == d * 2**e`` and ``|d| < 1`` (or all 0).
+
+    Scaled first by the inputs' peak (the difference cannot overflow), then by
+    the residuals' own: residuals far below the values (4e16 beside 4e177)
+    would otherwise square into subnormal numbers and lose their digits.
+    """
     e = _exponent(y_true, y_pred)
-    return np.ldexp(y_true, -e) - np.ldexp(y_pred, -e), e
+    d = np.ldexp(y_true, -e) - np.ldexp(y_pred, -e)
+    k = _exponent(d)
+    return np.ldexp(d, -k), e + k
 
 
 def _scaled_deviations(y):
