@@ -27,6 +27,7 @@ import numpy as np
 
 from greyml.gap._effects import Bank, lag_bank, lag_picks
 from greyml.gap._fit import Evaluation, evaluate, fold_design, placebo_walks
+from greyml.gap._report import NOISE_RATIO
 
 __all__ = [
     "EffectSearch",
@@ -333,7 +334,40 @@ class EffectSearch:
             alt = self._pass(candidates, start.recalibrated, start.recal)
             if alt.final.rmse < found.final.rmse:
                 found, kept = alt, True
+        found, kept = self._accounting(found, kept)
         return Found(found.named, found.steps, found.final, found.dropped, kept, self.n_drawn)
+
+    def _accounting(self, found, kept):
+        """``found`` if its effects account for the gap, else the same search naming none.
+
+        Effects account for the gap when, together, they leave it within the
+        noise (the verdict ``"explained"``) or leave less than half of the
+        held-out gap above the noise floor that the simulation's own
+        parameters, refitted, leave (``rmse_recalibrated``; without a
+        recalibration, the gap as it is). An effect outside the library
+        (a second heater) is often half mimicked by a library effect or two,
+        each supported on its own; named, they would be a wrong cause, so
+        they are reported as tried and not supported, and the verdict
+        ``"unexplained"`` gives the share left.
+        """
+        start = self.start
+        if not found.named or not found.final.rmse > NOISE_RATIO * start.floor:
+            return found, kept
+        ref = start.recalibrated if start.recal is not None else start.initial
+        floor2 = start.floor**2
+        above = ref.rmse**2 - floor2
+        left = (found.final.rmse**2 - floor2) / above if above > 0 else 1.0
+        if left < 0.5:
+            return found, kept
+        first = found.steps[0]
+        names = " + ".join(n.candidate.effect for n in found.named)
+        first.significant = False
+        first.why = (
+            f"{names} would leave {min(left, 1.0):.0%} of the held-out gap above the noise "
+            f"that refitting the simulation's parameters leaves: they do not account for "
+            "the larger part of it"
+        )
+        return _Pass([], [first], ref, []), start.recal is not None
 
     def _pass(self, candidates, before, recal):
         """Forward naming, backward pruning, and forward again without what was pruned."""
