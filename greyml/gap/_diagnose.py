@@ -411,7 +411,7 @@ def _causes(ctx, found, skipped):
     if last is not None and not last.significant:
         for k, scored in enumerate(last.scored):
             cand, ev = scored.candidate, scored.evaluation
-            why = last.why if k == 0 else _why_not(scored, last)
+            why = last.why if k == 0 or last.why_all else _why_not(scored, last)
             detail = f"{cand.describe(cand.variants[ev.variant], ev.tau)}; not supported: {why}"
             rows.append(_row(cand.effect, detail, last, ev, own=k == 0, interval=scored.interval))
     for cand in found.dropped:

@@ -131,6 +131,7 @@ class Step:
     ties: list = field(default_factory=list)
     pair: str | None = None
     why: str = ""
+    why_all: bool = False  # ``why`` is every scored candidate's reason, not only the best's
 
     @property
     def placebo_max(self):
@@ -359,15 +360,38 @@ class EffectSearch:
         left = (found.final.rmse**2 - floor2) / above if above > 0 else 1.0
         if left < 0.5:
             return found, kept
-        first = found.steps[0]
         names = " + ".join(n.candidate.effect for n in found.named)
-        first.significant = False
-        first.why = (
-            f"{names} would leave {min(left, 1.0):.0%} of the held-out gap above the noise "
-            f"that refitting the simulation's parameters leaves: they do not account for "
-            "the larger part of it"
+        first = found.steps[0]
+        # one step listing the effects that were named, each as tried and not
+        # supported for this reason (a pair's steps score no other candidate);
+        # the second is scored with the first, as it was named
+        step = Step(
+            1,
+            first.before,
+            found.final,
+            [  # each scored, as the rows are, against the gap the search started from
+                Scored(
+                    n.candidate,
+                    n.evaluation,
+                    shrinkage(n.evaluation.rmse, first.before.rmse),
+                    shrinkage_interval(
+                        first.before.held_out, n.evaluation.held_out, self.ctx.bounds
+                    ),
+                )
+                for n in found.named
+            ],
+            np.array([]),
+            first.shrinkage,
+            first.interval,
+            self.min_shrinkage,
+            why=(
+                f"{names} would leave {min(left, 1.0):.0%} of the held-out gap above the noise "
+                "that refitting the simulation's parameters leaves: they do not account for "
+                "the larger part of it"
+            ),
+            why_all=True,
         )
-        return _Pass([], [first], ref, []), start.recal is not None
+        return _Pass([], [step], ref, []), start.recal is not None
 
     def _pass(self, candidates, before, recal):
         """Forward naming, backward pruning, and forward again without what was pruned."""
