@@ -150,7 +150,8 @@ def test_select_clusters_as_the_selector_does_by_default(case, capsys):
     assert code == 0
     assert f"cluster_on={default!r}" in out
     code, out, _ = _run(
-        capsys, ["select", case["data"], "--target", "dz_um", "--n-sensors", "2", "--cluster-on", "series"]
+        capsys,
+        ["select", case["data"], "--target", "dz_um", "--n-sensors", "2", "--cluster-on", "series"],
     )
     assert code == 0 and "cluster_on='series'" in out
 

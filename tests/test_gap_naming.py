@@ -152,9 +152,10 @@ def test_a_spike_is_one_event():
     from greyml.gap._events import locate_events
 
     times = report.gap.index.get_level_values("time_s").to_numpy(dtype=float)
-    event = locate_events(
+    located = locate_events(
         report.gap.to_numpy(), BOUNDS, times, [DT] * N_TESTS, report.noise_floor
-    )[0]
+    )
+    event = located[0]
     assert event.kind == "spike" and event.row == 2 * N + 200
     assert event.last_row == pytest.approx(2 * N + 219, abs=2)
 

@@ -237,9 +237,11 @@ def test_effects_that_leave_most_of_a_foreign_gap_are_not_named():
     assert report.unexplained_share == pytest.approx(1.0)
     tried = report.causes.set_index("effect").loc[["initial_state", "sensor_lag"]]
     assert not tried["significant"].any()
-    assert tried["detail"].str.contains(
-        r"initial_state \+ sensor_lag would leave 91% of the held-out gap"
-    ).all()
+    assert (
+        tried["detail"]
+        .str.contains(r"initial_state \+ sensor_lag would leave 91% of the held-out gap")
+        .all()
+    )
     assert "Tried, not supported: initial_state (held-out shrinkage 39%" in str(report)
     # told of the heater, the diagnosis names it: the rule takes nothing from
     # an effect that accounts for the gap
