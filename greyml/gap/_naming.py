@@ -332,17 +332,25 @@ class EffectSearch:
         Returns a :class:`Found`.
         """
         found, kept = self._both(candidates)
-        if self._left(found) is not None:
-            first = (found, kept)
-            for _ in range(_RETRIES):
-                without = found.named[0].candidate
-                candidates = [c for c in candidates if c is not without]
-                found, kept = self._both(candidates) if candidates else first
-                if not found.named or self._left(found) is None:
-                    break
-            if not found.named or self._left(found) is not None:
-                found, kept = self._not_accounting(*first)
-        return Found(found.named, found.steps, found.final, found.dropped, kept, self.n_drawn)
+        first = (found, kept)
+        for retry in range(_RETRIES + 1):
+            if self._left(found) is None:  # nothing named, or what is named accounts for it
+                return Found(*self._result(found, kept), self.n_drawn)
+            if retry == _RETRIES:
+                break
+            without = found.named[0].candidate
+            candidates = [c for c in candidates if c is not without]
+            if not candidates:
+                break
+            found, kept = self._both(candidates)
+            if not found.named:
+                break
+        return Found(*self._result(*self._not_accounting(*first)), self.n_drawn)
+
+    @staticmethod
+    def _result(found, kept):
+        """What a :class:`Found` holds of one search, but the placebo count."""
+        return found.named, found.steps, found.final, found.dropped, kept
 
     def _both(self, candidates):
         """The search from the simulation as it is and, if recalibrated, from its refit."""
@@ -379,7 +387,7 @@ class EffectSearch:
         start = self.start
         if not found.named or not found.final.rmse > NOISE_RATIO * start.floor:
             return None
-        ref = start.recalibrated if start.recal is not None else start.initial
+        ref = self._refitted()
         floor2 = start.floor**2
         above = ref.rmse**2 - floor2
         left = (found.final.rmse**2 - floor2) / above if above > 0 else 1.0
@@ -387,8 +395,6 @@ class EffectSearch:
 
     def _not_accounting(self, found, kept):
         """The search naming none of ``found``'s effects, each listed as tried, and why."""
-        start = self.start
-        ref = start.recalibrated if start.recal is not None else start.initial
         left = self._left(found)
         names = " + ".join(n.candidate.effect for n in found.named)
         first = found.steps[0]
@@ -421,7 +427,12 @@ class EffectSearch:
             ),
             why_all=True,
         )
-        return _Pass([], [step], ref, []), start.recal is not None
+        return _Pass([], [step], self._refitted(), []), self.start.recal is not None
+
+    def _refitted(self):
+        """The held-out gap the simulation's refitted parameters leave (as it is, without)."""
+        start = self.start
+        return start.recalibrated if start.recal is not None else start.initial
 
     def _pass(self, candidates, before, recal):
         """Forward naming, backward pruning, and forward again without what was pruned."""
