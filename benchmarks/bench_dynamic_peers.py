@@ -115,6 +115,16 @@ def candidates(path):
     return [Path(folder) / "cycles.csv" for folder in caiviac_candidates()]
 
 
+def find_data(path):
+    """The first of :func:`candidates` that exists, or None after saying where it was looked for."""
+    found = [p for p in candidates(path) if p.is_file()]
+    if not found:
+        where = ", ".join(str(p) for p in candidates(path))
+        print(f"CAIVIAC data not found at {where}; skipping")
+        return None
+    return found[0]
+
+
 def load(path, target):
     """(X, y): speed and 16 temperatures, and the probe ``target``, indexed by (cycle, raw time)."""
     import pandas as pd
@@ -558,14 +568,11 @@ def main(argv=None):
     args = parser.parse_args(argv)
     if args.peer_step < 1:
         parser.error("--peer-step must be at least 1")
-    found = [p for p in candidates(args.data) if p.is_file()]
-    if not found:
-        where = ", ".join(str(p) for p in candidates(args.data))
-        print(f"CAIVIAC data not found at {where}; skipping")
+    path = find_data(args.data)
+    if path is None:
         return 0
     from threadpoolctl import threadpool_limits
 
-    path = found[0]
     targets = TARGETS[:1] if args.quick else TARGETS
     print(f"CAIVIAC/FL_THERMAL (real machine tool, MIT licence) from {path}")
     print(
