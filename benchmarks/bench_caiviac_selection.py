@@ -58,7 +58,9 @@ from bench_dynamic_peers import (
     revision,
 )
 
-ALPHAS = np.logspace(-6, 0, 13)  # the default model's penalties
+from greyml.dynamic._transfer_checks import DEFAULT_ALPHAS
+
+ALPHAS = np.asarray(DEFAULT_ALPHAS)  # the default model's penalties
 DRIVER_TAUS = (*TAUS, 3.0 * TAUS[-1])
 PACKAGES = ("greyml", "numpy", "scipy", "scikit-learn", "pandas")
 
@@ -76,40 +78,36 @@ def features(X):
 
 
 class CycleGrams:
-    """Per-cycle cross products of [features, 1] and y, first rows and sums."""
+    """Per-cycle Grams of [features, 1] and y (greyml's own), with first rows and sums.
+
+    The ridge is the default model's (:func:`greyml.dynamic._gram.solve_all`:
+    standardised columns, an unpenalised intercept); the first row and the
+    sums of a held-out cycle turn its recording SSE into its start SSE.
+    """
 
     def __init__(self, A, y, groups, cycles):
+        from greyml.dynamic._gram import grams_by_test
+
         self.cycles = list(cycles)
         A = np.column_stack([A, np.ones(len(A))])
-        self.G, self.b, self.yy, self.n, self.first, self.sums = [], [], [], [], [], []
+        bounds = []
         for c in self.cycles:
-            rows = groups == c
-            a, t = A[rows], y[rows]
-            self.G.append(a.T @ a)
-            self.b.append(a.T @ t)
-            self.yy.append(t @ t)
-            self.n.append(rows.sum())
-            self.first.append((a[0], t[0]))
-            self.sums.append((a.sum(axis=0), t.sum()))
-        self.G, self.b = np.array(self.G), np.array(self.b)
-        self.yy, self.n = np.array(self.yy), np.array(self.n, dtype=float)
+            rows = np.flatnonzero(groups == c)
+            bounds.append((rows[0], rows[-1] + 1))  # each cycle's rows are contiguous
+        self.G, self.b, self.yy, self.n = grams_by_test(A, y, np.ones(len(y)), bounds)
+        self.first = [(A[a], y[a]) for a, _ in bounds]
+        self.sums = [(A[a:b].sum(axis=0), y[a:b].sum()) for a, b in bounds]
+        self.pen = np.r_[np.ones(A.shape[1] - 1), 0.0]
 
     def solve(self, cols, train):
         """Ridge coefficients (columns ``cols`` then the intercept) for every penalty."""
+        from greyml.dynamic._gram import solve_all
+
         full = [*cols, self.G.shape[1] - 1]
         ix = np.ix_(full, full)
         G = self.G[train][:, ix[0], ix[1]].sum(axis=0)
         b = self.b[train][:, full].sum(axis=0)
-        n = self.n[train].sum()
-        mu, ybar = G[-1, :-1] / n, b[-1] / n
-        C = G[:-1, :-1] - n * np.outer(mu, mu)
-        r = b[:-1] - n * mu * ybar
-        sd = np.sqrt(np.maximum(np.diag(C) / n, 0.0))
-        d = np.where(sd > 0, 1.0 / np.where(sd > 0, sd, 1.0), 0.0)
-        lam, V = np.linalg.eigh(C * d[:, None] * d[None, :])
-        beta = V @ ((V.T @ (r * d))[:, None] / (np.maximum(lam, 0.0)[:, None] + ALPHAS * n))
-        beta *= d[:, None]
-        return np.vstack([beta, ybar - mu @ beta]), full
+        return solve_all(G, b, self.n[train].sum(), ALPHAS, self.pen[full]), full
 
     def scores(self, coefs, full, h):
         """(start, recording) RMSE of cycle ``h`` for every column of ``coefs``."""
