@@ -58,7 +58,7 @@ from bench_dynamic_peers import (
     revision,
 )
 
-from greyml.dynamic._transfer_checks import DEFAULT_ALPHAS
+from greyml.dynamic._transfer import DEFAULT_ALPHAS
 
 ALPHAS = np.asarray(DEFAULT_ALPHAS)  # the default model's penalties
 DRIVER_TAUS = (*TAUS, 3.0 * TAUS[-1])

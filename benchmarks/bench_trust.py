@@ -56,6 +56,8 @@ import numpy as np
 from _common import write_json
 from bench_dynamic_peers import DRIVER, candidates, default_model, load
 
+from greyml.controller import Compensator
+
 TARGETS = ("ch1_um", "ch3_um")
 COVERAGE = 0.9
 PHASES_MIN = (0, 15, 30, 45)
@@ -85,7 +87,7 @@ def reading_rows(times, start, stop, every_s, phase_s=0.0):
 
 def stream(model, rows, y, readings):
     """Corrections, half-widths and the detector's count at every row; readings at row numbers."""
-    comp = model.compensator(coverage=COVERAGE)
+    comp = Compensator.from_model(model, coverage=COVERAGE)
     corr = np.empty(len(rows))
     half = np.empty(len(rows))
     fired = []
@@ -104,8 +106,6 @@ def stream(model, rows, y, readings):
 
 def spindle_part(model, rows):
     """The model's spindle terms alone, streamed (µm)."""
-    from greyml.dynamic import Compensator
-
     terms = [t for t in model.terms_ if t[0] == DRIVER]
     comp = Compensator(
         [DRIVER],
@@ -145,6 +145,7 @@ def held_out(X, y, target):
         start, stop = int(np.flatnonzero(held)[0]), int(np.flatnonzero(held)[-1]) + 1
         model = default_model().fit(X, y, sample_weight=(~held).astype(float))
         iv = model.predict_interval(X, COVERAGE)
+        cal = model.interval_calibration_
         e = yv[held] - iv[held, 0]
         inside = (yv[held] >= iv[held, 1]) & (yv[held] <= iv[held, 2])
         row = {
@@ -156,7 +157,13 @@ def held_out(X, y, target):
             "inside": int(inside.sum()),
             "n": int(held.sum()),
             "mean_width": float(np.mean(iv[held, 2] - iv[held, 1])),
-            "interval_scale": model.interval_scale_.tolist(),
+            "interval_scale": [  # (a, b, c, s2, memory_h), as before the record had names
+                cal.anchor_var,
+                cal.growth_var_per_h,
+                cal.noise_var,
+                cal.memory_var,
+                cal.memory_h,
+            ],
         }
         tc = times[start:stop] - times[start]
         e_held = yv[held] - iv[held, 0]
@@ -256,7 +263,7 @@ def cost(X, y):
     arrays = [np.array([r[c] for c in order], dtype=float) for r in rows]
     best_u, best_o = math.inf, math.inf
     for _ in range(3):
-        comp = model.compensator(coverage=COVERAGE, row_columns=order)
+        comp = Compensator.from_model(model, coverage=COVERAGE, row_columns=order)
         spent_u, spent_o, k = 0.0, 0.0, 0
         for i, a in enumerate(arrays):
             start = time.perf_counter()

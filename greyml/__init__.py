@@ -11,7 +11,7 @@ _LAZY = {
     "TIME_LEVEL": "greyml._sequences",
     "groups_of": "greyml._sequences",
     "make_test_index": "greyml._sequences",
-    "Compensator": "greyml.dynamic",
+    "Compensator": "greyml.controller",
     "LagFeatures": "greyml.dynamic",
     "ThermalTransferFunction": "greyml.dynamic",
     "ANFISFCM": "greyml.fuzzy",

@@ -24,8 +24,9 @@ import numpy as np
 import pandas as pd
 
 from greyml import Compensator, ThermalTransferFunction, make_test_index
+from greyml.controller import Uncertainty
+from greyml.controller.export._write import export_text
 from greyml.datasets import caiviac_candidates
-from greyml.dynamic._export import export_text
 from greyml.io import read_tests_csv
 
 DAY_S = 24 * 3600.0
@@ -118,7 +119,7 @@ def scripted(calibrated=True, names=("T1_C", "T2_C", "rpm"), **limits):
         relative_to_start=True,
         idle_inputs=[rpm],
         max_step_s=3600.0,
-        uncertainty=(4.0, 0.5, 0.2, 2.0, 1.5) if calibrated else None,
+        uncertainty=Uncertainty(4.0, 0.5, 0.2, 2.0, 1.5) if calibrated else None,
         tolerance_um=3.0,
         probe_noise_um=0.5,
         change_threshold=2.0,

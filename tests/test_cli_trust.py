@@ -17,6 +17,7 @@ import pytest
 
 from greyml import GMC, ThermalTransferFunction, make_test_index
 from greyml.cli import main
+from greyml.controller import Compensator
 from greyml.io import read_tests_csv, write_tests_csv
 from greyml.persist import save_model
 from greyml.preprocessing import RelativeToStart
@@ -312,7 +313,7 @@ def test_a_reading_corrects_the_rows_from_its_time_on(capsys, separate, tmp_path
     np.testing.assert_allclose(pred[:101], batch[:101], rtol=0, atol=1e-9)
     # from the row after the reading on, the compensator's observe at the reading's
     # own time (the model interpolated between the rows around it)
-    comp = model.compensator(row_columns=["time_s", *_inputs(new).columns])
+    comp = Compensator.from_model(model, row_columns=["time_s", *_inputs(new).columns])
     rows = np.column_stack([new.index.get_level_values("time_s"), _inputs(new).to_numpy()])
     first = new.index.get_level_values("test") == "n0"
     expected = []

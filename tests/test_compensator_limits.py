@@ -16,7 +16,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from greyml import Compensator
-from greyml.dynamic._output import QUANTA_MAX, limit_output
+from greyml.controller._output import QUANTA_MAX, limit_output
 from greyml.persist import load_model, save_model
 
 
@@ -317,8 +317,8 @@ def test_a_transfer_functions_compensator_takes_the_limits_at_construction():
     X = pd.DataFrame({"T1_C": t1}, index=index)
     model = ThermalTransferFunction(time_constants=(600.0,)).fit(X, 4.0 * (t1 - 20.0))
     limits = dict(clamp_um=3.0, quantum_um=0.5, rate_limit_um_s=0.01, max_correction_um=50.0)
-    given = model.compensator(row_columns=["time_s", "T1_C"], **limits)
-    later = model.compensator(row_columns=["time_s", "T1_C"]).set_params(**limits)
+    given = Compensator.from_model(model, row_columns=["time_s", "T1_C"], **limits)
+    later = Compensator.from_model(model, row_columns=["time_s", "T1_C"]).set_params(**limits)
     rows = np.column_stack([np.arange(n) * 60.0, t1[:n]])
     out = np.array([given.update(r) for r in rows])
     assert np.array_equal(out, [later.update(r) for r in rows])

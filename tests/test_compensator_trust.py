@@ -11,7 +11,7 @@ import math
 import numpy as np
 import pytest
 
-from greyml.dynamic import Compensator
+from greyml.controller import Compensator, Uncertainty
 from greyml.persist import load_model, save_model
 
 Q90 = 1.6448536269514722
@@ -20,7 +20,7 @@ Q90 = 1.6448536269514722
 def _comp(**kw):
     """y = 2 µm/K of T1 (no lag), an offset uncertain by 2 µm that it keeps (a memory
     of 1e6 h), white noise 1 µm."""
-    base = dict(uncertainty=(4.0, 0.0, 1.0, 4.0, 1e6), row_columns=["time_s", "T1_C"])
+    base = dict(uncertainty=Uncertainty(4.0, 0.0, 1.0, 4.0, 1e6), row_columns=["time_s", "T1_C"])
     base.update(kw)
     return Compensator(["T1_C"], [("T1_C", 1, None, 2.0)], **base)
 
@@ -30,7 +30,7 @@ def _row(t, temp):
 
 
 def test_status_before_any_reading_is_the_calibrated_interval():
-    comp = _comp(uncertainty=(3.0, 2.0, 1.0, 3.0, 1e6))
+    comp = _comp(uncertainty=Uncertainty(3.0, 2.0, 1.0, 3.0, 1e6))
     assert comp.update(_row(0.0, 1.0)) == 2.0
     s = comp.status
     assert s.correction == 2.0 and s.half_width == pytest.approx(Q90 * 2.0)  # sqrt(3 + 1)
@@ -53,7 +53,7 @@ def test_one_reading_by_hand():
 
 def test_the_slow_part_forgets_itself_with_its_memory():
     # memory 1 h, variance 4: one hour after a reading the offset is down by e
-    comp = _comp(uncertainty=(4.0, 0.0, 0.0, 4.0, 1.0))
+    comp = _comp(uncertainty=Uncertainty(4.0, 0.0, 0.0, 4.0, 1.0))
     comp.update(_row(0.0, 1.0))
     comp.observe(0.0, 7.0)  # an exact reading: the offset is 5
     assert comp.update(_row(3600.0, 1.0)) == pytest.approx(2.0 + 5.0 / math.e)
@@ -63,7 +63,7 @@ def test_the_slow_part_forgets_itself_with_its_memory():
 
 def test_a_late_reading_is_placed_between_rows():
     comp = _comp(
-        uncertainty=(1.0, 0.0, 0.0, 1.0, 1e6)
+        uncertainty=Uncertainty(1.0, 0.0, 0.0, 1.0, 1e6)
     )  # an exact probe: the offset is the innovation
     for t, temp in [(0.0, 1.0), (60.0, 2.0), (120.0, 3.0)]:
         comp.update(_row(t, temp))
@@ -114,7 +114,7 @@ def test_a_reading_older_than_the_rows_remembered():
 
 def test_a_gain_change_is_detected_and_recovered():
     """The machine now moves 1.3× what the model says; readings every 10 rows."""
-    comp = _comp(uncertainty=(0.04, 0.0, 0.01, 0.04, 1e6))
+    comp = _comp(uncertainty=Uncertainty(0.04, 0.0, 0.01, 0.04, 1e6))
     errors = []
     for k in range(400):
         temp = 10.0 + 5.0 * math.sin(k / 40.0)
@@ -129,7 +129,7 @@ def test_a_gain_change_is_detected_and_recovered():
 
 def test_no_change_detected_on_readings_the_model_predicts():
     rng = np.random.default_rng(0)
-    comp = _comp(uncertainty=(1.0, 0.0, 1.0, 1.0, 1e6))
+    comp = _comp(uncertainty=Uncertainty(1.0, 0.0, 1.0, 1.0, 1e6))
     for k in range(400):  # 40 readings: the CUSUM's false alarms come every ~230 readings
         comp.update(_row(60.0 * k, 10.0))
         if k % 10 == 9:
@@ -185,9 +185,11 @@ def test_a_tampered_filter_is_refused_at_load(tmp_path):
     "bad",
     [
         (1.0, 2.0),
-        (1.0, -1.0, 0.0, 1.0, 1.0),
-        (math.nan, 0.0, 0.0, 1.0, 1.0),
-        (1, 0, 0, 1, 0),
+        (4.0, 0.0, 1.0, 4.0, 1e6),  # five numbers by position: a record is asked for
+        Uncertainty(1.0, -1.0, 0.0, 1.0, 1.0),
+        Uncertainty(math.nan, 0.0, 0.0, 1.0, 1.0),
+        Uncertainty(1, 0, 0, 1, 0),
+        Uncertainty("1", 0, 0, 1, 1),
         "abc",
     ],
 )
@@ -220,7 +222,7 @@ def test_start_test_carries_the_lags_and_restarts_the_reference():
 
 
 def test_start_test_restarts_the_interval_at_the_known_displacement():
-    comp = _comp(uncertainty=(3.0, 2.0, 1.0, 3.0, 1e6))
+    comp = _comp(uncertainty=Uncertainty(3.0, 2.0, 1.0, 3.0, 1e6))
     comp.update(_row(0.0, 1.0))
     comp.update(_row(7200.0, 1.0))
     comp.start_test(_row(7260.0, 1.0))  # recording reference, nothing given: nothing known

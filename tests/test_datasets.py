@@ -5,6 +5,7 @@ import pandas as pd
 import pytest
 
 from greyml._sequences import segments_by_test
+from greyml.controller import Compensator
 from greyml.datasets import (
     caiviac_candidates,
     load_caiviac,
@@ -137,7 +138,7 @@ def test_caiviac_model_takes_rows_read_from_the_file():
     frame = data.frame.loc[["cycle1", "cycle2"]]
     model = ThermalTransferFunction(drivers=["spindle_rpm"], max_sensors=2, time_constants=[900.0])
     model.fit(frame[["spindle_rpm", *data.sensors]], frame["ch1_um"])
-    comp = model.compensator(nominal_step_s=15.0)
+    comp = Compensator.from_model(model, nominal_step_s=15.0)
     raw = read_tests_csv(caiviac_candidates_file(), test_column="cycle")
     row = raw.iloc[0][["spindle_rpm", *data.sensors]].to_dict()
     correction = comp.update({"time_s": raw.index[0][1], **row})

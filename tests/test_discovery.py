@@ -6,7 +6,8 @@ import pytest
 from sklearn.base import BaseEstimator, RegressorMixin, TransformerMixin
 
 import greyml
-from greyml.dynamic import Compensator, LagFeatures, ThermalTransferFunction
+from greyml.controller import Compensator
+from greyml.dynamic import LagFeatures, ThermalTransferFunction
 from greyml.utils.discovery import all_estimators
 
 

@@ -15,6 +15,7 @@ import pytest
 
 from greyml import LagFeatures, ThermalTransferFunction, WarmStartWarning, make_test_index
 from greyml.cli import main
+from greyml.controller import Compensator
 from greyml.dynamic._kernels import lag_filter
 from greyml.io import read_tests_csv, write_tests_csv
 
@@ -147,11 +148,11 @@ def test_compensator_streams_as_predict_from_any_test_start(clock):
     order = ["time_s", *X.columns]
     if clock == "one":
         # the whole recording in one stream equals predict on all of it
-        comp = model.compensator(row_columns=order)
+        comp = Compensator.from_model(model, row_columns=order)
         streamed = np.array([comp.update(r) for r in rows])
         np.testing.assert_allclose(streamed, model.predict(X), rtol=0, atol=1e-9)
     # from any test's start, after reset: predict on that test alone
-    comp = model.compensator(row_columns=order)
+    comp = Compensator.from_model(model, row_columns=order)
     tests = X.index.get_level_values("test")
     for label in ("c1", "c2", "c3"):
         comp.reset()
@@ -166,7 +167,7 @@ def test_compensator_streams_as_predict_from_any_test_start(clock):
 def test_compensator_refuses_a_gap_as_predict_does_and_steps_restarting_clocks():
     X, y = _recording(n_cycles=2)
     model = _model(max_sensors=1).fit(X, y)
-    comp = model.compensator()
+    comp = Compensator.from_model(model)
     first = X.iloc[0]
     comp.update({"time_s": 0.0, **first})
     with pytest.raises(ValueError) as streamed:
@@ -180,7 +181,7 @@ def test_compensator_refuses_a_gap_as_predict_does_and_steps_restarting_clocks()
     # a recording whose clock restarts in each piece: stream it with the nominal step
     Xs, ys = _recording(n_cycles=2, clock="each")
     carried = _model(max_sensors=1, state="carry").fit(Xs, ys)
-    comp = carried.compensator()
+    comp = Compensator.from_model(carried)
     assert comp.nominal_step_s == STEP
     streamed = [
         comp.update({"time_s": t, **r}) for (_, t), r in zip(Xs.index, Xs.to_dict("records"))

@@ -19,8 +19,9 @@ from _export_cases import C_FLAGS, compiler, fitted, recording
 
 from greyml import GMC, Compensator
 from greyml.cli import main
-from greyml.dynamic._export import export_text
-from greyml.dynamic._program import SCHEMA, SCHEMA_VERSION, describe
+from greyml.controller import Uncertainty
+from greyml.controller.export._program import SCHEMA, SCHEMA_VERSION, describe
+from greyml.controller.export._write import export_text
 from greyml.persist import load_model, save_model
 
 HOSTILE = [
@@ -39,7 +40,7 @@ HOSTILE = [
 def _hostile():
     inputs = HOSTILE
     terms = [(name, 1, 600.0 * (k + 1), 0.1 * (k + 1)) for k, name in enumerate(inputs)]
-    return Compensator(inputs, terms, uncertainty=(1.0, 0.1, 0.1, 1.0, 2.0))
+    return Compensator(inputs, terms, uncertainty=Uncertainty(1.0, 0.1, 0.1, 1.0, 2.0))
 
 
 def _strip_comments(text, language):
@@ -51,7 +52,7 @@ def _strip_comments(text, language):
 
 
 def test_the_json_holds_the_terms_limits_and_state_layout_of_c_and_st():
-    comp = fitted().compensator(tolerance_um=4.0).set_params(rate_limit_um_s=0.5, quantum_um=0.1)
+    comp = Compensator.from_model(fitted(), tolerance_um=4.0).set_params(rate_limit_um_s=0.5, quantum_um=0.1)
     text = export_text(comp, "json", name="ch1")
     data = json.loads(text, parse_constant=lambda c: pytest.fail(f"{c} in strict JSON"))
     assert data["schema"] == SCHEMA and data["schema_version"] == SCHEMA_VERSION == 1
@@ -91,7 +92,7 @@ def test_the_json_holds_the_terms_limits_and_state_layout_of_c_and_st():
 def test_each_export_names_the_model_inputs_units_reference_and_version():
     import greyml
 
-    comp = fitted().compensator().set_params(rate_limit_um_s=0.5)
+    comp = Compensator.from_model(fitted()).set_params(rate_limit_um_s=0.5)
     for language in ("c", "st"):
         text = export_text(comp, language, name="ch1", description="ch1 of the CAIVIAC")
         head = text[: text.index("*/" if language == "c" else "*)")]
@@ -218,7 +219,7 @@ def test_greyml_export_writes_a_transfer_functions_compensator(model_file, tmp_p
     printed = capsys.readouterr().out
     assert f"wrote {str(out)!r} (json" in printed and "rate limit 0.5 µm/s" in printed
     data = json.loads(out.read_text())
-    comp = load_model(model_file).compensator()
+    comp = Compensator.from_model(load_model(model_file))
     assert data["name"] == "ch1" and [v["name"] for v in data["inputs"]] == comp.inputs
     assert data["limits"] == {**data["limits"], "rate_limit_um_s": 0.5, "clamp_um": 100.0}
     assert data["probe_filter"] is not None  # the calibration came with it
@@ -272,9 +273,9 @@ def test_an_infinite_bound_is_written_as_no_bound(tmp_path):
     # (the Compensator's constraints refuse them today; an export must not write 'inf')
     import dataclasses
 
-    from greyml.dynamic._export import LANGUAGES
+    from greyml.controller.export._write import LANGUAGES
 
-    comp = Compensator(["T1_C"], [("T1_C", 1, 600.0, 1.0)], uncertainty=(1.0, 0.1, 0.1, 1.0, 2.0))
+    comp = Compensator(["T1_C"], [("T1_C", 1, 600.0, 1.0)], uncertainty=Uncertainty(1.0, 0.1, 0.1, 1.0, 2.0))
     program = describe(comp, name="unbounded")
     program = dataclasses.replace(
         program,

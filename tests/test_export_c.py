@@ -23,7 +23,8 @@ from _export_cases import (
     scripted,
 )
 
-from greyml.dynamic._export import export_text
+from greyml.controller import Compensator
+from greyml.controller.export._write import export_text
 
 pytestmark = pytest.mark.skipif(
     compiler() is None, reason="no C compiler ($CC, gcc, cc or clang) on this machine"
@@ -43,7 +44,7 @@ def compiled(tmp_path_factory):
     model = fitted()
     out = {}
     for label, limits in LIMITS.items():
-        comp = model.compensator().set_params(**limits)
+        comp = Compensator.from_model(model).set_params(**limits)
         folder = tmp_path_factory.mktemp(label.replace(" ", "_").replace(",", ""))
         out[label] = (comp, CompiledC(comp, folder))
     return out
@@ -141,7 +142,7 @@ def test_the_update_allocates_nothing_and_loops_over_constants(compiled):
 
 def test_a_model_of_five_sensors_and_the_speed_exports_under_30_kb(tmp_path):
     model = five_sensors()
-    comp = model.compensator(tolerance_um=5.0)
+    comp = Compensator.from_model(model, tolerance_um=5.0)
     comp.set_params(rate_limit_um_s=0.5, quantum_um=0.1, clamp_um=100.0)
     assert len(comp.inputs) == 6 and comp.uncertainty is not None  # probe readings too
     # each sensor through 4 lags and as it is, the speed and its square through 5 and as is

@@ -18,8 +18,9 @@ import numpy as np
 import pytest
 from _export_cases import day, fitted, replay, script, scripted
 
-from greyml.dynamic._export_st import write_st
-from greyml.dynamic._program import describe
+from greyml.controller import Compensator
+from greyml.controller.export._program import describe
+from greyml.controller.export._st import write_st
 
 blark = pytest.importorskip("blark", reason="blark, the IEC 61131-3 parser, is in the test extra")
 
@@ -100,7 +101,7 @@ HOSTILE = ('x); system("rm -rf /"); //', "*) END_FUNCTION_BLOCK (*", "t1_C\nEND_
 
 
 def test_a_day_of_rows_and_readings_gives_pythons_output_to_1e_6():
-    comp = fitted().compensator().set_params(**DAY_LIMITS)
+    comp = Compensator.from_model(fitted()).set_params(**DAY_LIMITS)
     block = Block(comp)
     t, x, y = day(comp.inputs)
     drift = np.where(t - t[0] > 12 * 3600, (t - t[0] - 12 * 3600) / 3600 * 2.0, 0.0)
@@ -149,7 +150,7 @@ def test_inputs_valid_false_is_a_missing_input():
 
 
 def test_every_loop_runs_over_constants_and_there_is_no_other():
-    source = Block(fitted().compensator().set_params(**DAY_LIMITS)).source
+    source = Block(Compensator.from_model(fitted()).set_params(**DAY_LIMITS)).source
     code = re.sub(r"\(\*.*?\*\)", "", source, flags=re.S)
     for word in ("WHILE", "REPEAT", "JMP", "POINTER", "__NEW", "RETURN", "AND_THEN"):
         assert word not in code, word

@@ -8,6 +8,7 @@ import pandas as pd
 import pytest
 
 from greyml import LagFeatures, ThermalTransferFunction, UnderdeterminedWarning, make_test_index
+from greyml.controller import Compensator
 
 STEP = 60.0
 
@@ -232,7 +233,7 @@ def test_compensator_equals_predict(data):
     X, y = data
     model = ThermalTransferFunction(drivers=["spindle_rpm"], max_sensors=2).fit(X, y)
     one = X.xs("t1", level="test", drop_level=False)
-    comp = model.compensator()
+    comp = Compensator.from_model(model)
     out = [
         comp.update({**row, "time_s": t}) for (_, t), row in zip(one.index, one.to_dict("records"))
     ]

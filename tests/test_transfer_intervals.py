@@ -3,6 +3,7 @@ coverage on new tests of a known process, widths that grow with the time since t
 displacement was known, and one-line errors."""
 
 import math
+from dataclasses import replace
 
 import numpy as np
 import pandas as pd
@@ -71,7 +72,9 @@ def test_intervals_cover_new_tests_of_the_same_process(fitted):
     # the calibration errs wide (conservative), not narrow; never all rows
     assert 0.85 <= inside.mean() <= 0.99, inside.mean()
     # the drift is a random walk from each start: the width grows with the time since
-    a, b, c, s2, memory_h = fitted.interval_scale_
+    cal = fitted.interval_calibration_
+    a, b, c = cal.anchor_var, cal.growth_var_per_h, cal.noise_var
+    s2, memory_h = cal.memory_var, cal.memory_h
     assert 0 <= c <= a and s2 >= 0 and memory_h > 0
     assert b > 0
     assert fitted.interval_half_width(0.0) < fitted.interval_half_width(6.0)
@@ -94,7 +97,7 @@ def test_bad_coverage_is_one_line(fitted, coverage):
 def test_too_few_tests_to_calibrate():
     X, y = _tests(["a", "b"], seed=4)
     model = ThermalTransferFunction(drivers=["spindle_rpm"], time_constants=[900.0]).fit(X, y)
-    assert model.conformity_scores_ is None
+    assert model.interval_calibration_ is None
     with pytest.raises(ValueError, match=r"fewer than 3 tests .* fit it on at least 3 tests"):
         model.predict_interval(X)
 
@@ -104,12 +107,13 @@ def test_intervals_survive_a_save_and_a_tampered_file_is_refused(fitted, tmp_pat
     path = save_model(fitted, tmp_path / "m.greyml")
     np.testing.assert_array_equal(load_model(path).predict_interval(X), fitted.predict_interval(X))
     fitted_bad = load_model(path)
-    fitted_bad.interval_scale_ = np.array([-1.0, 0.0, 0.0, 0.0, 1.0])
+    fitted_bad.interval_calibration_ = replace(fitted.interval_calibration_, anchor_var=-1.0)
     bad = save_model(fitted_bad, tmp_path / "bad.greyml")
-    with pytest.raises(ValueError, match=r"interval_scale_ must be five finite numbers"):
+    with pytest.raises(ValueError, match=r"interval_calibration_ must hold five finite numbers"):
         load_model(bad)
-    fitted_bad.interval_scale_ = fitted.interval_scale_
-    fitted_bad.conformity_scores_ = fitted.conformity_scores_[::-1].copy()
+    fitted_bad.interval_calibration_ = replace(
+        fitted.interval_calibration_, scores=fitted.interval_calibration_.scores[::-1].copy()
+    )
     bad = save_model(fitted_bad, tmp_path / "bad2.greyml")
-    with pytest.raises(ValueError, match=r"conformity_scores_ must be"):
+    with pytest.raises(ValueError, match=r"interval_calibration_.scores must be"):
         load_model(bad)

@@ -43,6 +43,7 @@ from sklearn.preprocessing import StandardScaler
 from threadpoolctl import threadpool_limits
 
 from greyml import ThermalTransferFunction, WarmStartWarning, groups_of
+from greyml.controller import Compensator
 from greyml.datasets import caiviac_candidates
 from greyml.io import read_tests_csv
 from greyml.metrics import rmse
@@ -185,12 +186,12 @@ def plot_steps(model):
 # %%
 # Compensation sample by sample
 # -----------------------------
-# A controller runs ``model.compensator()``: ``update(row)`` takes one row of
+# A controller runs ``Compensator.from_model(model)``: ``update(row)`` takes one row of
 # inputs by name and returns the correction, carrying the lags from row to
 # row along the recording's clock, from the recording's zero. Streamed from the
 # recording's first row it equals the batch ``predict``.
 def stream(model, X):
-    compensator = model.compensator()
+    compensator = Compensator.from_model(model)
     times = X.index.get_level_values("time_s")
     out = np.array(
         [compensator.update({**row, "time_s": t}) for t, row in zip(times, X.to_dict("records"))]

@@ -32,6 +32,7 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 from greyml import ThermalTransferFunction, groups_of
+from greyml.controller import Compensator
 from greyml.datasets import caiviac_candidates
 from greyml.io import read_tests_csv
 from greyml.metrics import rmse
@@ -57,7 +58,7 @@ def load():
 # -----------------------------
 # Fitted on cycles 1-4 only; predicting the whole recording carries the lags
 # through them into cycle 5. The interval's half-width grows with the time
-# since each cycle's start (``interval_scale_``: ``s(t)² = a + b·t``; from the
+# since each cycle's start (``interval_calibration_``: ``s(t)² = a + b·t``; from the
 # recording's zero no row is known, so ``b = 0`` and the width is constant).
 def interval_without_readings(model, X, held):
     intervals = model.predict_interval(X, coverage=0.9)[held]
@@ -73,7 +74,7 @@ def interval_without_readings(model, X, held):
 # interval's half-width and how many times the change detector fired.
 def stream(model, X, held, readings):
     """Corrections and half-widths of the held-out rows; when the detector fired (h)."""
-    compensator = model.compensator(row_columns=["time_s", *INPUTS])
+    compensator = Compensator.from_model(model, row_columns=["time_s", *INPUTS])
     times = X.index.get_level_values("time_s").to_numpy()
     rows = np.column_stack([times, X.to_numpy()])
     first = int(np.flatnonzero(held)[0])
@@ -150,7 +151,8 @@ else:
         batch, batch_half = interval_without_readings(model, X, held)
         probed, probed_half, probed_fired = stream(model, X, held, hourly(measured))
         fixed, fixed_half, fixed_fired = stream(model, X, held, hourly(changed))
-    a, b, c, s2, memory_h = model.interval_scale_
+    cal = model.interval_calibration_
+    a, b, s2, memory_h = cal.anchor_var, cal.growth_var_per_h, cal.memory_var, cal.memory_h
     print(
         f"fitted on cycles 1-4 ({', '.join(model.selected_sensors_)} and the speed; reference "
         f"{model.reference_!r}); interval scale a = {a:.3g} µm², b = {b:.3g} µm²/h; "

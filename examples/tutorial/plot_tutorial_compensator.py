@@ -57,6 +57,7 @@ from sklearn.preprocessing import StandardScaler
 
 from greyml import ThermalTransferFunction, groups_of
 from greyml.cli import main as greyml_command
+from greyml.controller import Compensator
 from greyml.datasets import caiviac_candidates, make_tests
 from greyml.io import read_tests_csv
 from greyml.metrics import rmse
@@ -278,7 +279,7 @@ print(f"  its half-width: {np.mean(upper - predicted):.2f} µm on average")
 # ``status`` holds the correction, the interval's half-width at that row and
 # whether to trust it.
 EVERY_ROWS = 240  # an hour of 15 s rows
-compensator = model.compensator(row_columns=["time_s", *X.columns])
+compensator = Compensator.from_model(model, row_columns=["time_s", *X.columns])
 rows = np.column_stack([frame.index.get_level_values("time_s"), X.to_numpy()])
 first = int(np.flatnonzero(held)[0])
 output = np.empty(len(rows))
@@ -323,7 +324,7 @@ print(f"  with a half-width of {half_with_readings.mean():.2f} µm on average")
 # command line, ``greyml export`` does the same from a saved model; both
 # write the same file.
 limits = {"rate_limit_um_s": 0.5, "quantum_um": 0.1, "clamp_um": 100.0}
-for_machine = model.compensator().set_params(**limits)
+for_machine = Compensator.from_model(model).set_params(**limits)
 with tempfile.TemporaryDirectory() as folder:
     for language, suffix in (("c", "c"), ("st", "st"), ("json", "json")):
         written = for_machine.export(

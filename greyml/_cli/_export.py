@@ -82,7 +82,8 @@ def _compensator(model_path):
     A file that is not a greyml model, or holds neither a compensator nor a
     transfer function, is a ValueError with one line naming the file.
     """
-    from greyml.dynamic import Compensator, ThermalTransferFunction
+    from greyml.controller import Compensator
+    from greyml.dynamic import ThermalTransferFunction
 
     name = os.fspath(model_path)
     model, caught = _load_model_file(model_path)
@@ -92,7 +93,7 @@ def _compensator(model_path):
     if isinstance(final, Compensator):
         return final, f"Compensator from {base}", caught
     if isinstance(final, ThermalTransferFunction):
-        comp = final.compensator()
+        comp = Compensator.from_model(final)
         return (
             comp,
             f"ThermalTransferFunction from {base}, reference {final.reference_}",

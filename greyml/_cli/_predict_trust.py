@@ -42,7 +42,7 @@ def trust_model(estimator, path, flag):
             f"{flag}: the model {os.fspath(path)!r} ({type(final).__name__}) {refusal}; fit a "
             "transfer function (greyml fit --model transfer-function)."
         )
-    if flag == "--probe" and getattr(final, "conformity_scores_", None) is None:
+    if flag == "--probe" and getattr(final, "interval_calibration_", None) is None:
         raise ValueError(
             f"--probe: the model {os.fspath(path)!r} was fitted on fewer than 3 tests, so its "
             "error was never calibrated on held-out tests and a probe reading cannot be "
@@ -201,6 +201,7 @@ def replay(estimator, X, readings, *, params, coverage, tolerance, bound):
     import numpy as np
 
     from greyml._sequences import segments_by_test
+    from greyml.controller import Compensator
     from greyml.dynamic._time import timeline
 
     final = _final_step(estimator)
@@ -210,7 +211,8 @@ def replay(estimator, X, readings, *, params, coverage, tolerance, bound):
             "--probe: the steps before the model's transfer function drop the rows' test and "
             "time_s, so its compensator cannot be run along them."
         )
-    comp = final.compensator(
+    comp = Compensator.from_model(
+        final,
         row_columns=["time_s", *map(str, Xt.columns)],
         coverage=0.9 if coverage is None else coverage,
         tolerance_um=tolerance,

@@ -16,12 +16,14 @@ residuals come from leave-one-test-out refits, so the coverage promise rests
 on whole tests being exchangeable: a test unlike every training test (a new
 speed, a new season) is not covered by it.
 
-Pure array functions: no validation, no estimator.
+Pure array functions (no validation, no estimator), and the record a fit
+keeps: :class:`IntervalCalibration`.
 """
 
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 from scipy.optimize import nnls
@@ -29,6 +31,7 @@ from scipy.optimize import nnls
 from greyml.dynamic._gram import solve_all
 
 __all__ = [
+    "IntervalCalibration",
     "conformal_quantile",
     "held_out_predictions",
     "scale_fit",
@@ -126,3 +129,65 @@ def conformal_quantile(scores, coverage):
     if rank > n or n == 0:
         return math.inf
     return float(scores[rank - 1])
+
+
+@dataclass
+class IntervalCalibration:
+    """How far to trust a fitted model: its interval's calibration on held-out tests.
+
+    What :meth:`greyml.ThermalTransferFunction.fit` keeps as
+    ``interval_calibration_`` (three tests or more), what
+    :meth:`~greyml.ThermalTransferFunction.predict_interval` and
+    :meth:`greyml.Compensator.from_model` read. The error's variance at a time
+    ``t`` (hours) since the displacement was last known is
+    ``s(t)² = anchor_var + growth_var_per_h·t``; the half-width at coverage
+    ``p`` is ``quantile(p)·s(t)``. Variances in the target's unit squared
+    (µm² for a displacement in µm).
+
+    Attributes
+    ----------
+    anchor_var : float
+        ``s(0)²``, > 0: the variance where the displacement was last known
+        (a test's first row, or a probe reading).
+    growth_var_per_h : float
+        How fast the variance grows, per hour since then (≥ 0).
+    noise_var : float
+        The white part of the error (``0 <= noise_var <= anchor_var``): what
+        a probe reading cannot remove.
+    memory_var : float
+        The variance of the error's slow part (≥ 0), which forgets itself
+        with ``memory_h``: an Ornstein-Uhlenbeck process fitted to the
+        held-out residuals' variogram.
+    memory_h : float
+        The slow part's memory, in hours (> 0).
+    scores : ndarray of shape (n_residuals,)
+        The held-out residuals divided by ``s(t)``, sorted: the split-conformal
+        scores of the quantile.
+    """
+
+    anchor_var: float
+    growth_var_per_h: float
+    noise_var: float
+    memory_var: float
+    memory_h: float
+    scores: np.ndarray
+
+    def scale(self, hours):
+        """``s(t)`` at ``hours`` since the displacement was last known."""
+        return scale_of(hours, self.anchor_var, self.growth_var_per_h)
+
+    def quantile(self, coverage, owner="ThermalTransferFunction"):
+        """The conformal quantile of the scores at ``coverage`` (``owner`` names the model
+        in the messages)."""
+        if not isinstance(coverage, (int, float, np.floating)) or not 0 < coverage < 1:
+            raise ValueError(
+                f"{owner}.predict_interval: coverage must be a number in (0, 1); got {coverage!r}."
+            )
+        q = conformal_quantile(self.scores, coverage)
+        if not np.isfinite(q):
+            n = self.scores.size
+            raise ValueError(
+                f"{owner}.predict_interval: {n} held-out residuals cannot calibrate a "
+                f"{coverage:g} interval (it needs at least {int(np.ceil(1 / (1 - coverage)))})."
+            )
+        return q

@@ -19,64 +19,176 @@ out, from three tests on): the ridge penalty, which temperature sensors to use
 (forward selection under ``max_sensors``) and, with ``time_constants="fit"``,
 the time constants. Every held-out score is computed from per-test Gram
 matrices, so a candidate costs a few small linear solves, not a refit.
+
+One class, whole, in this module: the checks of its parameters, data and
+fitted state; the design (time, inputs, blocks of lags, per-test Grams); the
+fit's records (settings, data, one bank); ``fit`` as named steps; the
+intervals' calibration (kernels in :mod:`greyml.dynamic._intervals`);
+``partial_fit``; and what a fitted model says (tables, step responses,
+``describe``). The runtime that streams it, :class:`greyml.Compensator`,
+lives in :mod:`greyml.controller` and is built from the fitted attributes
+(:meth:`greyml.Compensator.from_model`).
 """
 
 from __future__ import annotations
 
+import numbers
 import warnings
-from dataclasses import replace
+from collections.abc import Mapping
+from dataclasses import dataclass, replace
 
 import numpy as np
+import pandas as pd
+from scipy.optimize import minimize
 from sklearn.base import BaseEstimator, RegressorMixin
 from sklearn.utils.validation import check_is_fitted
 
-from greyml._param_validation import Hidden, Integral, Interval, Real, StrOptions
-from greyml._renamed import DEPRECATED
-from greyml._sequences import segment_label
-from greyml._validation import column_names, require_y, validate_sequences
+from greyml._caller import warn_user
+from greyml._param_validation import Integral, Interval, Real, StrOptions
+from greyml._sequences import TIME_LEVEL, segment_label
+from greyml._time import format_duration
+from greyml._validation import (
+    MAX_INPUT,
+    check_magnitudes,
+    column_names,
+    first_flagged,
+    require_y,
+    validate_sequences,
+)
 from greyml.dynamic._gram import (
     _cols_all,
+    design,
+    grams_by_test,
     held_out_scores,
     select_sensors,
     solve_all,
 )
-from greyml.dynamic._time import (
-    STATES,
+from greyml.dynamic._intervals import (
+    IntervalCalibration,
+    held_out_predictions,
+    scale_fit,
+    scale_of,
+    variogram_fit,
 )
-from greyml.dynamic._transfer_checks import (  # noqa: F401 (DEFAULT_*: the model's defaults)
-    DEFAULT_ALPHAS,
-    DEFAULT_TIME_CONSTANTS,
-    check_enough_rows,
-    check_fitted_state,
-    check_magnitudes,
-    check_max_sensors,
-    check_params,
-    initial_displacements,
-    sample_weights,
-)
-from greyml.dynamic._transfer_design import _TransferDesign, fit_time_constants
-from greyml.dynamic._transfer_intervals import _TransferIntervals
-from greyml.dynamic._transfer_readout import _round_step, _TransferReadout
-from greyml.dynamic._transfer_records import Bank, Data, longer_banks, span
-from greyml.dynamic._transfer_stream import _TransferStream
-from greyml.dynamic._transfer_update import _TransferUpdate
-from greyml.exceptions import WarmStartWarning
+from greyml.dynamic._time import MAX_TERMS, STATES, Timeline, check_time_constants, timeline
+from greyml.exceptions import UnderdeterminedWarning, WarmStartWarning
 
-__all__ = ["ThermalTransferFunction"]
+__all__ = ["DEFAULT_ALPHAS", "DEFAULT_TIME_CONSTANTS", "MAX_INPUT", "ThermalTransferFunction"]
 
 #: The values of ``reference``.
 REFERENCES = ("auto", "start", "recording")
+#: Default time constants of the temperature sensors, in seconds (5, 15, 45, 135 min).
+DEFAULT_TIME_CONSTANTS = (300.0, 900.0, 2700.0, 8100.0)
+#: Ridge penalties tried, per row of the (standardised) design.
+DEFAULT_ALPHAS = tuple(np.logspace(-6, 0, 13))
 
 
-class ThermalTransferFunction(
-    _TransferDesign,
-    _TransferReadout,
-    _TransferIntervals,
-    _TransferUpdate,
-    _TransferStream,
-    RegressorMixin,
-    BaseEstimator,
-):
+# -- the records of one fit -----------------------------------------------------
+
+
+@dataclass(frozen=True)
+class Settings:
+    """The checked parameters of one fit."""
+
+    taus: np.ndarray
+    driver_taus: np.ndarray
+    fit_taus: bool
+    powers: tuple
+    alphas: np.ndarray
+    reference: str
+    extend: bool
+
+
+@dataclass(frozen=True)
+class Data:
+    """The checked training data of one fit."""
+
+    X: np.ndarray
+    y: np.ndarray
+    w: np.ndarray
+    segments: list
+    bounds: list
+    names: list
+    drivers: list
+    sensors: list
+    steps: Timeline
+    gap_limit: float
+
+
+@dataclass(frozen=True)
+class Bank:
+    """One bank of time constants with the sensors and penalty chosen on it."""
+
+    taus: np.ndarray
+    driver_taus: np.ndarray
+    spec: list
+    groups: list
+    labels: list
+    col_group: np.ndarray
+    grams: tuple
+    pen: np.ndarray
+    chosen: list
+    alpha: float
+    score: float
+    path: list
+
+
+def span(data):
+    """The longest stretch of time that the lags run through without a restart."""
+    t = np.cumsum(np.nan_to_num(data.steps.dt, nan=0.0))
+    longest, start = 0.0, 0.0
+    for i, (first, stop) in enumerate(data.bounds):
+        if i == 0 or not data.steps.carried[i]:
+            start = t[first]
+        longest = max(longest, t[stop - 1] - start)
+    return longest
+
+
+def longer_banks(taus, driver_taus, span):
+    """The bank extended by a lag three times slower at a time, while it fits in ``span``."""
+    out = []
+    ts, td = list(taus), list(driver_taus)
+    while 3.0 * ts[-1] <= span:
+        ts = [*ts, 3.0 * ts[-1]]
+        td = [*td, 3.0 * td[-1]]
+        out.append((np.asarray(ts), np.asarray(td)))
+    return out
+
+
+def _round_step(peak):
+    """A round step size for a driver: the power of ten below its largest value."""
+    if not np.isfinite(peak) or peak <= 0:
+        return 1.0
+    return float(10.0 ** np.floor(np.log10(peak)))
+
+
+def elapsed_hours(dt, bounds):
+    """Hours since each test's first row, from the steps ``dt`` into the rows."""
+    hours = np.zeros(dt.size)
+    for start, stop in bounds:
+        if stop - start > 1:
+            hours[start + 1 : stop] = np.cumsum(dt[start + 1 : stop]) / 3600.0
+    return hours
+
+
+def _is_real(value):
+    return isinstance(value, numbers.Real) and not isinstance(value, bool)
+
+
+def _finite(value, what):
+    if isinstance(value, bool) or not isinstance(value, numbers.Real) or not np.isfinite(value):
+        raise ValueError(
+            f"ThermalTransferFunction.predict: {what} must be a finite number of the "
+            f"target's unit; got {value!r}."
+        )
+    return float(value)
+
+
+#: The most held-out residuals a saved model may keep for its intervals.
+MAX_CONFORMITY_SCORES = 10_000_000
+
+
+class ThermalTransferFunction(RegressorMixin, BaseEstimator):
     r"""Displacement as a sum of each input's first-order thermal responses.
 
     Every input :math:`x` reaches the displacement through a static gain and
@@ -190,19 +302,17 @@ class ThermalTransferFunction(
         the next (the largest time constant of the bank given): a longer one
         inside a test is refused, between tests it restarts the lags, in
         ``fit``, :meth:`predict` and the compensator alike.
-    interval_scale_ : ndarray of shape (5,) or None
-        ``(a, b, c, s2, memory_h)`` of the held-out residuals (refits on all
-        tests but one): ``s(t)² = a + b·t`` their squared scale at ``t``
-        hours since the displacement was last known (the test's first row;
-        ``b = 0`` in the "recording" reference, where no row is known),
-        which :meth:`predict_interval` uses; ``c`` (≤ a) their white part,
-        and ``s2`` and ``memory_h`` the variance and memory (hours) of their
-        slow part, from their variogram, which the compensator's probe
-        filter uses. None when fewer than 3 tests were scored.
-    conformity_scores_ : ndarray of shape (n_held_out_rows,) or None
-        The held-out residuals divided by ``s(t)``, sorted: the residuals of
-        refits on all tests but one (sensors chosen again without it), which
-        calibrate :meth:`predict_interval`.
+    interval_calibration_ : IntervalCalibration or None
+        The interval's calibration on the held-out residuals (refits on all
+        tests but one, sensors chosen again without it): the variance
+        ``s(t)² = anchor_var + growth_var_per_h·t`` at ``t`` hours since the
+        displacement was last known (the test's first row;
+        ``growth_var_per_h = 0`` in the "recording" reference, where no row
+        is known), the white and slow parts the compensator's probe filter
+        uses, and the sorted conformity scores that :meth:`predict_interval`
+        takes its quantile from (see
+        :class:`~greyml.dynamic.IntervalCalibration`). None when fewer than 3
+        tests were scored.
     normal_gram_, normal_rhs_, normal_weight_ : ndarray, ndarray, float
         The normal equations of the final solve (the raw Gram matrix of the
         chosen columns, its right-hand side, the weight of the rows), which
@@ -248,7 +358,7 @@ class ThermalTransferFunction(
     --------
     greyml.GMC : one first-order grey response driven by all sensors.
     greyml.LagFeatures : the same lags as a transformer, for any linear model.
-    greyml.Compensator : runs a fitted model row by row, from ``compensator()``.
+    greyml.Compensator : runs a fitted model row by row (``Compensator.from_model``).
 
     Notes
     -----
@@ -357,9 +467,7 @@ class ThermalTransferFunction(
         "alphas": ["array-like", None],
         "selection": [StrOptions({"forward", "stable"})],
         "sample_interval": [Interval(Real, 0, None, closed="neither"), None],
-        "relative_to_start": ["boolean", Hidden(StrOptions({DEPRECATED}))],
     }
-    _added_params = ("sample_interval",)  # a file from before it lacks it (greyml._renamed)
 
     def __init__(
         self,
@@ -375,7 +483,6 @@ class ThermalTransferFunction(
         alphas=None,
         selection="forward",
         sample_interval=None,
-        relative_to_start=DEPRECATED,
     ):
         self.drivers = drivers
         self.max_sensors = max_sensors
@@ -388,17 +495,98 @@ class ThermalTransferFunction(
         self.alphas = alphas
         self.selection = selection
         self.sample_interval = sample_interval
-        self.relative_to_start = relative_to_start
 
     # -- parameters -----------------------------------------------------------
 
     def _check_params(self):
-        """Check what the constraints cannot say (see :func:`check_params`)."""
-        return check_params(self)
+        """The settings of a fit: what the constraints cannot check (entries of sequences)."""
+        name = type(self).__name__
+        fit_taus = isinstance(self.time_constants, str) and self.time_constants == "fit"
+        taus = self._taus(
+            "time_constants", None if fit_taus else self.time_constants, DEFAULT_TIME_CONSTANTS
+        )
+        dtaus = self.driver_time_constants
+        driver_taus = (
+            np.append(taus, 3.0 * taus.max())
+            if dtaus is None
+            else self._taus("driver_time_constants", dtaus, DEFAULT_TIME_CONSTANTS)
+        )
+        powers = tuple(self.driver_powers)
+        if not powers or any(
+            not isinstance(p, numbers.Real) or isinstance(p, bool) or not np.isfinite(p) or p <= 0
+            for p in powers
+        ):
+            raise ValueError(
+                f"The 'driver_powers' parameter of {name} must be a non-empty sequence of "
+                f"finite numbers > 0. Got {self.driver_powers!r} instead."
+            )
+        alphas = np.asarray(DEFAULT_ALPHAS if self.alphas is None else self.alphas, dtype=float)
+        if alphas.ndim != 1 or alphas.size == 0 or not (np.isfinite(alphas) & (alphas > 0)).all():
+            raise ValueError(
+                f"The 'alphas' parameter of {name} must be a non-empty sequence of finite "
+                f"floats > 0. Got {self.alphas!r} instead."
+            )
+        extend = self.time_constants is None and self.driver_time_constants is None
+        return Settings(taus, driver_taus, fit_taus, powers, alphas, self.reference, extend)
 
     def _check_fitted_state(self):
-        """The fitted attributes in their domain (see :func:`check_fitted_state`)."""
-        check_fitted_state(self)
+        """Every fitted attribute in its domain and consistent with the others.
+
+        Run on a self read from a file (:func:`greyml.persist.load_model`),
+        which could hold anything: a negative time constant would make every
+        prediction grow without bound, a block naming a column the self does
+        not have would read the wrong sensor. Raises a one-line ValueError.
+        """
+        if "feature_coef_" not in vars(self):
+            return  # not fitted: nothing but parameters
+        name = type(self).__name__
+        if "gap_limit_s_" not in vars(self) or "reference_" not in vars(self):
+            raise ValueError(
+                f"{name} was saved by an earlier greyml, before it had a reference and a gap "
+                "limit; fit it again."
+            )
+        n_in = int(self.n_features_in_)
+        check_time_constants(self.time_constants_, f"The fitted time_constants_ of {name}")
+        check_time_constants(
+            self.driver_time_constants_, f"The fitted driver_time_constants_ of {name}"
+        )
+        spec = list(self._spec_)
+        width = 0
+        for column, power, taus in spec:
+            if not (isinstance(column, numbers.Integral) and 0 <= column < n_in):
+                raise ValueError(f"{name}: a fitted block reads column {column!r} of {n_in}.")
+            if not (_is_real(power) and np.isfinite(power) and power > 0):
+                raise ValueError(f"{name}: a fitted block has the power {power!r}.")
+            if taus:
+                check_time_constants(taus, f"A fitted block of {name}")
+            width += 1 + len(taus)
+        if width > MAX_TERMS:
+            raise ValueError(
+                f"{name} holds {width:,} terms, more than the {MAX_TERMS:,} a self may hold."
+            )
+        coef = np.asarray(self.feature_coef_, dtype=float)
+        if coef.shape != (width,) or not np.isfinite(coef).all():
+            raise ValueError(
+                f"{name}: feature_coef_ must be {width} finite numbers, one per term of the "
+                f"fitted blocks; it has shape {coef.shape}."
+            )
+        if not (_is_real(self.intercept_) and np.isfinite(self.intercept_)):
+            raise ValueError(f"{name}: the intercept_ {self.intercept_!r} is not finite.")
+        if len(self._groups_) != len(spec) or len(self._labels_) != len(spec):
+            raise ValueError(f"{name}: the fitted blocks and their groups disagree.")
+        if self.reference_ not in ("start", "recording"):
+            raise ValueError(f"{name}: reference_ is {self.reference_!r}.")
+        if not (_is_real(self.gap_limit_s_) and np.isfinite(self.gap_limit_s_)):
+            raise ValueError(f"{name}: gap_limit_s_ is {self.gap_limit_s_!r}.")
+        if self.gap_limit_s_ <= 0:
+            raise ValueError(f"{name}: gap_limit_s_ is {self.gap_limit_s_!r}.")
+        step = self.nominal_step_s_
+        if not (_is_real(step) and (np.isnan(step) or (np.isfinite(step) and step > 0))):
+            raise ValueError(f"{name}: nominal_step_s_ is {step!r}.")
+        if [tuple(t) for t in self.terms_] != [tuple(t) for t in self._terms()]:
+            raise ValueError(f"{name}: terms_ disagree with the fitted blocks and gains.")
+        self._check_interval_state(name)
+        self._check_normal_equations(name, width + (0 if self.reference_ == "start" else 1))
 
     # -- data -----------------------------------------------------------------
 
@@ -406,12 +594,12 @@ class ThermalTransferFunction(
         """Validated training data: arrays, tests, inputs, weights and time."""
         Xa, ya, segments = validate_sequences(self, X, y, reset=True)
         # the inputs' values first (a NaN weight is reported as such), then their layout
-        w = sample_weights(self, sample_weight, Xa.shape[0], segments)
+        w = self._sample_weights(sample_weight, Xa.shape[0], segments)
         names = column_names(self, Xa.shape[1])
         check_magnitudes(self, Xa, names, segments)
         check_magnitudes(self, ya[:, None], ["the target y"], segments)
         drivers, sensors = self._inputs(names)
-        check_max_sensors(self, sensors, names)
+        self._check_max_sensors(sensors, names)
         tau_max = settings.taus.max()
         if drivers:
             tau_max = max(tau_max, settings.driver_taus.max())
@@ -482,7 +670,7 @@ class ThermalTransferFunction(
         n_driver_columns = (
             len(data.drivers) * len(settings.powers) * (1 + len(settings.driver_taus))
         )
-        check_enough_rows(self, data, settings, n_driver_columns, reference)
+        self._check_enough_rows(data, settings, n_driver_columns, reference)
         base = self._fit_bank(
             data, settings, y_fit, folds, reference, settings.taus, settings.driver_taus
         )
@@ -499,8 +687,8 @@ class ThermalTransferFunction(
         bank = min(fits, key=lambda f: f.score)  # the first of equal scores: the shortest
         if settings.fit_taus and folds is not None:
             chosen_names = [data.sensors[k] for k in bank.chosen]
-            taus, driver_taus = fit_time_constants(
-                self, data, chosen_names, settings, y_fit, folds, reference
+            taus, driver_taus = self._fit_time_constants(
+                data, chosen_names, settings, y_fit, folds, reference
             )
             bank = self._fit_bank(
                 data, settings, y_fit, folds, reference, taus, driver_taus, chosen=bank.chosen
@@ -517,7 +705,9 @@ class ThermalTransferFunction(
         self.time_constants_ = np.asarray(bank.taus, dtype=float)
         self.driver_time_constants_ = np.asarray(bank.driver_taus, dtype=float)
         self.gap_limit_s_ = float(data.gap_limit)
-        self._calibrate(data, bank, reference, y_fit, folds, settings.alphas)
+        self.interval_calibration_ = self._calibrate(
+            data, bank, reference, y_fit, folds, settings.alphas
+        )
         return self
 
     def _fit_bank(self, data, settings, y, folds, reference, taus, driver_taus, chosen=None):
@@ -626,7 +816,7 @@ class ThermalTransferFunction(
         check_magnitudes(self, Xa, column_names(self, Xa.shape[1]), segments)
         steps = self._timeline(X, segments, self.gap_limit_s_, self.nominal_step_s_)
         bounds = [(s.start, s.stop) for s in segments]
-        given = initial_displacements(self, initial_displacement, segments)
+        given = self._initial_displacements(initial_displacement, segments)
         if not (self.feature_coef_ != 0).any():
             pred = np.full(Xa.shape[0], self.intercept_)
         else:
@@ -655,3 +845,613 @@ class ThermalTransferFunction(
         tags = super().__sklearn_tags__()
         tags.input_tags.allow_nan = False
         return tags
+
+    # -- checks of parameters, data and fitted state -----------------------------
+
+    def _taus(self, name, value, default):
+        if value is None:
+            return np.asarray(default, dtype=float)
+        return check_time_constants(value, f"The {name!r} parameter of {type(self).__name__}")
+
+    def _check_max_sensors(self, sensors, names):
+        """``max_sensors`` at most the temperature sensors (the columns of X that are
+        not drivers)."""
+        if self.max_sensors is not None and self.max_sensors > len(sensors):
+            raise ValueError(
+                f"The 'max_sensors' parameter of {type(self).__name__} is {self.max_sensors}, "
+                f"more than the {len(sensors)} temperature sensor(s) "
+                f"({', '.join(sensors) or 'none'}) among the {len(names)} feature(s) of X."
+            )
+
+    def _check_enough_rows(self, data, settings, n_driver_columns, reference):
+        """Refuse fewer than two equations; warn when the gains outnumber them.
+
+        An equation is a row of positive weight, less the first row of each test
+        in the ``"start"`` reference. With fewer equations than gains the ridge
+        penalty keeps the solve defined, and the self says so as
+        :class:`~greyml.MLPBaseline` does (:class:`~greyml.exceptions.UnderdeterminedWarning`).
+        """
+        name = type(self).__name__
+        n_used = len(data.sensors) if self.max_sensors is None else self.max_sensors
+        n_coef = n_driver_columns + n_used * (1 + len(settings.taus))
+        relative = reference == "start"
+        n_coef += 0 if relative else 1
+        n_eq = int((data.w > 0).sum()) - (len(data.segments) if relative else 0)
+        n = data.X.shape[0]
+        rows = (
+            f"{n} sample{'' if n == 1 else 's'} in {len(data.segments)} test(s) give "
+            f"{n_eq} equation{'' if n_eq == 1 else 's'}"
+        )
+        if n_eq < 2:
+            raise ValueError(
+                f"{name} has too few rows to fit: {rows}, and a fit needs at least 2. "
+                "Give more rows."
+            )
+        if n_eq < n_coef:
+            warn_user(
+                f"{name} is under-determined: {rows} for {n_coef} coefficients. The ridge "
+                "penalty keeps the fit defined, but it can interpolate the training rows; "
+                "give more rows, fewer sensors (max_sensors) or fewer time constants.",
+                UnderdeterminedWarning,
+            )
+
+    def _sample_weights(self, sample_weight, n, segments):
+        """``sample_weight`` as finite weights >= 0, not all 0 (ones without it)."""
+        if sample_weight is None:
+            return np.ones(n)
+        w = np.asarray(sample_weight, dtype=float).reshape(-1)
+        if w.shape[0] != n:
+            raise ValueError(
+                f"{type(self).__name__}: sample_weight has {w.shape[0]} values for {n} rows."
+            )
+        bad = first_flagged(~np.isfinite(w) | (w < 0), segments)
+        if bad:
+            r, test = bad
+            value = "NaN" if np.isnan(w[r]) else f"{w[r]:g}"
+            raise ValueError(
+                f"{type(self).__name__}: sample_weight of row {r} ({test}) is "
+                f"{value}; weights must be finite and >= 0."
+            )
+        if w.sum() <= 0:
+            raise ValueError(
+                f"{type(self).__name__}: every sample_weight is zero; give some rows a "
+                "positive weight."
+            )
+        return w
+
+    def _initial_displacements(self, value, segments):
+        """``initial_displacement`` as {test position: finite number}."""
+        if value is None:
+            return {}
+        name = type(self).__name__
+        if isinstance(value, Mapping):
+            labels = {str(s.label): i for i, s in enumerate(segments)}
+            out = {}
+            for label, v in value.items():
+                if str(label) not in labels:
+                    raise ValueError(
+                        f"{name}.predict: initial_displacement names the test {label!r}, which "
+                        f"is not in X (its tests: {', '.join(list(labels)[:10])})."
+                    )
+                out[labels[str(label)]] = _finite(v, f"the initial displacement of {label!r}")
+            return out
+        v = _finite(value, "initial_displacement")
+        return dict.fromkeys(range(len(segments)), v)
+
+    def _check_normal_equations(self, name, n_total):
+        """partial_fit's normal equations: a symmetric finite Gram on valid columns, or none."""
+        keys = ("normal_gram_", "normal_rhs_", "normal_weight_", "_normal_cols_", "_normal_pen_")
+        present = [k in vars(self) for k in keys]
+        if not any(present):
+            return  # saved before partial_fit existed: it then says fit again
+        bad = ValueError(f"{name}: the saved normal equations (normal_gram_, ...) are not valid.")
+        if not all(present):
+            raise bad
+        try:
+            cols = np.asarray(self._normal_cols_)
+            G = np.asarray(self.normal_gram_, dtype=float)
+            b = np.asarray(self.normal_rhs_, dtype=float)
+            pen = np.asarray(self._normal_pen_, dtype=float)
+            weight = float(self.normal_weight_)
+        except (TypeError, ValueError):
+            raise bad from None
+        k = cols.size
+        if (
+            cols.ndim != 1
+            or cols.dtype.kind not in "iu"
+            or (cols.size and (cols.min() < 0 or cols.max() >= n_total))
+            or np.unique(cols).size != k
+            or G.shape != (k, k)
+            or b.shape != (k,)
+            or pen.shape != (k,)
+            or not (np.isfinite(G).all() and np.isfinite(b).all() and np.isfinite(pen).all())
+            or not np.allclose(G, G.T)
+            or (pen < 0).any()
+            or not (np.isfinite(weight) and weight > 0)
+        ):
+            raise bad
+
+    def _check_interval_state(self, name):
+        """The intervals' calibration: None, or an :class:`IntervalCalibration` in its
+        domain (a > 0, b >= 0, 0 <= c <= a, s2 >= 0, memory_h > 0, sorted scores)."""
+        cal = vars(self).setdefault("interval_calibration_", None)
+        if cal is None:
+            return
+        if not isinstance(cal, IntervalCalibration):
+            raise ValueError(
+                f"{name}: interval_calibration_ must be an IntervalCalibration or None; "
+                f"got {type(cal).__name__}."
+            )
+        try:
+            scale = np.array(
+                [cal.anchor_var, cal.growth_var_per_h, cal.noise_var, cal.memory_var, cal.memory_h],
+                dtype=float,
+            )
+        except (AttributeError, TypeError, ValueError):
+            scale = np.zeros(0)
+        if (
+            scale.shape != (5,)
+            or not np.isfinite(scale).all()
+            or scale[0] <= 0
+            or (scale[1:] < 0).any()
+            or scale[2] > scale[0]
+            or scale[4] <= 0
+        ):
+            raise ValueError(
+                f"{name}: interval_calibration_ must hold five finite numbers (anchor_var > 0, "
+                "growth_var_per_h >= 0, 0 <= noise_var <= anchor_var, memory_var >= 0, "
+                f"memory_h > 0); got {scale.tolist()!r}."
+            )
+        try:
+            scores = np.asarray(cal.scores, dtype=float)
+        except (AttributeError, TypeError, ValueError):
+            scores = np.zeros((0, 0))
+        if (
+            scores.ndim != 1
+            or not 0 < scores.size <= MAX_CONFORMITY_SCORES
+            or not np.isfinite(scores).all()
+            or (scores < 0).any()
+            or (np.diff(scores) < 0).any()
+        ):
+            raise ValueError(
+                f"{name}: interval_calibration_.scores must be 1 to "
+                f"{MAX_CONFORMITY_SCORES:,} finite, non-negative numbers in increasing order."
+            )
+
+    # -- the design: time, inputs, blocks, lag features, Grams -------------------
+
+    def _timeline(self, X, segments, tau_max, nominal=None):
+        # without a time_s level: sample_interval seconds per row; without
+        # either, refused in one line that names both (as LagFeatures does)
+        return timeline(
+            X,
+            segments,
+            owner=type(self).__name__,
+            tau_max=tau_max,
+            state=self.state,
+            nominal=nominal,
+            default_step=self.sample_interval,
+        )
+
+    def _inputs(self, names):
+        drivers = list(self.drivers)
+        for d in drivers:
+            if d not in names:
+                raise ValueError(
+                    f"{type(self).__name__}: the driver {d!r} is not a column of X "
+                    f"(columns: {', '.join(map(str, names))})."
+                )
+        if len(set(drivers)) != len(drivers):
+            raise ValueError(f"{type(self).__name__}: a driver is named twice in {drivers!r}.")
+        sensors = [c for c in names if c not in drivers]
+        return drivers, sensors
+
+    def _spec(self, drivers, sensors, names, powers, taus, driver_taus):
+        """Blocks (column, power, taus) and the group of each: -1 drivers, k sensor k."""
+        spec, groups, labels = [], [], []
+        for d in drivers:
+            for p in powers:
+                spec.append((names.index(d), p, tuple(driver_taus)))
+                groups.append(-1)
+                labels.append((d, p))
+        for k, s in enumerate(sensors):
+            spec.append((names.index(s), 1, tuple(taus)))
+            groups.append(k)
+            labels.append((s, 1))
+        return spec, groups, labels
+
+    def _design(self, x, steps, bounds, spec, groups, reference):
+        """Lag features of the blocks ``spec``; drivers (group -1) start idle without history."""
+        idle = [b for b, g in enumerate(groups) if g == -1]
+        F = design(x, steps.dt, bounds, spec, steps.carried, idle)
+        if reference == "start":
+            for start, stop in bounds:
+                F[start:stop] -= F[start].copy()
+        return F
+
+    @staticmethod
+    def _grams(F, y, w, bounds, reference):
+        """Per-test raw Grams of the design (a ones column last in the recording reference)."""
+        relative = reference == "start"
+        A = F if relative else np.column_stack([F, np.ones(len(F))])
+        pen = np.ones(A.shape[1])
+        if not relative:
+            pen[-1] = 0.0
+        return grams_by_test(A, y, w, bounds), pen
+
+    def _fit_time_constants(self, data, chosen_names, settings, y, folds, reference):
+        """Variable projection: Nelder–Mead over the log time constants, gains solved inside.
+
+        Only the drivers and the chosen sensors are filtered; the score is the
+        mean held-out RMSE (best penalty) of whole tests.
+        """
+        m = len(settings.taus)
+
+        def unpack(z):
+            return np.sort(np.exp(z[:m])), np.sort(np.exp(z[m:]))
+
+        def objective(z):
+            ts, td = unpack(z)
+            if ts.max() > 1e7 or td.max() > 1e7 or ts.min() < 1.0 or td.min() < 1.0:
+                return np.inf
+            spec, groups, _ = self._spec(
+                data.drivers, chosen_names, data.names, settings.powers, ts, td
+            )
+            F = self._design(data.X, data.steps, data.bounds, spec, groups, reference)
+            grams, pen = self._grams(F, y, data.w, data.bounds, reference)
+            cols = np.arange(grams[0].shape[1])
+            return float(held_out_scores(grams, cols, settings.alphas, pen, folds).min())
+
+        z0 = np.log(np.concatenate([settings.taus, settings.driver_taus]))
+        f0 = objective(z0)
+        result = minimize(
+            objective,
+            z0,
+            method="Nelder-Mead",
+            options={"maxfev": 40 * len(z0), "xatol": 0.02, "fatol": 1e-6 * max(f0, 1e-12)},
+        )
+        best = result.x if result.fun < f0 else z0
+        return unpack(best)
+
+    # -- intervals ---------------------------------------------------------------
+
+    def _calibrate(self, data, bank, reference, y, folds, alphas):
+        """The interval's :class:`IntervalCalibration` from the held-out tests.
+
+        ``None`` when fewer than 3 tests were scored (nothing was held out, so
+        there is nothing honest to calibrate on).
+        """
+        if folds is None:
+            return None
+        F = self._design(data.X, data.steps, data.bounds, bank.spec, bank.groups, reference)
+        A = F if reference == "start" else np.column_stack([F, np.ones(len(F))])
+        n_total = bank.grams[0].shape[1]
+
+        # the sensors and the penalty are chosen again without each test, the
+        # penalty on every other value of the grid (half the cost; the residuals
+        # of a choice that saw the test would be too small)
+        grid = np.asarray(alphas, dtype=float)[::2]
+
+        def choose(grams, other_folds):
+            chosen, alpha, _, _ = select_sensors(
+                grams,
+                bank.pen,
+                bank.col_group,
+                data.sensors,
+                grid,
+                other_folds if len(other_folds) >= 2 else None,
+                self.max_sensors,
+                self.selection,
+            )
+            return _cols_all(bank.col_group, chosen, n_total), alpha, bank.pen
+
+        preds = held_out_predictions(A, bank.grams, folds, data.bounds, choose)
+        hours_all = elapsed_hours(data.steps.dt, data.bounds)
+        hours, residuals = [], []
+        for k, pred in preds.items():
+            start, stop = data.bounds[k]
+            used = data.w[start:stop] > 0
+            hours.append(hours_all[start:stop][used])
+            residuals.append((y[start:stop] - pred)[used])
+        c, s2, memory_h = variogram_fit(residuals, data.steps.nominal_step_s)
+        hours, residuals = np.concatenate(hours), np.concatenate(residuals)
+        if reference == "start":
+            a, b = scale_fit(hours, residuals)
+        else:
+            # from the recording's zero the displacement is never known at a row,
+            # so nothing anchors a width that grows: one width for every row
+            a, b = scale_fit(np.zeros_like(hours), residuals)[0], 0.0
+        return IntervalCalibration(
+            anchor_var=float(a),
+            growth_var_per_h=float(b),
+            noise_var=float(min(c, a)),
+            memory_var=float(s2),
+            memory_h=float(memory_h),
+            scores=np.sort(np.abs(residuals) / scale_of(hours, a, b)),
+        )
+
+    def interval_half_width(self, hours, coverage=0.9):
+        """Half-width of the ``coverage`` interval ``hours`` after the displacement was known.
+
+        Parameters
+        ----------
+        hours : float or array-like
+            Time since the displacement was last known: since the test's first
+            row (the "start" reference, or a test given with
+            ``initial_displacement``), or since a probe reading.
+        coverage : float, default=0.9
+            In (0, 1).
+
+        Returns
+        -------
+        half_width : float or ndarray, in the unit of the target
+        """
+        check_is_fitted(self)
+        q = self._quantile(coverage)
+        width = q * self.interval_calibration_.scale(np.asarray(hours, dtype=float))
+        return float(width) if np.ndim(width) == 0 else width
+
+    def _quantile(self, coverage):
+        name = type(self).__name__
+        if self.interval_calibration_ is None:
+            if not isinstance(coverage, (int, float, np.floating)) or not 0 < coverage < 1:
+                raise ValueError(
+                    f"{name}.predict_interval: coverage must be a number in (0, 1); "
+                    f"got {coverage!r}."
+                )
+            raise ValueError(
+                f"{name} was fitted on fewer than 3 tests with a weight, so no test was held "
+                "out and its intervals could not be calibrated; fit it on at least 3 tests."
+            )
+        return self.interval_calibration_.quantile(coverage, name)
+
+    def predict_interval(self, X, coverage=0.9, initial_displacement=None):
+        """Prediction and its ``coverage`` interval for every row, in ``reference_``.
+
+        The interval is calibrated in ``fit`` on whole held-out tests
+        (split-conformal on the leave-one-test-out residuals, scaled by a
+        width that grows with the time since the displacement was last known;
+        see :mod:`greyml.dynamic._intervals`). Its coverage is a promise over
+        tests like the training tests, held out whole; it says nothing about
+        a test unlike all of them.
+
+        Parameters
+        ----------
+        X : DataFrame of shape (n_samples, n_features)
+            As for :meth:`predict`.
+        coverage : float, default=0.9
+            The share of rows the interval should hold, in (0, 1).
+        initial_displacement : float or dict, optional
+            As for :meth:`predict`.
+
+        Returns
+        -------
+        intervals : ndarray of shape (n_samples, 3)
+            Columns: prediction, lower bound, upper bound.
+        """
+        check_is_fitted(self)
+        q = self._quantile(coverage)
+        pred = self.predict(X, initial_displacement=initial_displacement)
+        _, _, segments = validate_sequences(self, X, reset=False)
+        steps = self._timeline(X, segments, self.gap_limit_s_, self.nominal_step_s_)
+        bounds = [(s.start, s.stop) for s in segments]
+        half = q * self.interval_calibration_.scale(elapsed_hours(steps.dt, bounds))
+        return np.column_stack([pred, pred - half, pred + half])
+
+    # -- partial_fit -------------------------------------------------------------
+
+    def _keep_normal_equations(self, G, b, sw, cols, pen):
+        """What ``partial_fit`` adds to: the chosen columns' raw Gram, its rhs, the weight."""
+        self.normal_gram_ = np.asarray(G, dtype=float)
+        self.normal_rhs_ = np.asarray(b, dtype=float)
+        self.normal_weight_ = float(sw)
+        self._normal_cols_ = np.asarray(cols, dtype=int)
+        self._normal_pen_ = np.asarray(pen, dtype=float)
+
+    def partial_fit(self, X, y, sample_weight=None, *, forgetting=1.0):
+        """Update the gains with new tests; the fitted model is the prior.
+
+        The normal equations of the tests seen so far, weighted by
+        ``forgetting``, are added to those of the new tests, and the ridge is
+        solved again with the same sensors, time constants and penalty:
+        recursive least squares with forgetting, not a refit from scratch.
+        With ``forgetting=1`` the result equals a fit on all the tests with
+        those choices; with 0 the new tests alone decide (a few rows then fit
+        many gains: keep it above 0 unless the new tests are many).
+
+        Parameters
+        ----------
+        X : DataFrame of shape (n_samples, n_features)
+            New tests, with the columns seen in ``fit``.
+        y : array-like of shape (n_samples,)
+            Their displacement, as given to ``fit``.
+        sample_weight : array-like of shape (n_samples,), optional
+            As in ``fit``.
+        forgetting : float, default=1.0
+            The weight of the tests seen so far, in [0, 1].
+
+        Before any ``fit``, ``partial_fit`` fits (as scikit-learn's
+        incremental estimators do).
+
+        Returns
+        -------
+        self : ThermalTransferFunction
+        """
+        if not hasattr(self, "feature_coef_"):  # scikit-learn's convention: the first call fits
+            return self.fit(X, y, sample_weight=sample_weight)
+        check_is_fitted(self)
+        name = type(self).__name__
+        if "normal_gram_" not in vars(self):
+            raise ValueError(
+                f"{name} was saved by an earlier greyml, without its normal equations; "
+                "fit it again before partial_fit."
+            )
+        if (
+            isinstance(forgetting, bool)
+            or not isinstance(forgetting, numbers.Real)
+            or not 0 <= forgetting <= 1
+        ):
+            raise ValueError(
+                f"{name}.partial_fit: forgetting must be a number in [0, 1]; got {forgetting!r}."
+            )
+        require_y(self, y)
+        Xa, ya, segments = validate_sequences(self, X, y, reset=False)
+        check_magnitudes(self, Xa, column_names(self, Xa.shape[1]), segments)
+        check_magnitudes(self, ya, ["the target y"], segments)
+        steps = self._timeline(X, segments, self.gap_limit_s_, self.nominal_step_s_)
+        bounds = [(s.start, s.stop) for s in segments]
+        w = self._sample_weights(sample_weight, Xa.shape[0], segments)
+        y_fit = ya.copy()
+        if self.reference_ == "start":
+            for start, stop in bounds:
+                y_fit[start:stop] -= ya[start]
+        F = self._design(Xa, steps, bounds, self._spec_, self._groups_, self.reference_)
+        (G, b, _, sw), _ = self._grams(F, y_fit, w, bounds, self.reference_)
+        cols = self._normal_cols_
+        G = forgetting * self.normal_gram_ + G.sum(axis=0)[np.ix_(cols, cols)]
+        b = forgetting * self.normal_rhs_ + b.sum(axis=0)[cols]
+        weight = forgetting * self.normal_weight_ + float(sw.sum())
+        coef = np.zeros(F.shape[1] + (0 if self.reference_ == "start" else 1))
+        coef[cols] = solve_all(G, b, weight, [self.alpha_], self._normal_pen_)[:, 0]
+        n_cols = F.shape[1]
+        self.feature_coef_ = coef[:n_cols]
+        self.intercept_ = 0.0 if self.reference_ == "start" else float(coef[n_cols])
+        self.terms_ = self._terms()
+        self._keep_normal_equations(G, b, weight, cols, self._normal_pen_)
+        return self
+
+    # -- what a fitted model says -------------------------------------------------
+
+    @property
+    def selection_(self):
+        """Forward selection step by step, as a table: the sensor added, the mean
+        held-out RMSE and the penalty, one row per step (empty without
+        ``max_sensors``); with ``selection="stable"``, each sensor any run
+        chose and the share of runs that chose it.
+        """
+        check_is_fitted(self)
+        return pd.DataFrame(self._selection_path_, columns=self._selection_columns_)
+
+    @property
+    def gains_(self):
+        """Each input's gains as a table: one row per input and power, one column
+        per term (``static``, ``lag 5 min`` and so on), each the weight of its
+        term in ``terms_`` (µm per unit of the input raised to the power, for a
+        displacement in µm).
+        """
+        check_is_fitted(self)
+        return self._gain_table()
+
+    def _terms(self):
+        terms = []
+        c = 0
+        for (_col, power, taus), (name, _) in zip(self._spec_, self._labels_):
+            for tau in (None, *taus):
+                weight = float(self.feature_coef_[c])
+                if weight != 0.0:
+                    terms.append((name, power, None if tau is None else float(tau), weight))
+                c += 1
+        return terms
+
+    def _gain_table(self):
+        rows, index = [], []
+        all_taus = sorted({t for _, _, taus in self._spec_ for t in taus})
+        columns = ["static"] + [f"lag {format_duration(t)}" for t in all_taus]
+        c = 0
+        for (_col, power, taus), (name, _) in zip(self._spec_, self._labels_):
+            row = dict.fromkeys(columns, np.nan)
+            row["static"] = self.feature_coef_[c]
+            for j, tau in enumerate(taus):
+                row[f"lag {format_duration(tau)}"] = self.feature_coef_[c + 1 + j]
+            c += 1 + len(taus)
+            group_in = name in self.drivers_ or name in self.selected_sensors_
+            if group_in:
+                rows.append(row)
+                index.append((name, power))
+        table = pd.DataFrame(rows, columns=columns)
+        table.index = pd.MultiIndex.from_tuples(index, names=["input", "power"])
+        return table
+
+    def step_response(self, input, step=None, *, start=0.0, times=None):
+        """Displacement after a step of one input, all other inputs held.
+
+        Parameters
+        ----------
+        input : str
+            A driver or a selected sensor.
+        step : float, optional
+            Size of the step in the input's unit; default ``step_sizes_[input]``
+            (1 K for a sensor, e.g. 1000 rpm for a spindle).
+        start : float, default=0.0
+            Value before the step (matters for powers above 1).
+        times : array-like, optional
+            Seconds after the step; default 0 to five times the largest time
+            constant, 200 points.
+
+        Returns
+        -------
+        response : Series
+            Displacement change (units of y) indexed by ``time_s``.
+        """
+        check_is_fitted(self)
+        if input not in self.step_sizes_:
+            raise ValueError(
+                f"step_response: {input!r} is not an input of this model (inputs: "
+                f"{', '.join(self.step_sizes_)})."
+            )
+        step = self.step_sizes_[input] if step is None else float(step)
+        if times is None:
+            top = 5.0 * max(self.time_constants_.max(), self.driver_time_constants_.max())
+            times = np.linspace(0.0, top, 200)
+        times = np.asarray(times, dtype=float)
+        out = np.zeros_like(times)
+        for name, power, tau, weight in self.terms_:
+            if name != input:
+                continue
+            jump = (start + step) ** power - start**power
+            shape = np.ones_like(times) if tau is None else 1.0 - np.exp(-times / tau)
+            out += weight * jump * shape
+        return pd.Series(out, index=pd.Index(times, name=TIME_LEVEL), name=input)
+
+    def describe(self, unit="µm", *, file=None):
+        """Print one line per input: its step response in words.
+
+        Parameters
+        ----------
+        unit : str, default="µm"
+            Unit of the displacement.
+        file : file-like, optional
+            Where to print (default standard output).
+
+        Returns
+        -------
+        text : str
+            The lines printed.
+        """
+        check_is_fitted(self)
+        lines = []
+        for name in self.drivers_ + self.selected_sensors_:
+            step = self.step_sizes_[name]
+            is_driver = name in self.drivers_
+            per = f"{step:g} {'rpm' if 'rpm' in name else 'units'}" if is_driver else "1 K"
+            long = 5.0 * max(self.time_constants_.max(), self.driver_time_constants_.max())
+            grid = np.linspace(0.0, long, 2001)
+            r = self.step_response(name, step, times=grid).to_numpy()
+            final = float(self.step_response(name, step, times=[np.inf]).iloc[0])
+            at_once = r[0]
+            at45 = float(self.step_response(name, step, times=[2700.0]).iloc[0])
+            if abs(final) > 0:
+                reached = np.flatnonzero(np.abs(r - at_once) >= 0.632 * abs(final - at_once))
+                t63 = grid[reached[0]] / 60.0 if reached.size and final != at_once else 0.0
+                within = f"63 % of the lagged part within {t63:.0f} min"
+            else:
+                within = "no response"
+            lines.append(
+                f"{name}: {final:.3g} {unit} per {per} at steady state, {at_once:.3g} {unit} "
+                f"at once, {at45:.3g} {unit} after 45 min; {within}"
+            )
+        text = "\n".join(lines)
+        print(text, file=file)
+        return text
+
+    # -- predict --------------------------------------------------------------

@@ -30,7 +30,8 @@ from sklearn.preprocessing import (
     StandardScaler,
 )
 
-from greyml.dynamic import Compensator
+from greyml.controller import Compensator, Uncertainty
+from greyml.dynamic import IntervalCalibration
 from greyml.optimize import CuckooSearch, ParticleSwarm
 from greyml.selection import TrainOnOneTest
 from greyml.utils.discovery import all_estimators
@@ -73,6 +74,9 @@ ALLOWED_CLASSES = MappingProxyType(
         **{f"greyml.{name}": cls for name, cls in all_estimators()},
         # the runtime object a controller runs, saved with its state
         "greyml.Compensator": Compensator,
+        # the records a fitted model or a compensator holds
+        "greyml.controller.Uncertainty": Uncertainty,
+        "greyml.dynamic.IntervalCalibration": IntervalCalibration,
         "greyml.optimize.CuckooSearch": CuckooSearch,
         "greyml.optimize.ParticleSwarm": ParticleSwarm,
         "greyml.selection.TrainOnOneTest": TrainOnOneTest,

@@ -412,8 +412,8 @@ def load_model(path, *, trusted=None, max_bytes=DEFAULT_MAX_BYTES):
     greyml model's fitted attributes are checked against their physical
     domain and against each other (time constants > 0, a compensator's state
     against its terms), and the work of one ``predict`` row or one ``update``
-    is bounded (at most :data:`greyml.dynamic.MAX_TIME_CONSTANTS` time
-    constants and :data:`greyml.dynamic.MAX_TERMS` terms).
+    is bounded (at most ``MAX_TIME_CONSTANTS`` time
+    constants and ``MAX_TERMS`` terms).
 
     Parameters
     ----------

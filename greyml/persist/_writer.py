@@ -199,7 +199,11 @@ class _Writer:
         for key in state:
             if type(key) is not str:
                 raise TypeError(f"Cannot save {where}: attribute name {key!r} is not a string.")
-        node["state"] = {k: self.encode(v, f"{where}.{k}") for k, v in state.items()}
+        # a cache the object rebuilds on load (a compensator's update plan) is not data
+        derived = getattr(cls, "_derived_attributes", ())
+        node["state"] = {
+            k: self.encode(v, f"{where}.{k}") for k, v in state.items() if k not in derived
+        }
         return node
 
 

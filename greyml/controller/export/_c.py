@@ -14,8 +14,8 @@ import math
 import textwrap
 from string import Template
 
-from greyml.dynamic._output import QUANTA_MAX, QUANTUM_TOLERANCE
-from greyml.dynamic._program import STATUS_CODES
+from greyml.controller._output import QUANTA_MAX, QUANTUM_TOLERANCE
+from greyml.controller.export._program import STATUS_CODES
 
 __all__ = ["write_c"]
 
@@ -453,7 +453,7 @@ def _record_c(p):
 
 
 def _stage_c(p):
-    """Step (7): :func:`greyml.dynamic._output.limit_output`, for this compensator's limits."""
+    """Step (7): :func:`greyml.controller._output.limit_output`, for this compensator's limits."""
     lines = []
     if p.clamp_um is not None:
         c = _real(p.clamp_um)

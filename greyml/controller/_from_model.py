@@ -1,8 +1,13 @@
-"""The terms of a fitted Pipeline(LagFeatures, [StandardScaler], linear model).
+"""What a Compensator is built from: a fitted model's terms, limits and calibration.
 
-What :meth:`greyml.Compensator.from_pipeline` builds its compensator from:
-the scaler and the linear model's coefficients folded into the lag terms'
-weights and the intercept.
+:meth:`greyml.Compensator.from_model` reads a fitted
+:class:`greyml.ThermalTransferFunction` through its public fitted attributes
+(``terms_``, ``intercept_``, ``reference_``, ``drivers_``, ``gap_limit_s_``,
+``nominal_step_s_`` and its interval calibration);
+:meth:`greyml.Compensator.from_pipeline` a fitted
+``Pipeline(LagFeatures, [StandardScaler], linear model)``, the scaler and the
+linear model's coefficients folded into the lag terms' weights and the
+intercept.
 """
 
 from __future__ import annotations
@@ -14,7 +19,7 @@ from sklearn.utils.validation import check_is_fitted
 
 from greyml.dynamic._lags import LagFeatures
 
-__all__ = ["pipeline_terms"]
+__all__ = ["pipeline_terms", "transfer_terms"]
 
 
 def pipeline_terms(pipeline):
@@ -90,3 +95,43 @@ def pipeline_terms(pipeline):
         "intercept": intercept,
         "nominal_step_s": step,
     }
+
+
+def transfer_terms(model, *, coverage=0.9, tolerance_um=None, probe_noise_um=0.0):
+    """The keyword arguments of :class:`greyml.Compensator` for a fitted transfer function.
+
+    Parameters
+    ----------
+    model : ThermalTransferFunction
+        Fitted.
+    coverage, tolerance_um, probe_noise_um
+        See :meth:`greyml.Compensator.from_model`.
+
+    Returns
+    -------
+    dict
+        Keyword arguments of :class:`greyml.Compensator`: the terms, the
+        reference and the step limits; with a calibration (three tests or
+        more in ``fit``), also ``"calibration"`` (the model's
+        :class:`~greyml.dynamic.IntervalCalibration`, which the compensator
+        turns into its ``uncertainty``) and the quantile at ``coverage``.
+    """
+    check_is_fitted(model)
+    nominal_step_s = model.nominal_step_s_ if model.state == "carry" else None
+    inputs = list(dict.fromkeys(name for name, _, _, _ in model.terms_))
+    params = {
+        "inputs": inputs,
+        "terms": list(model.terms_),
+        "intercept": model.intercept_,
+        "relative_to_start": model.reference_ == "start",
+        "nominal_step_s": nominal_step_s,
+        "idle_inputs": [d for d in model.drivers_ if d in inputs],
+        "max_step_s": model.gap_limit_s_,
+        "tolerance_um": tolerance_um,
+        "probe_noise_um": probe_noise_um,
+    }
+    calibration = model.interval_calibration_
+    if calibration is not None:
+        params["calibration"] = calibration
+        params["interval_quantile"] = calibration.quantile(coverage, type(model).__name__)
+    return params

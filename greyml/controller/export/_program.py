@@ -8,8 +8,8 @@ calibration), the policies (reference, restarting clock, missing inputs), the
 layout of the running state, and the names that may appear in generated text,
 made safe. The C and Structured Text writers render the same fixed algorithm
 (``Compensator.update``'s order of checks, the lags, the output stage of
-:func:`greyml.dynamic._output.limit_output`, the probe filter of
-:mod:`greyml.dynamic._compensator_trust`) from it, and the JSON export is
+:func:`greyml.controller._output.limit_output`, the probe filter of
+:mod:`greyml.controller._compensator`) from it, and the JSON export is
 :meth:`Program.to_dict`.
 
 Nothing a model file says reaches generated code as text except through
@@ -23,8 +23,8 @@ import math
 import re
 from dataclasses import dataclass
 
-from greyml.dynamic._compensator_trust import _ALLOWANCE, _GAIN_VAR, HISTORY
-from greyml.dynamic._output import QUANTA_MAX, QUANTUM_TOLERANCE
+from greyml.controller._compensator import _ALLOWANCE, _GAIN_VAR, HISTORY
+from greyml.controller._output import QUANTA_MAX, QUANTUM_TOLERANCE
 
 __all__ = [
     "SCHEMA",
@@ -382,32 +382,36 @@ def describe(comp, *, name="greyml_compensator", description=None):
     from greyml import __version__
 
     name = check_name(name)
-    plan = comp._check_params()
+    plan = comp.update_plan()
     taken = {name.lower()}
     inputs = tuple(
-        Input(v, identifier(v, taken), comment_text(v, 40), _unit(v)) for v in plan["names"]
+        Input(v, identifier(v, taken), comment_text(v, 40), _unit(v)) for v in plan.names
     )
-    start, stop = plan["span"]
-    n = plan["weight"].size
-    n_lags = plan["tau"].size
+    start, stop = plan.span
+    n = plan.weight.size
+    n_lags = plan.tau.size
     terms = []
     for k in range(n):
-        power = float(plan["power"][k - start]) if start <= k < stop else 1.0
+        power = float(plan.power[k - start]) if start <= k < stop else 1.0
         terms.append(
             Term(
-                input=int(plan["index"][k]) - 1,
+                input=int(plan.index[k]) - 1,
                 power=power,
-                tau_s=float(plan["tau"][k]) if k < n_lags else None,
-                weight=float(plan["weight"][k]),
-                idle=bool(plan["idle"][k]) if k < n_lags else False,
+                tau_s=float(plan.tau[k]) if k < n_lags else None,
+                weight=float(plan.weight[k]),
+                idle=bool(plan.idle[k]) if k < n_lags else False,
                 fractional=power != round(power),
             )
         )
-    u = comp._uncertainty()
+    u = plan.uncertainty
     trust = None
     if u is not None:
         trust = Trust(
-            *u,
+            u.offset_var,
+            u.growth_var_per_h,
+            u.noise_var,
+            u.memory_var,
+            u.memory_h,
             interval_quantile=float(comp.interval_quantile),
             probe_noise_um=float(comp.probe_noise_um),
             change_threshold=float(comp.change_threshold),
@@ -415,8 +419,8 @@ def describe(comp, *, name="greyml_compensator", description=None):
             gain_var=_GAIN_VAR,
             history=HISTORY,
         )
-    clamp, quantum, rate = plan["limits"]
-    max_step = plan["max_step"]
+    clamp, quantum, rate = plan.limits
+    max_step = plan.max_step
     if description is None:
         description = f"Compensator of {n} terms over {len(inputs)} inputs"
     return Program(
