@@ -304,7 +304,7 @@ def test_set_state_refuses_a_bad_output_and_keeps_the_state():
 
 
 def test_a_transfer_functions_compensator_takes_the_limits_at_construction():
-    """``ThermalTransferFunction.compensator`` passes the output stage on: the
+    """``Compensator.from_model`` passes the output stage on: the
     same stream through it and through one given the limits by ``set_params``."""
     from greyml import ThermalTransferFunction, make_test_index
 

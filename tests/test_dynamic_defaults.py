@@ -188,7 +188,7 @@ def test_compensator_refuses_a_gap_as_predict_does_and_steps_restarting_clocks()
     ]
     np.testing.assert_allclose(streamed, carried.predict(Xs), rtol=0, atol=1e-9)
     with pytest.raises(ValueError, match="time_s goes back"):
-        plain = _model(max_sensors=1).fit(Xs, ys).compensator()
+        plain = Compensator.from_model(_model(max_sensors=1).fit(Xs, ys))
         for (_, t), r in zip(Xs.index, Xs.to_dict("records")):
             plain.update({"time_s": t, **r})
 

@@ -115,11 +115,12 @@ def test_array_needs_sample_interval_and_set_output_keeps_names():
     np.testing.assert_allclose(Z.iloc[:, 1], [0.0, 0.5, 0.75], atol=1e-15)
 
 
-def test_the_old_name_sample_step_s_still_works_with_a_future_warning():
+def test_rows_sample_interval_apart_halve_a_lag_of_that_half_life():
+    # the old name sample_step_s went with the deprecation layer (nothing was released)
     x = np.array([[0.0], [1.0], [1.0]])
-    lags = LagFeatures([10.0 / math.log(2.0)], sample_step_s=10.0)
-    with pytest.warns(FutureWarning, match=r"'sample_step_s' .* renamed 'sample_interval'"):
-        out = lags.fit_transform(x)
+    with pytest.raises(TypeError, match="sample_step_s"):
+        LagFeatures([10.0 / math.log(2.0)], sample_step_s=10.0)
+    out = LagFeatures([10.0 / math.log(2.0)], sample_interval=10.0).fit_transform(x)
     np.testing.assert_allclose(out[:, 1], [0.0, 0.5, 0.75], atol=1e-15)
 
 

@@ -58,12 +58,12 @@ def test_the_json_holds_the_terms_limits_and_state_layout_of_c_and_st():
     assert data["schema"] == SCHEMA and data["schema_version"] == SCHEMA_VERSION == 1
     assert [v["name"] for v in data["inputs"]] == list(comp.inputs)
     # the terms as the compensator runs them (shared lags merged, lags first)
-    plan = comp._check_params()
-    np.testing.assert_array_equal([t["weight"] for t in data["terms"]], plan["weight"])
+    plan = comp.update_plan()
+    np.testing.assert_array_equal([t["weight"] for t in data["terms"]], plan.weight)
     np.testing.assert_array_equal(
-        [t["tau_s"] for t in data["terms"][: plan["tau"].size]], plan["tau"]
+        [t["tau_s"] for t in data["terms"][: plan.tau.size]], plan.tau
     )
-    assert all(t["tau_s"] is None for t in data["terms"][plan["tau"].size :])
+    assert all(t["tau_s"] is None for t in data["terms"][plan.tau.size :])
 
     def key(name, power, tau):
         return name, power, -1.0 if tau is None else tau
@@ -73,7 +73,7 @@ def test_the_json_holds_the_terms_limits_and_state_layout_of_c_and_st():
     )
     assert data["limits"]["rate_limit_um_s"] == 0.5 and data["limits"]["quantum_um"] == 0.1
     assert data["limits"]["on_missing"] == "hold" and data["limits"]["clamp_um"] is None
-    assert data["probe_filter"]["offset_var"] == comp.uncertainty[0]
+    assert data["probe_filter"]["offset_var"] == comp.uncertainty.offset_var
     assert data["intercept"] == comp.intercept and data["tolerance_um"] == 4.0
     assert data["units"]["output"] == "um" and data["units"]["time"] == "s"
     # the state layout is what the C struct and the function block declare

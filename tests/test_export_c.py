@@ -53,7 +53,7 @@ def compiled(tmp_path_factory):
 @pytest.mark.parametrize("label", list(LIMITS))
 def test_a_day_of_rows_gives_pythons_output_to_1e_9(compiled, label):
     _, c = compiled[label]
-    comp = fitted().compensator().set_params(**LIMITS[label])
+    comp = Compensator.from_model(fitted()).set_params(**LIMITS[label])
     c.init()
     t, x, y = day(comp.inputs)
     assert t.size == 5760  # 24 h of 15 s rows
@@ -73,7 +73,7 @@ def test_a_day_of_rows_gives_pythons_output_to_1e_9(compiled, label):
 
 def test_probe_readings_and_a_detected_change_match_python(compiled):
     _, c = compiled["rate and quantum"]
-    comp = fitted().compensator().set_params(**LIMITS["rate and quantum"])
+    comp = Compensator.from_model(fitted()).set_params(**LIMITS["rate and quantum"])
     c.init()
     t, x, y = day(comp.inputs)
     drift = np.where(t - t[0] > 12 * 3600, (t - t[0] - 12 * 3600) / 3600 * 2.0, 0.0)

@@ -40,10 +40,6 @@ def _rewrite(path, edit, out):
     return out
 
 
-def _plan_items(state):
-    return dict((k, i) for i, (k, _) in enumerate(state["_plan"]["items"]))
-
-
 def _refused(path, *words):
     with pytest.raises(ValueError) as info:
         load_model(path)
@@ -103,11 +99,16 @@ def test_the_update_plan_is_made_from_the_terms_never_taken_from_the_file(
     path, rows, expected = compensator_file
 
     def edit(state):
-        items = state["state"]["_plan"]["items"]
-        at = _plan_items(state["state"])
-        items[at["labels"]][1] = ["T2_C|lag 10 min", "T1_C|lag 30 min"]  # swapped names
-        items[at["max_step"]][1] = 1e300
-        items[at["check_all"]][1] = True
+        # the plan is never written: a file that carries one has it ignored
+        assert "_plan" not in state["state"]
+        state["state"]["_plan"] = {
+            "kind": "dict",
+            "items": [
+                ["labels", ["T2_C|lag 10 min", "T1_C|lag 30 min"]],  # swapped names
+                ["max_step", 1e300],
+                ["check_all", True],
+            ],
+        }
         state["state"]["_dt"] = 60.0  # a cached step the file pairs with its own _a
         state["state"]["_a"] = [0.999] * 5000
 
@@ -173,7 +174,10 @@ def test_gains_that_do_not_match_the_blocks_are_refused(tmp_path):
     _refused(_rewrite(path, edit, tmp_path / "inf.greyml"), "intercept_")
 
 
-def test_a_file_from_before_sample_interval_loads_as_it_was_saved(tmp_path):
+def test_a_file_without_a_parameter_is_refused_in_one_line(tmp_path):
+    # nothing was released, so no file from before a parameter is upgraded: a
+    # file that lacks one is refused, naming it (it was once upgraded by the
+    # deprecation layer that issue 37 removed)
     X, y = _recording()
     model = ThermalTransferFunction(drivers=["spindle_rpm"]).fit(X, y)
     path = save_model(model, tmp_path / "ttf.greyml")
@@ -181,22 +185,18 @@ def test_a_file_from_before_sample_interval_loads_as_it_was_saved(tmp_path):
     def edit(state):
         del state["state"]["sample_interval"]
 
-    loaded = load_model(_rewrite(path, edit, tmp_path / "before.greyml"))
-    assert loaded.sample_interval is None
-    np.testing.assert_array_equal(loaded.predict(X), model.predict(X))
-    # LagFeatures called it sample_step_s: the file's value moves to the new name
+    with pytest.raises(ValueError, match=r"invalid parameter.*sample_interval") as info:
+        load_model(_rewrite(path, edit, tmp_path / "before.greyml"))
+    assert "\n" not in str(info.value)
     array = X.to_numpy()[:5]
-    lags = LagFeatures([300.0], sample_interval=15.0).fit(array)
-    lags = save_model(lags, tmp_path / "l.greyml")
+    lags = save_model(LagFeatures([300.0], sample_interval=15.0).fit(array), tmp_path / "l.greyml")
 
     def old_name(state):
         state["state"]["sample_step_s"] = state["state"].pop("sample_interval")
 
-    loaded = load_model(_rewrite(lags, old_name, tmp_path / "old-name.greyml"))
-    assert (loaded.sample_interval, loaded.sample_step_s) == (15.0, "deprecated")
-    np.testing.assert_array_equal(
-        loaded.transform(array), LagFeatures([300.0], sample_interval=15.0).fit_transform(array)
-    )
+    with pytest.raises(ValueError, match=r"sample_step_s|sample_interval") as info:
+        load_model(_rewrite(lags, old_name, tmp_path / "old-name.greyml"))
+    assert "\n" not in str(info.value)
 
 
 @pytest.mark.parametrize("bad", [-15.0, 0.0, {"kind": "float", "value": "inf"}, "15"])

@@ -16,7 +16,7 @@ from the recording's zero). Three views of cycle 5:
 1. its 90 % interval without any reading
    (:meth:`~greyml.ThermalTransferFunction.predict_interval`, calibrated in
    ``fit`` on the training cycles held out one at a time);
-2. the compensator (:meth:`~greyml.ThermalTransferFunction.compensator`)
+2. the compensator (:meth:`~greyml.Compensator.from_model`)
    given a probe reading every hour (:meth:`~greyml.dynamic.Compensator.observe`);
 3. a simulated change: 1.5 µm/h added to cycle 5's measured displacement, as
    a machine whose error has drifted since the model was fitted, with the same

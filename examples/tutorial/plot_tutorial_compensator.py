@@ -268,7 +268,7 @@ print(f"  its half-width: {np.mean(upper - predicted):.2f} µm on average")
 # %%
 # Stream: the compensator, with a probe reading every hour
 # --------------------------------------------------------
-# :meth:`~greyml.ThermalTransferFunction.compensator` gives the same model as
+# :meth:`~greyml.Compensator.from_model` gives the same model as
 # a :class:`~greyml.Compensator`: it takes one row at a time (``update``) and
 # keeps the lags' state between rows, as the controller's loop does. Here it
 # runs the whole log from its first row. In cycle 5 the machine's probe

@@ -24,7 +24,7 @@ __all__ = ["Replayed", "batch_half_width", "read_probes", "replay", "trust_model
 #: What each flag needs of the model's final step, and how its refusal ends.
 _NEEDS = {
     "--interval": ("predict_interval", "gives no interval"),
-    "--probe": ("compensator", "takes no probe readings"),
+    "--probe": ("predict_interval", "takes no probe readings"),  # a transfer function
 }
 
 

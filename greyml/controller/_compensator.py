@@ -496,7 +496,7 @@ class Compensator:
         How far to trust the correction and how probe readings correct it
         (with ``change_threshold``, the change detector's): see
         :attr:`status` and :meth:`observe` (a
-        :meth:`greyml.ThermalTransferFunction.compensator` sets them from its
+        :meth:`from_model` sets them from a fitted model's
         calibration).
     rate_limit_um_s : float, optional
         The output moves by at most this many µm per second of the rows'

@@ -9,8 +9,7 @@ import pandas as pd
 from sklearn.base import BaseEstimator, TransformerMixin
 from sklearn.utils.validation import check_is_fitted
 
-from greyml._param_validation import Hidden, Integral, Interval, Real, StrOptions
-from greyml._renamed import DEPRECATED, renamed_value
+from greyml._param_validation import Integral, Interval, Real, StrOptions
 from greyml._time import format_duration
 from greyml._validation import first_flagged, validate_sequences
 from greyml.dynamic._kernels import lag_filter
@@ -105,9 +104,6 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         NumPy array, a DataFrame with a plain index): every step is this long.
         ``None`` (the default) refuses such ``X``, since the lags need the
         time. A ``time_s`` level, where present, always wins.
-    sample_step_s : float, default="deprecated"
-        The old name of ``sample_interval``: still accepted in this release,
-        with a ``FutureWarning``.
 
     Attributes
     ----------
@@ -199,15 +195,7 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         "powers": [Interval(Real, 0, None, closed="neither"), dict, "array-like"],
         "include_input": ["boolean"],
         "sample_interval": [Interval(Real, 0, None, closed="neither"), None],
-        "sample_step_s": [
-            Interval(Real, 0, None, closed="neither"),
-            None,
-            Hidden(StrOptions({DEPRECATED})),
-        ],
     }
-
-    #: old parameter names, still accepted for one release (greyml._renamed)
-    _renamed_params = {"sample_step_s": "sample_interval"}
 
     def __init__(
         self,
@@ -218,7 +206,6 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         powers=(1,),
         include_input=True,
         sample_interval=None,
-        sample_step_s=DEPRECATED,
     ):
         self.time_constants = time_constants
         self.columns = columns
@@ -226,7 +213,6 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         self.powers = powers
         self.include_input = include_input
         self.sample_interval = sample_interval
-        self.sample_step_s = sample_step_s
 
     # -- parameters ---------------------------------------------------------
 
@@ -352,12 +338,6 @@ class LagFeatures(TransformerMixin, BaseEstimator):
 
     # -- time ---------------------------------------------------------------
 
-    def _sample_interval(self):
-        """``sample_interval``, or the deprecated ``sample_step_s`` if it was given
-        (``fit`` says so with a FutureWarning)."""
-        old = self.sample_step_s
-        return self.sample_interval if isinstance(old, str) and old == DEPRECATED else old
-
     def _timeline(self, X, segments, taus, nominal=None):
         """Steps into every row and the tests that carry state (:mod:`greyml.dynamic._time`)."""
         return timeline(
@@ -367,7 +347,7 @@ class LagFeatures(TransformerMixin, BaseEstimator):
             tau_max=float(taus.max()),
             state=self.state,
             nominal=nominal,
-            default_step=self._sample_interval(),
+            default_step=self.sample_interval,
         )
 
     # -- estimator ----------------------------------------------------------
@@ -386,7 +366,6 @@ class LagFeatures(TransformerMixin, BaseEstimator):
         self : LagFeatures
         """
         self._validate_params()
-        renamed_value(self, "sample_step_s", "sample_interval")  # the old name: a FutureWarning
         taus = self._check_params()
         Xa, _, segments = validate_sequences(self, X, reset=True)
         names = self._input_names()
