@@ -94,7 +94,8 @@ class CycleGrams:
         for c in self.cycles:
             rows = np.flatnonzero(groups == c)
             bounds.append((rows[0], rows[-1] + 1))  # each cycle's rows are contiguous
-        self.G, self.b, self.yy, self.n = grams_by_test(A, y, np.ones(len(y)), bounds)
+        blocks = grams_by_test(A, y, np.ones(len(y)), bounds)
+        self.G, self.b, self.yy, self.n = blocks.G, blocks.b, blocks.yy, blocks.sw
         self.first = [(A[a], y[a]) for a, _ in bounds]
         self.sums = [(A[a:b].sum(axis=0), y[a:b].sum()) for a, b in bounds]
         self.pen = np.r_[np.ones(A.shape[1] - 1), 0.0]

@@ -52,7 +52,9 @@ def _strip_comments(text, language):
 
 
 def test_the_json_holds_the_terms_limits_and_state_layout_of_c_and_st():
-    comp = Compensator.from_model(fitted(), tolerance_um=4.0).set_params(rate_limit_um_s=0.5, quantum_um=0.1)
+    comp = Compensator.from_model(fitted(), tolerance_um=4.0).set_params(
+        rate_limit_um_s=0.5, quantum_um=0.1
+    )
     text = export_text(comp, "json", name="ch1")
     data = json.loads(text, parse_constant=lambda c: pytest.fail(f"{c} in strict JSON"))
     assert data["schema"] == SCHEMA and data["schema_version"] == SCHEMA_VERSION == 1
@@ -60,9 +62,7 @@ def test_the_json_holds_the_terms_limits_and_state_layout_of_c_and_st():
     # the terms as the compensator runs them (shared lags merged, lags first)
     plan = comp.update_plan()
     np.testing.assert_array_equal([t["weight"] for t in data["terms"]], plan.weight)
-    np.testing.assert_array_equal(
-        [t["tau_s"] for t in data["terms"][: plan.tau.size]], plan.tau
-    )
+    np.testing.assert_array_equal([t["tau_s"] for t in data["terms"][: plan.tau.size]], plan.tau)
     assert all(t["tau_s"] is None for t in data["terms"][plan.tau.size :])
 
     def key(name, power, tau):
@@ -275,7 +275,9 @@ def test_an_infinite_bound_is_written_as_no_bound(tmp_path):
 
     from greyml.controller.export._write import LANGUAGES
 
-    comp = Compensator(["T1_C"], [("T1_C", 1, 600.0, 1.0)], uncertainty=Uncertainty(1.0, 0.1, 0.1, 1.0, 2.0))
+    comp = Compensator(
+        ["T1_C"], [("T1_C", 1, 600.0, 1.0)], uncertainty=Uncertainty(1.0, 0.1, 0.1, 1.0, 2.0)
+    )
     program = describe(comp, name="unbounded")
     program = dataclasses.replace(
         program,

@@ -458,7 +458,7 @@ def test_held_out_spread_is_the_standard_error_of_the_refits(data):
         [(i * 360, (i + 1) * 360) for i in range(4)],
         "start",
     )
-    cols = _cols_all(model._col_group_, list(range(5)), grams[0].shape[1])
+    cols = _cols_all(model._col_group_, list(range(5)), grams.n_columns)
     spread = held_out_spread(grams, cols, 1e-2, pen, [0, 1, 2, 3])
     assert spread == pytest.approx(np.std(rmses, ddof=1) / 2.0, rel=1e-6)
 

@@ -38,7 +38,6 @@ from __future__ import annotations
 
 import math
 import numbers
-import weakref
 from collections import namedtuple
 from collections.abc import Mapping
 from dataclasses import dataclass, field, replace
@@ -231,10 +230,6 @@ def real(value):
 
 
 _real = real
-
-# per compensator, the last pandas index seen and the positions of time_s and
-# the inputs in it (kept outside the object: an Index is not part of its state)
-_SERIES_POSITIONS: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
 
 
 def _numbers_only(values, names):
@@ -560,8 +555,10 @@ class Compensator:
     {'T1_C|lag 15 min': 20.632120558828558}
     """
 
-    #: Rebuilt from the parameters on load (``persist`` never saves it).
-    _derived_attributes = ("_plan",)
+    #: Caches rebuilt on use (``persist`` never saves them): the update plan, made
+    #: from the parameters, and the positions of time_s and the inputs in the
+    #: last pandas index a row came with.
+    _derived_attributes = ("_plan", "_series_positions")
 
     _parameter_constraints: dict = {
         "inputs": [list, tuple, np.ndarray],
@@ -1187,14 +1184,14 @@ class Compensator:
     def _forget_positions(self):
         """Drop the Series positions remembered for this compensator (its inputs may
         have changed)."""
-        _SERIES_POSITIONS.pop(self, None)
+        self.__dict__.pop("_series_positions", None)
 
     def _read_row(self, row, plan):
         """The row as an array ``(time_s, *inputs)`` from a mapping, a Series or an array."""
         names = plan.names
         if isinstance(row, pd.Series):
             index = row.index
-            seen, positions = _SERIES_POSITIONS.get(self, (None, None))
+            seen, positions = self.__dict__.get("_series_positions", (None, None))
             if row.dtype.kind not in "fiu":
                 if index.has_duplicates:
                     twice = index[index.duplicated()][0]
@@ -1208,7 +1205,7 @@ class Compensator:
                 if (positions < 0).any():
                     missing = [TIME_LEVEL, *names][int(np.flatnonzero(positions < 0)[0])]
                     raise ValueError(f"{_PREFIX} the row has no {missing!r}.")
-                _SERIES_POSITIONS[self] = (index, positions)
+                self._series_positions = (index, positions)
             try:
                 return row.to_numpy(dtype=float)[positions]
             except (TypeError, ValueError):

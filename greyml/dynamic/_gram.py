@@ -9,12 +9,15 @@ stable selection of whole sensors under a budget. No validation, no pandas.
 
 from __future__ import annotations
 
+from dataclasses import dataclass, replace
+
 import numpy as np
 from scipy.linalg import LinAlgError, cho_factor, cho_solve
 
 from greyml.dynamic._kernels import lag_filter
 
 __all__ = [
+    "GramBlocks",
     "design",
     "held_out_errors",
     "held_out_scores",
@@ -59,6 +62,45 @@ def design(x, dt, bounds, spec, carry, idle=()):
     return F
 
 
+@dataclass(frozen=True)
+class GramBlocks:
+    """The weighted normal equations of a design, one block per test.
+
+    Whatever is scored on held-out tests is computed from these: leaving a
+    test out subtracts its block, never refits.
+
+    Attributes
+    ----------
+    G : ndarray of shape (n_tests, p, p)
+        ``A'WA`` of each test's rows.
+    b : ndarray of shape (n_tests, p)
+        ``A'Wy``.
+    yy : ndarray of shape (n_tests,)
+        ``y'Wy``.
+    sw : ndarray of shape (n_tests,)
+        The sum of the test's row weights.
+    """
+
+    G: np.ndarray
+    b: np.ndarray
+    yy: np.ndarray
+    sw: np.ndarray
+
+    @property
+    def n_columns(self):
+        """``p``, the columns of the design."""
+        return self.G.shape[1]
+
+    def without(self, k):
+        """The same blocks with test ``k``'s set to 0 (a copy)."""
+        blocks = {}
+        for name in ("G", "b", "yy", "sw"):
+            a = getattr(self, name).copy()
+            a[k] = 0.0
+            blocks[name] = a
+        return replace(self, **blocks)
+
+
 def grams_by_test(A, y, w, bounds):
     """Per-test weighted Gram matrices ``A'WA``, ``A'Wy``, ``y'Wy`` and weight sums."""
     G, b, yy, sw = [], [], [], []
@@ -69,7 +111,7 @@ def grams_by_test(A, y, w, bounds):
         b.append(av.T @ t)
         yy.append(float(t @ (v * t)))
         sw.append(float(v.sum()))
-    return np.array(G), np.array(b), np.array(yy), np.array(sw)
+    return GramBlocks(np.array(G), np.array(b), np.array(yy), np.array(sw))
 
 
 def _ridge(G, b, alpha, penalised):
@@ -131,14 +173,14 @@ def solve_all(G, b, sw, alphas, pen):
 def held_out_errors(grams, cols, alphas, pen, folds):
     """Held-out RMSE of each fold for each alpha: an array (n_folds, n_alphas).
 
-    ``grams`` are the per-test raw (G, b, yy, sw); each fold holds out one test,
+    ``grams`` are the per-test raw :class:`GramBlocks`; each fold holds out one test,
     standardises and solves the ridge on the others exactly as a refit on them
     would, and scores the held-out test from its own Gram.
     """
-    G, b, yy, sw = grams
+    yy, sw = grams.yy, grams.sw
     ix = np.ix_(cols, cols)
-    Gs = G[:, ix[0], ix[1]]
-    bs = b[:, cols]
+    Gs = grams.G[:, ix[0], ix[1]]
+    bs = grams.b[:, cols]
     Gt, bt, st = Gs.sum(axis=0), bs.sum(axis=0), sw.sum()
     pen = pen[cols]
     out = np.zeros((len(folds), len(alphas)))
@@ -172,9 +214,9 @@ def held_out_spread(grams, cols, alpha, pen, folds):
 
 def train_scores(grams, cols, alphas, pen):
     """Training RMSE (all tests pooled) for each alpha, when too few tests to hold one out."""
-    G, b, yy, sw = grams
+    yy, sw = grams.yy, grams.sw
     ix = np.ix_(cols, cols)
-    Gt, bt = G[:, ix[0], ix[1]].sum(axis=0), b[:, cols].sum(axis=0)
+    Gt, bt = grams.G[:, ix[0], ix[1]].sum(axis=0), grams.b[:, cols].sum(axis=0)
     coefs = solve_all(Gt, bt, sw.sum(), alphas, pen[cols])
     sse = yy.sum() - 2.0 * (bt @ coefs) + np.einsum("ia,ij,ja->a", coefs, Gt, coefs)
     return np.sqrt(np.maximum(sse, 0.0) / sw.sum())
@@ -204,7 +246,7 @@ def select_sensors(grams, pen, col_group, sensors, alphas, folds, max_sensors, s
     ``max_sensors`` None keeps every sensor (the penalty is still chosen);
     ``selection`` is "forward" or "stable" (stable needs four scored tests).
     """
-    n_total = grams[0].shape[1]
+    n_total = grams.n_columns
 
     def evaluate(chosen):
         cols = _cols_all(col_group, chosen, n_total)
@@ -233,11 +275,9 @@ def _stable(grams, pen, col_group, sensors, alphas, folds, evaluate, max_sensors
     penalty is then chosen by leave one test out on all tests.
     """
     votes, rank = {}, {}
-    n_total = grams[0].shape[1]
+    n_total = grams.n_columns
     for t in folds:
-        without = tuple(a.copy() for a in grams)
-        for a in without:
-            a[t] = 0.0
+        without = grams.without(t)
         rest = [f for f in folds if f != t]
 
         def evaluate_without(chosen, without=without, rest=rest):

@@ -48,7 +48,8 @@ def held_out_predictions(A, grams, folds, bounds, choose):
     """Prediction of each held-out test from a model chosen and solved on the others.
 
     ``A`` is the design (n, p) in the columns of ``grams`` (per-test raw
-    Grams). For each fold ``k``, ``choose(grams_without_k, other_folds)``
+    :class:`~greyml.dynamic._gram.GramBlocks`). For each fold ``k``,
+    ``choose(grams_without_k, other_folds)``
     returns ``(cols, alpha, pen)``: the columns and penalty chosen without
     test ``k`` (the sensor selection is redone, so the residuals carry its
     own error, as a refit on the other tests would). The ridge is then solved
@@ -56,14 +57,15 @@ def held_out_predictions(A, grams, folds, bounds, choose):
     """
     out = {}
     for k in folds:
-        without = tuple(g.copy() for g in grams)
-        for g in without:
-            g[k] = 0.0
+        without = grams.without(k)
         cols, alpha, pen = choose(without, [f for f in folds if f != k])
-        G, b, _, sw = without
         ix = np.ix_(cols, cols)
         coef = solve_all(
-            G[:, ix[0], ix[1]].sum(axis=0), b[:, cols].sum(axis=0), sw.sum(), [alpha], pen[cols]
+            without.G[:, ix[0], ix[1]].sum(axis=0),
+            without.b[:, cols].sum(axis=0),
+            without.sw.sum(),
+            [alpha],
+            pen[cols],
         )[:, 0]
         start, stop = bounds[k]
         out[k] = A[start:stop][:, cols] @ coef

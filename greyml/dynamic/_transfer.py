@@ -56,6 +56,7 @@ from greyml._validation import (
     validate_sequences,
 )
 from greyml.dynamic._gram import (
+    GramBlocks,
     _cols_all,
     design,
     grams_by_test,
@@ -125,7 +126,7 @@ class Bank:
     groups: list
     labels: list
     col_group: np.ndarray
-    grams: tuple
+    grams: GramBlocks
     pen: np.ndarray
     chosen: list
     alpha: float
@@ -693,10 +694,10 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
             bank = self._fit_bank(
                 data, settings, y_fit, folds, reference, taus, driver_taus, chosen=bank.chosen
             )
-        cols = _cols_all(bank.col_group, bank.chosen, bank.grams[0].shape[1])
-        G, b = bank.grams[0].sum(axis=0), bank.grams[1].sum(axis=0)
-        G, b, sw = G[np.ix_(cols, cols)], b[cols], bank.grams[3].sum()
-        coef = np.zeros(bank.grams[0].shape[1])
+        cols = _cols_all(bank.col_group, bank.chosen, bank.grams.n_columns)
+        G, b = bank.grams.G.sum(axis=0), bank.grams.b.sum(axis=0)
+        G, b, sw = G[np.ix_(cols, cols)], b[cols], bank.grams.sw.sum()
+        coef = np.zeros(bank.grams.n_columns)
         coef[cols] = solve_all(G, b, sw, [bank.alpha], bank.pen[cols])[:, 0]
         self._store(data, reference, bank, coef)
         self._keep_normal_equations(G, b, sw, cols, bank.pen[cols])
@@ -733,7 +734,7 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
                 self.selection,
             )
         else:
-            cols = _cols_all(col_group, chosen, grams[0].shape[1])
+            cols = _cols_all(col_group, chosen, grams.n_columns)
             sc = held_out_scores(grams, cols, settings.alphas, pen, folds)
             alpha, score, path = float(settings.alphas[np.argmin(sc)]), float(sc.min()), []
         return Bank(
@@ -1099,7 +1100,7 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
             )
             F = self._design(data.X, data.steps, data.bounds, spec, groups, reference)
             grams, pen = self._grams(F, y, data.w, data.bounds, reference)
-            cols = np.arange(grams[0].shape[1])
+            cols = np.arange(grams.n_columns)
             return float(held_out_scores(grams, cols, settings.alphas, pen, folds).min())
 
         z0 = np.log(np.concatenate([settings.taus, settings.driver_taus]))
@@ -1125,7 +1126,7 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
             return None
         F = self._design(data.X, data.steps, data.bounds, bank.spec, bank.groups, reference)
         A = F if reference == "start" else np.column_stack([F, np.ones(len(F))])
-        n_total = bank.grams[0].shape[1]
+        n_total = bank.grams.n_columns
 
         # the sensors and the penalty are chosen again without each test, the
         # penalty on every other value of the grid (half the cost; the residuals
@@ -1306,11 +1307,11 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
             for start, stop in bounds:
                 y_fit[start:stop] -= ya[start]
         F = self._design(Xa, steps, bounds, self._spec_, self._groups_, self.reference_)
-        (G, b, _, sw), _ = self._grams(F, y_fit, w, bounds, self.reference_)
+        new, _ = self._grams(F, y_fit, w, bounds, self.reference_)
         cols = self._normal_cols_
-        G = forgetting * self.normal_gram_ + G.sum(axis=0)[np.ix_(cols, cols)]
-        b = forgetting * self.normal_rhs_ + b.sum(axis=0)[cols]
-        weight = forgetting * self.normal_weight_ + float(sw.sum())
+        G = forgetting * self.normal_gram_ + new.G.sum(axis=0)[np.ix_(cols, cols)]
+        b = forgetting * self.normal_rhs_ + new.b.sum(axis=0)[cols]
+        weight = forgetting * self.normal_weight_ + float(new.sw.sum())
         coef = np.zeros(F.shape[1] + (0 if self.reference_ == "start" else 1))
         coef[cols] = solve_all(G, b, weight, [self.alpha_], self._normal_pen_)[:, 0]
         n_cols = F.shape[1]
