@@ -45,7 +45,11 @@ def test_the_readme_is_short_and_in_the_landing_pages_order():
     # order of docs/index.rst, dynamic compensation first
     assert len(README.split()) <= 1500
     titles = re.findall(r"^## (.+)$", README, re.M)
-    jobs = ["Dynamic compensation", "The models of the papers", "The simulator and the gap diagnosis"]
+    jobs = [
+        "Dynamic compensation",
+        "The models of the papers",
+        "The simulator and the gap diagnosis",
+    ]
     assert [t for t in titles if t in jobs] == jobs
     landing = (ROOT / "docs" / "index.rst").read_text(encoding="utf-8")
     order = ["Dynamic compensation", "Models from the papers", "Gap diagnosis"]
