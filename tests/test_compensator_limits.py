@@ -16,7 +16,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from greyml import Compensator
-from greyml.controller._output import QUANTA_MAX, limit_output
+from greyml.controller._output import QUANTA_MAX, OutputLimits, limit_output
 from greyml.persist import load_model, save_model
 
 
@@ -174,12 +174,12 @@ def test_the_output_settles_on_a_steady_correction(values, rate, q):
     out = None
     for k in range(steps):
         out = comp.update(np.array([t + k, target]))
-    expected, _, _ = limit_output(target, None, 0.0, 0.0, q * 1000, q, None)
+    expected, _, _ = limit_output(target, None, 0.0, 0.0, OutputLimits(q * 1000, q, None))
     assert out == pytest.approx(expected, abs=1e-9)
 
 
 def test_the_kernel_bounds_a_count_to_a_plcs_integer():
-    out, count, _ = limit_output(1e300, 1.0, 0.0, 0.0, None, 0.1, None)
+    out, count, _ = limit_output(1e300, 1.0, 0.0, 0.0, OutputLimits(None, 0.1, None))
     assert count == QUANTA_MAX and out == pytest.approx(1e8)
 
 

@@ -53,7 +53,7 @@ from greyml._param_validation import (
 )
 from greyml._sequences import TIME_LEVEL
 from greyml.controller._from_model import pipeline_terms, transfer_terms
-from greyml.controller._output import QUANTA_MAX, limit_output
+from greyml.controller._output import QUANTA_MAX, OutputLimits, limit_output
 from greyml.dynamic._kernels import lag_step
 from greyml.dynamic._lags import _power_name, _tau_label
 from greyml.dynamic._time import MAX_TERMS, gap_message
@@ -198,8 +198,8 @@ class UpdatePlan:
         The shape of a row ``(time_s, *inputs)``.
     check_all : bool
         Some input feeds no term: every value of a row is checked.
-    limits : tuple
-        ``(clamp_um, quantum_um, rate_limit_um_s)``, each a float or None.
+    limits : OutputLimits
+        The output stage's clamp, quantum and rate limit, checked.
     limited : bool
         Any of the three is set.
     uncertainty : Uncertainty or None
@@ -219,7 +219,7 @@ class UpdatePlan:
     names: list
     shape: tuple
     check_all: bool
-    limits: tuple = (None, None, None)
+    limits: OutputLimits = field(default_factory=OutputLimits)
     limited: bool = False
     uncertainty: Uncertainty | None = field(default=None)
 
@@ -640,7 +640,7 @@ class Compensator:
         return replace(
             plan,
             limits=limits,
-            limited=any(v is not None for v in limits),
+            limited=limits.any,
             uncertainty=self._uncertainty(),
         )
 
@@ -990,7 +990,7 @@ class Compensator:
             self._output = self._last = value
             return value
         self._output, self._last, self._credit = limit_output(
-            value, dt, self._last, self._credit, *plan.limits
+            value, dt, self._last, self._credit, plan.limits
         )
         return self._output
 
@@ -1271,20 +1271,8 @@ class Compensator:
     # -- the output stage: clamp, quantum, rate limit, hold ------------------
 
     def _checked_limits(self):
-        """``(clamp_um, quantum_um, rate_limit_um_s)`` as floats or None; a clamp that is
-        not a whole number of quanta is refused (the clamped output could not be one)."""
-        clamp, q = self.clamp_um, self.quantum_um
-        limits = tuple(None if v is None else float(v) for v in (clamp, q, self.rate_limit_um_s))
-        if q is not None:
-            count = float(clamp) / float(q) if clamp is not None else 1.0
-            if clamp is not None and (
-                count > QUANTA_MAX or abs(count - round(count)) > 1e-9 * max(1.0, count)
-            ):
-                raise ValueError(
-                    f"The 'clamp_um' parameter of Compensator ({clamp!r}) must be a whole "
-                    f"number of quanta (quantum_um={q!r}), at most {QUANTA_MAX:.0e} of them."
-                )
-        return limits
+        """The output stage's :class:`OutputLimits`, checked."""
+        return OutputLimits.checked(self.clamp_um, self.quantum_um, self.rate_limit_um_s)
 
     def _reset_output(self):
         """Nothing written to the axis yet: the output is 0."""
@@ -1299,7 +1287,7 @@ class Compensator:
     def _set_output_state(self, state, limits):
         """Restore :meth:`_output_state`'s dict, every value checked against the
         ``limits`` (:meth:`_checked_limits`)."""
-        clamp, quantum, _ = limits
+        clamp, quantum = limits.clamp_um, limits.quantum_um
         bad = ValueError("Compensator.set_state: the state's output is not valid.")
         try:
             output, credit, held = state["output_um"], state["credit_um"], state["held"]
@@ -1421,7 +1409,7 @@ class Compensator:
         if dt is not None and not dt > 0:
             dt = self.nominal_step_s
         self._output, self._last, self._credit = limit_output(
-            self._corr, dt, before[0], before[1], *plan.limits
+            self._corr, dt, before[0], before[1], plan.limits
         )
         return self._output
 

@@ -1,7 +1,8 @@
 """What a controller takes: the compensator's correction clamped, quantised and rate limited.
 
-One pure function, :func:`limit_output`, that :class:`greyml.dynamic.Compensator`
-calls after every update and that every export (C, Structured Text) spells out
+One record, :class:`OutputLimits` (the three limits, checked together), and one
+pure function, :func:`limit_output`, that :class:`greyml.Compensator` calls
+after every update and that every export (C, Structured Text) spells out
 step for step, so the axis gets the same number from each (issue 29):
 
 1. **clamp**: the correction is limited to ``±clamp_um``;
@@ -24,8 +25,9 @@ ramps from there, never jumps.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
-__all__ = ["QUANTA_MAX", "QUANTUM_TOLERANCE", "limit_output"]
+__all__ = ["QUANTA_MAX", "QUANTUM_TOLERANCE", "OutputLimits", "limit_output"]
 
 #: The most quanta an output holds: a count that fits a PLC's 32-bit integer
 #: (DINT) with room for a difference of two of them.
@@ -37,7 +39,50 @@ QUANTA_MAX = 1e9
 QUANTUM_TOLERANCE = 1e-9
 
 
-def limit_output(value, dt, last, credit, clamp, q, rate):
+@dataclass(frozen=True)
+class OutputLimits:
+    """The controller's limits on the output, each a float or None when off.
+
+    Attributes
+    ----------
+    clamp_um : float or None
+        The output is at most this far from 0 (a whole number of quanta).
+    quantum_um : float or None
+        The output is a whole number of this many µm.
+    rate_limit_um_s : float or None
+        The output moves by at most this many µm per second of the rows' clock.
+    """
+
+    clamp_um: float | None = None
+    quantum_um: float | None = None
+    rate_limit_um_s: float | None = None
+
+    @classmethod
+    def checked(cls, clamp_um, quantum_um, rate_limit_um_s, owner="Compensator"):
+        """The three limits as floats or None; a clamp that is not a whole number of
+        quanta is refused (the clamped output could not be one)."""
+        clamp, q = clamp_um, quantum_um
+        limits = cls(*(None if v is None else float(v) for v in (clamp, q, rate_limit_um_s)))
+        if q is not None:
+            count = float(clamp) / float(q) if clamp is not None else 1.0
+            if clamp is not None and (
+                count > QUANTA_MAX or abs(count - round(count)) > 1e-9 * max(1.0, count)
+            ):
+                raise ValueError(
+                    f"The 'clamp_um' parameter of {owner} ({clamp!r}) must be a whole "
+                    f"number of quanta (quantum_um={q!r}), at most {QUANTA_MAX:.0e} of them."
+                )
+        return limits
+
+    @property
+    def any(self):
+        """Any of the three is set."""
+        return not (
+            self.clamp_um is None and self.quantum_um is None and self.rate_limit_um_s is None
+        )
+
+
+def limit_output(value, dt, last, credit, limits):
     """One row of the output stage.
 
     Parameters
@@ -53,9 +98,8 @@ def limit_output(value, dt, last, credit, clamp, q, rate):
     credit : float
         The µm the rate limit still allows (with a quantum and a rate limit;
         0 otherwise).
-    clamp, q, rate : float or None
-        ``clamp_um``, ``quantum_um`` and ``rate_limit_um_s``, each None when
-        off (checked by the Compensator).
+    limits : OutputLimits
+        Checked.
 
     Returns
     -------
@@ -65,6 +109,7 @@ def limit_output(value, dt, last, credit, clamp, q, rate):
         The new output in the stage's unit (quanta or µm).
     credit : float
     """
+    clamp, q, rate = limits.clamp_um, limits.quantum_um, limits.rate_limit_um_s
     if clamp is not None:
         value = min(max(value, -clamp), clamp)
     if q is None:

@@ -419,7 +419,8 @@ def describe(comp, *, name="greyml_compensator", description=None):
             gain_var=_GAIN_VAR,
             history=HISTORY,
         )
-    clamp, quantum, rate = plan.limits
+    limits = plan.limits
+    clamp, quantum, rate = limits.clamp_um, limits.quantum_um, limits.rate_limit_um_s
     max_step = plan.max_step
     if description is None:
         description = f"Compensator of {n} terms over {len(inputs)} inputs"
