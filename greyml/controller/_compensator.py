@@ -635,13 +635,13 @@ class Compensator:
             self.max_step_s,
             self.row_columns,
         )
-        self._uncertainty()
+        uncertainty = self._uncertainty()
         limits = self._checked_limits()
         return replace(
             plan,
             limits=limits,
             limited=limits.any,
-            uncertainty=self._uncertainty(),
+            uncertainty=uncertainty,
         )
 
     def update_plan(self):
@@ -1346,7 +1346,7 @@ class Compensator:
     # -- state ----------------------------------------------------------------
 
     def _reset_trust(self):
-        u = self._uncertainty()
+        u = self._plan_or_build().uncertainty
         offset_var = u.offset_var if u else 0.0
         self._fx = np.zeros(3)  # offset, rate per hour, gain error: at _ft0
         self._fP = np.diag([offset_var, 0.0, 0.0])
@@ -1444,13 +1444,13 @@ class Compensator:
 
     @property
     def _memory_h(self):
-        u = self._uncertainty()
+        u = self._plan_or_build().uncertainty
         return u.memory_h if u else math.inf
 
     def _propagated(self, time):
         """The filter's states and covariance carried from its time to ``time``."""
         dh = max(0.0, (time - self._ft0) / 3600.0)
-        u = self._uncertainty() or _CERTAIN
+        u = self._plan_or_build().uncertainty or _CERTAIN
         phi = math.exp(-dh / u.memory_h)
         F = np.array([[phi, dh, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
         Q = np.diag([u.memory_var * (1.0 - phi * phi), 0.0, 0.0])
@@ -1458,7 +1458,7 @@ class Compensator:
 
     def _variance_at(self, time, model):
         """Variance of the error of the correction given at ``time`` (model part ``model``)."""
-        u = self._uncertainty()
+        u = self._plan_or_build().uncertainty
         if not self._adjusted:  # the batch calibration, from the first row
             dh = max(0.0, (time - self._ft0) / 3600.0)
             return u.offset_var + u.growth_var_per_h * dh + u.noise_var
@@ -1469,7 +1469,7 @@ class Compensator:
     @property
     def status(self):
         """:class:`Status` of the last update: correction, half-width, trust."""
-        u = self._uncertainty()
+        u = self._plan_or_build().uncertainty
         if self._time is None or self._corr is None:
             return Status(
                 self._time, None, math.nan, False, False, self._changes, self._output, self._held
@@ -1569,7 +1569,7 @@ class Compensator:
                 f"{_OBSERVE} the reading {z:g} at time_s = {time_s:g} s comes before the first "
                 "update; update with the row of that time first."
             )
-        if self._uncertainty() is None:
+        if self._plan_or_build().uncertainty is None:
             raise ValueError(
                 f"{_OBSERVE} the reading {z:g} at time_s = {time_s:g} s cannot be weighed: this "
                 "compensator has no uncertainty (its model was fitted on fewer than 3 tests, "
@@ -1591,7 +1591,7 @@ class Compensator:
                 f"previous reading ({self._last_reading:g} s); readings must come in order."
             )
         m = self._model_at(time_s)
-        u = self._uncertainty() or _CERTAIN
+        u = self._plan_or_build().uncertainty or _CERTAIN
         if not self._adjusted:
             # the first reading: the slow part's prior is the batch variance there
             dh = max(0.0, (time_s - self._ft0) / 3600.0)
@@ -1640,7 +1640,7 @@ class Compensator:
         """
         self._plan_or_build()
         if size_um is None or not real(size_um):
-            u = self._uncertainty() or _CERTAIN
+            u = self._plan_or_build().uncertainty or _CERTAIN
             size_um = math.sqrt(max(u.offset_var + u.noise_var, 0.0)) or 1.0
         size2 = float(size_um) ** 2
         # a drift of that size per hour, and a 30 % gain error, become possible
