@@ -244,3 +244,32 @@ def test_a_command_replaces_a_regular_file_with_force(command, files, tmp_path, 
     capsys.readouterr()
     assert path.read_bytes() != b"old\n"
     assert sorted(p.name for p in tmp_path.iterdir()) == ["target"]
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_demo_force_replaces_no_link_pipe_or_device_in_its_folder(
+    kind, tmp_path, monkeypatch, capsys
+):
+    """``greyml demo --force`` writes into a folder: a file of its own names that is
+    not a regular file stops it before the first file moves."""
+    import greyml._cli._demo as demo
+
+    def report(staging, folder, **kwargs):  # the demo's writing, without its fitting
+        demo._write_whole(staging / "a.txt", lambda fh: fh.write(b"a\n"))
+        demo._write_whole(staging / "target", lambda fh: fh.write(b"results\n"))
+        return "report"
+
+    monkeypatch.setattr(demo, "_demo_report", report)
+    path = _make(kind, tmp_path)
+    code = main(["demo", "--quick", "--out", str(tmp_path), "--force"])
+    out, err = capsys.readouterr()
+    assert code == 2, (out, err)
+    assert err == f"greyml demo: error: --out {str(tmp_path)!r}: {str(path)!r} {WORDS[kind]}; " + (
+        "greyml replaces only a regular file.\n"
+    )
+    _unchanged(kind, path, tmp_path)
+    assert not (tmp_path / "a.txt").exists()
+    path.unlink()
+    (tmp_path / "target").write_text("old\n")  # a regular file is replaced
+    assert main(["demo", "--quick", "--out", str(tmp_path), "--force"]) == 0
+    assert (tmp_path / "target").read_text() == "results\n"

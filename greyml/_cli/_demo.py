@@ -10,7 +10,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
-from greyml._atomic import write_atomic
+from greyml._atomic import refusal, write_atomic
 from greyml._cli import _flags as flags
 from greyml._cli._files import OPERATING_COLUMNS, _check_output_folder
 from greyml._cli._fitting import _final_step, _fit_quietly, _predict_quietly, _selector
@@ -452,8 +452,13 @@ class _Staging:
             ) from None
 
     def publish(self):
-        """Move the files to ``out``: a rename of the folder, or file by file into it."""
+        """Move the files to ``out``: a rename of the folder, or file by file into it
+        (replacing only regular files: a link, pipe or device of the same name stops it)."""
         if self.inside:
+            for path in self.folder.iterdir():  # all checked before the first moves
+                refused = refusal(self.out / path.name)
+                if refused:
+                    raise ValueError(f"--out {os.fspath(self.out)!r}: {refused}")
             with deferred():  # Ctrl-C waits for the last file: no half-filled folder
                 for path in sorted(self.folder.iterdir()):
                     os.replace(path, self.out / path.name)
