@@ -10,9 +10,12 @@ from __future__ import annotations
 
 import math
 
-__all__ = ["common_unit", "format_duration"]
+__all__ = ["TIME_UNITS", "common_unit", "format_duration"]
 
-_UNITS = (("h", 3600.0), ("min", 60.0), ("s", 1.0))
+#: The units of time greyml reads and writes, with their length in seconds.
+TIME_UNITS = {"s": 1.0, "min": 60.0, "h": 3600.0}
+
+_UNITS = tuple(reversed(TIME_UNITS.items()))  # largest first
 
 
 def common_unit(seconds):

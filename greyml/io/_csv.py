@@ -29,6 +29,7 @@ import pandas as pd
 
 from greyml._atomic import _publish, write_atomic
 from greyml._sequences import TEST_LEVEL, TIME_LEVEL, make_test_index, segments_by_test
+from greyml._time import TIME_UNITS  # the units time_unit= accepts
 from greyml._validation import check_unique_columns
 from greyml.io._csv_numbers import _data_columns, _read_wide
 from greyml.io._csv_records import (
@@ -54,9 +55,6 @@ from greyml.io._csv_text import (  # noqa: F401 (the module's constants, re-expo
 
 __all__ = ["read_tests_csv", "write_tests_csv", "check_test_frame"]
 
-#: Units ``read_tests_csv(..., time_unit=)`` accepts for the ``time_s``
-#: column, with their length in seconds.
-TIME_UNITS = {"s": 1.0, "min": 60.0, "h": 3600.0}
 
 #: Longest line (bytes) :func:`read_tests_csv` reads by default: 16 MiB, over
 #: 500,000 columns of numbers. A longer line is not a row of tests (a file of
