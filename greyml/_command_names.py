@@ -5,6 +5,8 @@ code, so that ``greyml --help`` and ``greyml --version`` answer at once;
 :mod:`greyml._cli` uses the same names.
 """
 
+from greyml._time import TIME_UNITS
+
 __all__ = ["CSV_TIME_UNITS", "MACHINES", "MODEL_NAMES"]
 
 #: Model names of ``greyml fit --model``, with the class each one builds.
@@ -20,5 +22,5 @@ MODEL_NAMES = {
 #: Machines of ``greyml simulate --machine``.
 MACHINES = ("vmc", "vmc-probe", "gantry")
 
-#: Units of ``--time-unit`` (as :data:`greyml.io._csv.TIME_UNITS`).
-CSV_TIME_UNITS = ("s", "min", "h")
+#: Units of ``--time-unit`` (those of :data:`greyml._time.TIME_UNITS`).
+CSV_TIME_UNITS = tuple(TIME_UNITS)

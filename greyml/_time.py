@@ -10,9 +10,29 @@ from __future__ import annotations
 
 import math
 
-__all__ = ["format_duration"]
+__all__ = ["TIME_UNITS", "common_unit", "format_duration"]
 
-_UNITS = (("h", 3600.0), ("min", 60.0), ("s", 1.0))
+#: The units of time greyml reads and writes, with their length in seconds.
+TIME_UNITS = {"s": 1.0, "min": 60.0, "h": 3600.0}
+
+_UNITS = tuple(reversed(TIME_UNITS.items()))  # largest first
+
+
+def common_unit(seconds):
+    """``(unit, scale)``: the largest of h, min, s in which every finite value of
+    ``seconds`` is a whole number (``("s", 1.0)`` when none is).
+
+    Examples
+    --------
+    >>> from greyml._time import common_unit
+    >>> common_unit([3600, 7200]), common_unit([900, 3600]), common_unit([90, 0.5])
+    (('h', 3600.0), ('min', 60.0), ('s', 1.0))
+    """
+    values = [float(v) for v in seconds if math.isfinite(v)]
+    for unit, scale in _UNITS[:-1]:
+        if all(v % scale == 0 for v in values):
+            return unit, scale
+    return _UNITS[-1]
 
 
 def format_duration(seconds, digits=3):
@@ -47,9 +67,9 @@ def format_duration(seconds, digits=3):
     seconds = float(seconds)
     if not math.isfinite(seconds):
         return f"{seconds} s"
-    for unit, scale in _UNITS:
-        if seconds != 0 and seconds % scale == 0:
-            return f"{seconds / scale:.12g} {unit}"
+    unit, scale = common_unit([seconds])
+    if seconds != 0 and seconds % scale == 0:
+        return f"{seconds / scale:.12g} {unit}"
     size = abs(seconds)
     for unit, scale in _UNITS:
         if size >= 2 * scale or unit == "s":

@@ -119,6 +119,15 @@ def first_non_finite(values: np.ndarray) -> tuple[int | None, int]:
     return (int(bad[0]), int(bad.size)) if bad.size else (None, 0)
 
 
+def float_vector(values, message: str) -> np.ndarray:
+    """``values`` as a 1-D float array; a ValueError with ``message`` when they are
+    not numbers (text, ragged lists, objects)."""
+    try:
+        return np.asarray(values, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        raise ValueError(message) from None
+
+
 def real_values(series: pd.Series, what: str) -> np.ndarray:
     """A numeric (or boolean) Series as float64, NA as NaN; raise for text or complex."""
     dtype = series.dtype

@@ -10,6 +10,7 @@ import time
 from dataclasses import dataclass
 from pathlib import Path
 
+from greyml._atomic import refusal, write_atomic
 from greyml._cli import _flags as flags
 from greyml._cli._files import OPERATING_COLUMNS, _check_output_folder
 from greyml._cli._fitting import _final_step, _fit_quietly, _predict_quietly, _selector
@@ -416,15 +417,7 @@ def _write_whole(path, write):
     Whatever stops the writing (a full disk, Ctrl-C) removes the temporary
     file, so ``path`` is whole or absent: never an empty or half-drawn PNG.
     """
-    path = Path(path)
-    temp = path.with_name(f".{path.name}.{secrets.token_hex(4)}.part")
-    try:
-        with open(temp, "xb") as fh:
-            write(fh)
-        os.replace(temp, path)
-    except BaseException:
-        temp.unlink(missing_ok=True)
-        raise
+    write_atomic(path, write, overwrite=True, encoding=None)
 
 
 class _Staging:
@@ -459,8 +452,13 @@ class _Staging:
             ) from None
 
     def publish(self):
-        """Move the files to ``out``: a rename of the folder, or file by file into it."""
+        """Move the files to ``out``: a rename of the folder, or file by file into it
+        (replacing only regular files: a link, pipe or device of the same name stops it)."""
         if self.inside:
+            for path in self.folder.iterdir():  # all checked before the first moves
+                refused = refusal(self.out / path.name)
+                if refused:
+                    raise ValueError(f"--out {os.fspath(self.out)!r}: {refused}")
             with deferred():  # Ctrl-C waits for the last file: no half-filled folder
                 for path in sorted(self.folder.iterdir()):
                     os.replace(path, self.out / path.name)

@@ -48,24 +48,12 @@ def _add_export_parser(subparsers):
         help="the C function prefix and the function block's name (default: greyml_compensator)",
     )
     limits = parser.add_argument_group("the controller's limits (µm, s)")
-    limits.add_argument(
-        "--rate-limit",
-        type=flags._positive_number,
-        metavar="UM_S",
-        help="the output changes by at most this many µm per second",
-    )
-    limits.add_argument(
-        "--quantum",
-        type=flags._positive_number,
-        metavar="UM",
-        help="the output is a whole number of this many µm, e.g. 0.1",
-    )
-    limits.add_argument(
-        "--clamp",
-        type=flags._positive_number,
-        metavar="UM",
-        help="the output stays within ±UM (a whole number of quanta)",
-    )
+    for flag, metavar, help_text in (
+        ("--rate-limit", "UM_S", "the output changes by at most this many µm per second"),
+        ("--quantum", "UM", "the output is a whole number of this many µm, e.g. 0.1"),
+        ("--clamp", "UM", "the output stays within ±UM (a whole number of quanta)"),
+    ):
+        limits.add_argument(flag, type=flags._positive_number, metavar=metavar, help=help_text)
     limits.add_argument(
         "--on-missing",
         choices=("hold", "raise"),

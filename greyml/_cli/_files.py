@@ -10,6 +10,8 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
+from greyml._atomic import refusal
+
 #: Columns that are operating inputs, not sensors: left out of the candidate
 #: sensors unless named with ``--sensors``.
 OPERATING_COLUMNS = ("spindle_rpm", "feed_mm_min", "c_rpm", "ambient_C")
@@ -35,11 +37,15 @@ def _check_output_folder(out, force):
 
 
 def _check_output_file(path, force, what="--out"):
-    """Refuse an existing ``path`` without ``force`` or a folder that does not exist."""
+    """Refuse an existing ``path`` without ``force``, anything but a regular file at
+    ``path`` even with it, or a folder that does not exist."""
     path = Path(path)
     name = os.fspath(path)
     if path.is_dir():
         raise ValueError(f"{what} {name!r} is a folder; give a file name.")
+    refused = refusal(path)
+    if refused:
+        raise ValueError(f"{what} {refused}")
     if path.exists() and not force:
         raise ValueError(f"{what} {name!r} exists; pass --force to replace it.")
     parent = path.parent
@@ -57,41 +63,10 @@ def _write_text(path, text, force):
 
     Whatever stops the write (an error, Ctrl-C, SIGTERM) removes the temporary file.
     """
-    import secrets
+    from greyml._atomic import write_atomic
 
-    folder = os.path.dirname(os.path.abspath(path))
-    temp = os.path.join(folder, f".{os.path.basename(path)}.{secrets.token_hex(4)}.part")
-    fd = None
-    try:
-        fd = os.open(temp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
-        with open(fd, "w", encoding="utf-8") as fh:
-            fh.write(text)
-        if force:
-            os.replace(temp, path)
-        else:
-            try:
-                os.link(temp, path)  # FileExistsError if the file appeared meanwhile
-            except FileExistsError:
-                raise ValueError(f"--json {path!r} exists; pass --force to replace it.") from None
-            except OSError:  # no hard links on this file system
-                os.replace(temp, path)
-        if os.path.exists(temp):  # the name left after a hard link
-            os.unlink(temp)
-    except FileExistsError:
-        if fd is not None:  # else os.open met a file of that name, not ours to remove
-            _remove(temp)
-        raise
-    except BaseException:
-        _remove(temp)
-        raise
-
-
-def _remove(path):
-    """Remove the file ``path`` if it exists."""
-    try:
-        os.unlink(path)
-    except FileNotFoundError:
-        pass
+    exists = ValueError(f"--json {path!r} exists; pass --force to replace it.")
+    write_atomic(path, text, overwrite=force, exists=exists)
 
 
 def _read(path, csv_options=None):

@@ -122,18 +122,19 @@ def _add_fit_parser(subparsers):
         choices=("forward", "stable"),
         help="how --max-sensors sensors are chosen (default: forward)",
     )
-    dynamic.add_argument(
-        "--time-constants",
-        type=flags._seconds_list,
-        metavar="S,S|fit",
-        help="the sensors' lags in seconds (default: 300,900,2700,8100), or fit",
-    )
-    dynamic.add_argument(
-        "--driver-time-constants",
-        type=flags._seconds_list,
-        metavar="S,S",
-        help="the drivers' lags in seconds (default: the sensors' and one 3 times slower)",
-    )
+    for flag, metavar, help_text in (
+        (
+            "--time-constants",
+            "S,S|fit",
+            "the sensors' lags in seconds (default: 300,900,2700,8100), or fit",
+        ),
+        (
+            "--driver-time-constants",
+            "S,S",
+            "the drivers' lags in seconds (default: the sensors' and one 3 times slower)",
+        ),
+    ):
+        dynamic.add_argument(flag, type=flags._seconds_list, metavar=metavar, help=help_text)
     flags._add_names(
         parser,
         "--sensors",

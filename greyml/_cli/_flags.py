@@ -226,12 +226,17 @@ def _end_options(parser, handler, *, reads_csv=True):
     parser.set_defaults(handler=handler, parser=parser)
 
 
+def _float_or_nan(text):
+    """``text`` as a float, or NaN when it is not a number (NaN fails every range check)."""
+    try:
+        return float(text)
+    except ValueError:
+        return float("nan")
+
+
 def _positive_number(text):
     """A number > 0 (``inf`` allowed: no bound), for bounds such as ``--max-displacement``."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a number > 0; got {text!r}") from None
+    value = _float_or_nan(text)
     if not value > 0:
         raise argparse.ArgumentTypeError(f"expected a number > 0; got {text!r}")
     return value
@@ -239,10 +244,7 @@ def _positive_number(text):
 
 def _coverage(text):
     """A share strictly between 0 and 1, for an interval's coverage (``--interval 0.9``)."""
-    try:
-        value = float(text)
-    except ValueError:
-        value = float("nan")
+    value = _float_or_nan(text)
     if not 0 < value < 1:
         raise argparse.ArgumentTypeError(
             f"expected a coverage between 0 and 1 (e.g. 0.9); got {text!r}"
@@ -256,10 +258,7 @@ def _seconds_list(text):
         return "fit"
     values = []
     for item in _names(text):
-        try:
-            value = float(item)
-        except ValueError:
-            value = float("nan")
+        value = _float_or_nan(item)
         if not (value > 0 and value != float("inf")):
             raise argparse.ArgumentTypeError(
                 f"must be seconds > 0 separated by commas, or fit; got {item!r}"

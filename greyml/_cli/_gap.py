@@ -165,10 +165,7 @@ def _add_gap_arguments(parser):
 
 def _number(text, what, low, strict):
     """A finite float from ``text``, above ``low`` (or at it, unless ``strict``)."""
-    try:
-        value = float(text)
-    except ValueError:
-        value = math.nan
+    value = flags._float_or_nan(text)
     if not math.isfinite(value) or value < low or (strict and value == low):
         raise argparse.ArgumentTypeError(f"must be {what}; got {text!r}")
     return value

@@ -169,10 +169,7 @@ def _initial_displacement(text, tests, model):
         )
 
     def number(word, what):
-        try:
-            value = float(word)
-        except ValueError:
-            value = float("nan")
+        value = flags._float_or_nan(word)
         if not np.isfinite(value):
             raise ValueError(
                 f"--initial-displacement: {what} must be a finite number; got {word!r}."

@@ -9,13 +9,13 @@ from __future__ import annotations
 
 import hashlib
 import os
-import secrets
 import urllib.request
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
+from greyml._atomic import write_atomic
 from greyml.datasets._caiviac import _PROBES, _TEMPS, load_caiviac
 
 __all__ = ["fetch_caiviac"]
@@ -50,17 +50,13 @@ def _folder(data_home):
     return folder
 
 
-def _part(path):
-    return path.with_name(f".{path.name}.{secrets.token_hex(4)}.part")
-
-
 def _download(url, target, sha256, size):
     """``url`` to ``target``: at most ``size`` bytes, its SHA-256 checked, written whole."""
-    tmp = _part(target)
-    digest = hashlib.sha256()
-    got = 0
-    try:
-        with urllib.request.urlopen(url, timeout=_TIMEOUT_S) as response, open(tmp, "xb") as out:
+
+    def write(out):
+        digest = hashlib.sha256()
+        got = 0
+        with urllib.request.urlopen(url, timeout=_TIMEOUT_S) as response:
             while True:
                 chunk = response.read(_CHUNK)
                 if not chunk:
@@ -78,10 +74,8 @@ def _download(url, target, sha256, size):
                 f"fetch_caiviac: the file downloaded from {url} ({got:,} bytes) has SHA-256 "
                 f"{digest.hexdigest()}, not the expected {sha256}; nothing was kept."
             )
-        os.replace(tmp, target)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
+
+    write_atomic(target, write, overwrite=True, encoding=None)
 
 
 def _sha256(path):
@@ -121,13 +115,7 @@ def _as_cycles_csv(xlsx, target):
     sheet.columns = COLUMNS
     frame = sheet.apply(pd.to_numeric, errors="coerce")
     frame.insert(1, "cycle", _cycles(frame["spindle_rpm"].to_numpy(dtype=float)))
-    tmp = _part(target)
-    try:
-        frame.to_csv(tmp, index=False)
-        os.replace(tmp, target)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
+    write_atomic(target, lambda fh: frame.to_csv(fh, index=False), overwrite=True, newline="")
 
 
 def fetch_caiviac(
@@ -198,5 +186,5 @@ def fetch_caiviac(
                 )
             _download(URL, xlsx, SHA256, SIZE)
         _as_cycles_csv(xlsx, csv)
-        (folder / "LICENSE.txt").write_text(LICENSE_TEXT, encoding="utf-8")
+        write_atomic(folder / "LICENSE.txt", LICENSE_TEXT, overwrite=True)
     return load_caiviac(csv, reference=reference, return_X_y=return_X_y, target=target)

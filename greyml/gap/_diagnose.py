@@ -16,8 +16,9 @@ import pandas as pd
 from greyml._caller import warn_user
 from greyml._param_validation import Integral, Interval, Real, validate_params
 from greyml._rng import RANDOM_STATE_CONSTRAINT, make_generator
+from greyml._time import format_duration
 from greyml.gap._consistency import inconsistent_sensors
-from greyml.gap._effects import LIBRARY, build_candidates, fmt_tau, tau_grid
+from greyml.gap._effects import LIBRARY, build_candidates, tau_grid
 from greyml.gap._events import EVENT_COLUMNS, EventSettings, event_table, events_in
 from greyml.gap._naming import EffectSearch, showing_tests, shrinkage
 from greyml.gap._prepare import GapContext, check_parameters, prepare
@@ -464,8 +465,8 @@ def _time_unit_hint(ctx):
     lo = tau_grid(ctx.dt, ctx.durations)[0]
     return (
         f"Time constants are searched in seconds of time_s, from {lo:g} s "
-        f"({fmt_tau(lo)}) to twice the longest test ({2 * max(ctx.durations):g} s = "
-        f"{fmt_tau(2 * max(ctx.durations))}); if time_s holds minutes or hours, that is "
+        f"({format_duration(lo)}) to twice the longest test ({2 * max(ctx.durations):g} s = "
+        f"{format_duration(2 * max(ctx.durations))}); if time_s holds minutes or hours, that is "
         "the likely cause: convert it to seconds."
     )
 
@@ -495,9 +496,9 @@ def _at_bound(cand, setting, rtol=1e-9):
     lo, hi = min(cand.taus), max(cand.taus)
     for tau in setting:
         if abs(tau - lo) <= rtol * lo:
-            return f"the shortest time constant searched ({lo:g} s = {fmt_tau(lo)})"
+            return f"the shortest time constant searched ({lo:g} s = {format_duration(lo)})"
         if abs(tau - hi) <= rtol * hi:
-            return f"the longest time constant searched ({hi:g} s = {fmt_tau(hi)})"
+            return f"the longest time constant searched ({hi:g} s = {format_duration(hi)})"
     return ""
 
 

@@ -294,13 +294,8 @@ def _per_test_start(values, bounds):
     return out
 
 
-def fmt_tau(tau):
-    """A time constant in words (:func:`greyml._time.format_duration`)."""
-    return format_duration(tau)
-
-
 def _taus(setting):
-    return ", ".join(fmt_tau(t) for t in setting)
+    return ", ".join(format_duration(t) for t in setting)
 
 
 def _two_lag_candidate(effect, variants, x, grid, ctx, describe):

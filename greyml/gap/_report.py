@@ -476,20 +476,13 @@ class GapReport:
             t = r.index.get_level_values("time_s").to_numpy() / 3600.0
             after = self.corrected.loc[r.index]
             first = offset == 0.0
-            ax_time.plot(
-                offset + t,
-                r.to_numpy(),
-                color="0.55",
-                lw=1,
-                label="gap: measured − simulated" if first else None,
-            )
-            ax_time.plot(
-                offset + t,
-                after.to_numpy(),
-                color="C3",
-                lw=1,
-                label="left after the named effects (held-out tests)" if first else None,
-            )
+            for series, color, name in (
+                (r, "0.55", "gap: measured − simulated"),
+                (after, "C3", "left after the named effects (held-out tests)"),
+            ):
+                ax_time.plot(
+                    offset + t, series.to_numpy(), color=color, lw=1, label=name if first else None
+                )
             ax_time.axvline(offset, color="0.85", lw=0.8)
             ax_time.text(
                 offset,

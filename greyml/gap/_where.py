@@ -37,7 +37,7 @@ from scipy.stats import chi2
 
 from greyml._param_validation import Integral, Interval, Real, validate_params
 from greyml._sequences import segment_label
-from greyml._time import format_duration
+from greyml._time import common_unit, format_duration
 from greyml.gap._where_checks import (
     _check_band_edges,
     _check_frame,
@@ -83,21 +83,8 @@ _WHITENESS_ALPHA = 0.05
 # --------------------------------------------------------------------------
 
 
-def _unit_for(values) -> tuple[str, float]:
-    """The largest of h, min, s in which every value is a whole number."""
-    values = [v for v in values if np.isfinite(v)]
-    for unit, scale in (("h", _HOUR), ("min", _MINUTE)):
-        if all(v % scale == 0 for v in values):
-            return unit, scale
-    return "s", 1.0
-
-
-def _duration(value: float) -> str:
-    return format_duration(value)
-
-
 def _time_bin_labels(edges: np.ndarray) -> list[str]:
-    unit, scale = _unit_for(edges)
+    unit, scale = common_unit(edges)
     labels = []
     for a, b in zip(edges[:-1], edges[1:]):
         if np.isneginf(a):
@@ -114,15 +101,15 @@ def _band_labels(edges: np.ndarray) -> list[str]:
     """Labels of the bands cut at the periods ``edges`` (in decreasing order)."""
     if edges.size == 0:
         return ["all periods"]
-    labels = [f"period > {_duration(edges[0])}"]
+    labels = [f"period > {format_duration(edges[0])}"]
     for long, short in zip(edges[:-1], edges[1:]):
-        unit_long, scale_long = _unit_for([long])
-        unit_short, scale_short = _unit_for([short])
+        unit_long, scale_long = common_unit([long])
+        unit_short, scale_short = common_unit([short])
         if unit_long == unit_short:
             labels.append(f"{short / scale_short:g}-{long / scale_long:g} {unit_long}")
         else:
-            labels.append(f"{_duration(short)}-{_duration(long)}")
-    labels.append(f"< {_duration(edges[-1])}")
+            labels.append(f"{format_duration(short)}-{format_duration(long)}")
+    labels.append(f"< {format_duration(edges[-1])}")
     return labels
 
 

@@ -7,7 +7,7 @@ from sklearn.base import BaseEstimator
 
 from greyml._param_validation import Interval, Real, StrOptions, validate_params
 from greyml._sequences import segment_label
-from greyml._validation import column_names, validate_sequences
+from greyml._validation import column_names, float_vector, validate_sequences
 from greyml.grey._kernels import CONDITION_LIMIT, _grey_lstsq, ago, gm1n_design, iago
 from greyml.grey._response import gmc_forcing, gmc_initial, gmc_response
 
@@ -120,12 +120,9 @@ def simulate_gmc(X, development, driving, control=0.0, *, form="trapezoid", init
     [0.0, 1.5, 2.5]
     """
     Xa, _, segments = validate_sequences(_Inputs(), X, reset=True)
-    try:
-        driving = np.asarray(driving, dtype=float).reshape(-1)
-    except (TypeError, ValueError):
-        raise ValueError(
-            f"simulate_gmc: driving must be numbers, one per column of X; got {driving!r}."
-        ) from None
+    driving = float_vector(
+        driving, f"simulate_gmc: driving must be numbers, one per column of X; got {driving!r}."
+    )
     if driving.size != Xa.shape[1]:
         raise ValueError(
             f"driving has {driving.size} coefficients but X has {Xa.shape[1]} columns."

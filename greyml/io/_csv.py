@@ -22,13 +22,14 @@ unquoted one without the spaces around it, so that what
 from __future__ import annotations
 
 import os
-import secrets
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
+from greyml._atomic import _publish, write_atomic
 from greyml._sequences import TEST_LEVEL, TIME_LEVEL, make_test_index, segments_by_test
+from greyml._time import TIME_UNITS  # the units time_unit= accepts
 from greyml._validation import check_unique_columns
 from greyml.io._csv_numbers import _data_columns, _read_wide
 from greyml.io._csv_records import (
@@ -54,9 +55,6 @@ from greyml.io._csv_text import (  # noqa: F401 (the module's constants, re-expo
 
 __all__ = ["read_tests_csv", "write_tests_csv", "check_test_frame"]
 
-#: Units ``read_tests_csv(..., time_unit=)`` accepts for the ``time_s``
-#: column, with their length in seconds.
-TIME_UNITS = {"s": 1.0, "min": 60.0, "h": 3600.0}
 
 #: Longest line (bytes) :func:`read_tests_csv` reads by default: 16 MiB, over
 #: 500,000 columns of numbers. A longer line is not a row of tests (a file of
@@ -169,8 +167,9 @@ def write_tests_csv(frame, path, *, overwrite=False):
     path : str or path-like
         File to create.
     overwrite : bool, default=False
-        Replace ``path`` if it exists. Without it an existing file is never
-        touched.
+        Replace ``path`` if it is a regular file. Without it an existing file
+        is never touched; a folder, symbolic link, named pipe or device is
+        never replaced.
 
     Returns
     -------
@@ -184,7 +183,8 @@ def write_tests_csv(frame, path, *, overwrite=False):
         If ``frame`` does not follow the layout, a test label or column name
         is empty, blank (only white space) or holds a lone surrogate (not
         UTF-8), or a value is infinite: a file would not give them back.
-        Nothing is written then.
+        Nothing is written then. Also if something that is not a regular
+        file is at ``path``.
 
     Examples
     --------
@@ -212,28 +212,18 @@ def write_tests_csv(frame, path, *, overwrite=False):
     codes, tests = pd.factorize(out[TEST_LEVEL])
     cells = np.array([_csv_cell(str(neutralise_cell(t))) for t in tests], dtype=object)[codes]
     body = out.iloc[:, 1:]
-    if path.exists() and not overwrite:
-        raise FileExistsError(f"{os.fspath(path)!r} exists; pass overwrite=True to replace it.")
+
+    def write(fh):
+        fh.write(header + "\n")
+        for start in range(0, len(body), _WRITE_ROWS):
+            rows = body.iloc[start : start + _WRITE_ROWS].to_csv(
+                header=False, index=False, lineterminator="\n"
+            )
+            labels = cells[start : start + _WRITE_ROWS]
+            fh.writelines(f"{t},{r}\n" for t, r in zip(labels, rows.split("\n")))
+
     # written to a file beside path, then renamed: a failure leaves no partial file
-    temp = path.parent / f".{path.name}.{os.getpid()}.{secrets.token_hex(4)}.part"
-    fd = os.open(temp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
-    try:
-        with open(fd, "w", newline="", encoding="utf-8") as fh:
-            fh.write(header + "\n")
-            for start in range(0, len(body), _WRITE_ROWS):
-                rows = body.iloc[start : start + _WRITE_ROWS].to_csv(
-                    header=False, index=False, lineterminator="\n"
-                )
-                labels = cells[start : start + _WRITE_ROWS]
-                fh.writelines(f"{t},{r}\n" for t, r in zip(labels, rows.split("\n")))
-        if overwrite:
-            os.replace(temp, path)
-        else:
-            _rename_new(temp, path)
-    except BaseException:
-        if os.path.exists(temp):
-            os.unlink(temp)
-        raise
+    write_atomic(path, write, overwrite=overwrite, newline="")
     return path
 
 
@@ -295,21 +285,14 @@ def _check_writable(out):
 
 
 def _rename_new(temp, path):
-    """Rename ``temp`` to ``path``, refusing to replace a file made meanwhile."""
-    try:
-        os.link(temp, path)
-    except FileExistsError:
-        raise FileExistsError(
-            f"{os.fspath(path)!r} exists; pass overwrite=True to replace it."
-        ) from None
-    except OSError:  # no hard links here (some file systems): check, then rename
-        if os.path.exists(path):
-            raise FileExistsError(
-                f"{os.fspath(path)!r} exists; pass overwrite=True to replace it."
-            ) from None
-        os.replace(temp, path)
-        return
-    os.unlink(temp)
+    """Rename ``temp`` to ``path``, refusing to replace a file made meanwhile.
+
+    Kept only for ``greyml/dynamic/_export.py`` until it calls
+    :func:`greyml._atomic.write_atomic`; then this goes.
+    """
+    _publish(temp, path, False, None)
+    if os.path.lexists(temp):
+        os.unlink(temp)
 
 
 def read_tests_csv(

@@ -162,21 +162,12 @@ class CuckooSearch(PopulationOptimizer):
             # 1. Lévy flights around the current nests, scaled by the distance to the best
             steps = levy_steps(nests.shape, beta, rng, sigma)
             eggs = nests + alpha * steps * (nests - best) * rng.standard_normal(nests.shape)
-            np.clip(eggs, lower, upper, out=eggs)
-            f_eggs = self._evaluate(fun, eggs, count)
-            keep = f_eggs <= fit
-            nests[keep] = eggs[keep]
-            fit[keep] = f_eggs[keep]
+            self._lay(fun, eggs, nests, fit, lower, upper, count)
 
             # 2. a fraction pa of the eggs is discovered and the nest moves
             found = rng.random(nests.shape) < pa
             shift = rng.random((n, 1)) * (nests[rng.permutation(n)] - nests[rng.permutation(n)])
-            eggs = nests + shift * found
-            np.clip(eggs, lower, upper, out=eggs)
-            f_eggs = self._evaluate(fun, eggs, count)
-            keep = f_eggs <= fit
-            nests[keep] = eggs[keep]
-            fit[keep] = f_eggs[keep]
+            self._lay(fun, nests + shift * found, nests, fit, lower, upper, count)
 
             b = int(np.argmin(fit))
             if fit[b] < best_f:
@@ -186,3 +177,12 @@ class CuckooSearch(PopulationOptimizer):
         return self._result(
             best, best_f, n * (1 + 2 * iters), iters, history, "Cuckoo search", count
         )
+
+    def _lay(self, fun, eggs, nests, fit, lower, upper, count):
+        """Clip ``eggs`` to the box, evaluate them, and let each nest whose egg is at
+        least as good take it (``nests`` and ``fit`` in place)."""
+        np.clip(eggs, lower, upper, out=eggs)
+        f_eggs = self._evaluate(fun, eggs, count)
+        keep = f_eggs <= fit
+        nests[keep] = eggs[keep]
+        fit[keep] = f_eggs[keep]

@@ -6,9 +6,7 @@ import datetime as _datetime
 import io
 import json
 import math
-import os
 import platform
-import secrets
 import zipfile
 from pathlib import Path
 
@@ -19,6 +17,7 @@ from sklearn.model_selection._search import BaseSearchCV
 from sklearn.pipeline import Pipeline
 from sklearn.utils.validation import check_is_fitted
 
+from greyml._atomic import check_target, write_atomic
 from greyml.persist._format import (
     _BIT_GENERATORS,
     _DTYPE_TEXT,
@@ -248,8 +247,9 @@ def save_model(estimator, path, *, overwrite=False) -> Path:
         Where to write. The folder must exist. The suffix is up to you
         (``.greyml`` is a good choice).
     overwrite : bool, default=False
-        Replace ``path`` if it exists. By default an existing file is left
-        alone and :class:`FileExistsError` is raised.
+        Replace ``path`` if it is a regular file. By default an existing file
+        is left alone and :class:`FileExistsError` is raised. A symbolic link,
+        named pipe or device is never replaced (:class:`ValueError`).
 
     Returns
     -------
@@ -300,11 +300,10 @@ def save_model(estimator, path, *, overwrite=False) -> Path:
         check_is_fitted(estimator)
     if path.is_dir():
         raise IsADirectoryError(f"Cannot save the model to {path}: it is a folder.")
-    if path.exists() and not overwrite:
-        raise FileExistsError(
-            f"{path} already exists; pass overwrite=True to replace it "
-            "(or choose another file name)."
-        )
+    exists = FileExistsError(
+        f"{path} already exists; pass overwrite=True to replace it (or choose another file name)."
+    )
+    check_target(path, overwrite, exists)
     folder = path.parent
     if not folder.is_dir():
         raise FileNotFoundError(f"Cannot save the model to {path}: folder {folder} does not exist.")
@@ -325,45 +324,14 @@ def save_model(estimator, path, *, overwrite=False) -> Path:
     }
     payload = json.dumps(header, allow_nan=False, indent=1).encode("utf-8")
 
-    # a new file in the same folder (permissions from the umask), then moved;
-    # whatever stops the save (an error, Ctrl-C, SIGTERM in the greyml
-    # command) removes it
-    tmp = folder / f".{path.name}.{os.getpid()}.{secrets.token_hex(6)}.part"
-    fd = None
-    try:
-        fd = os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0), 0o666)
-        with (
-            os.fdopen(fd, "wb") as handle,
-            zipfile.ZipFile(handle, "w", compression=zipfile.ZIP_DEFLATED) as archive,
-        ):
+    def write(handle):
+        with zipfile.ZipFile(handle, "w", compression=zipfile.ZIP_DEFLATED) as archive:
             archive.writestr(_MODEL_MEMBER, payload)
             for name, data in writer.arrays:
                 archive.writestr(name, data)
-        if overwrite:
-            os.replace(tmp, path)
-        else:
-            _move_without_replacing(tmp, path)
-        tmp.unlink(missing_ok=True)  # the name left after a hard link
-    except FileExistsError:
-        if fd is not None:  # else os.open met a file of that name, not ours to remove
-            tmp.unlink(missing_ok=True)
-        raise
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
+
+    # a new file in the same folder (permissions from the umask), then moved;
+    # whatever stops the save (an error, Ctrl-C, SIGTERM in the greyml
+    # command) removes it
+    write_atomic(path, write, overwrite=overwrite, exists=exists, encoding=None)
     return path
-
-
-def _move_without_replacing(tmp, path):
-    try:
-        os.link(tmp, path)  # fails if path appeared meanwhile
-    except FileExistsError:
-        raise FileExistsError(
-            f"{path} already exists; pass overwrite=True to replace it."
-        ) from None
-    except OSError:  # a file system without hard links
-        if path.exists():
-            raise FileExistsError(
-                f"{path} already exists; pass overwrite=True to replace it."
-            ) from None
-        os.replace(tmp, path)

@@ -11,6 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from greyml._time import format_duration
 from greyml.simulation._numbers import as_float
 
 __all__ = [
@@ -113,7 +114,7 @@ class _Diurnal(_Shown):
 
 @dataclass(frozen=True, repr=False)
 class _Doors(_Shown):
-    _text = "{base!r} with {n} door opening(s) of -{drop_C:g} °C for {minutes:g} min"
+    _text = "{base!r} with {n} door opening(s) of -{drop_C:g} °C for {duration}"
     base: AmbientProfile
     at_s: tuple
     drop_C: float
@@ -131,7 +132,7 @@ class _Doors(_Shown):
         return np.unique(np.concatenate([self.base.breakpoints(), own]))
 
     def _fields(self):
-        return {**vars(self), "n": len(self.at_s), "minutes": self.duration_s / 60}
+        return {**vars(self), "n": len(self.at_s), "duration": format_duration(self.duration_s)}
 
 
 @dataclass(frozen=True, repr=False)

@@ -6,6 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from greyml._time import format_duration
 from greyml.simulation import _check
 from greyml.simulation._machine import OPERATING_INPUTS
 from greyml.simulation._numbers import as_float
@@ -233,7 +234,7 @@ class Programme:
         parts = []
         for seg in self.segments:
             level = ", ".join(f"{c} {seg.value(c):g}" for c in OPERATING_INPUTS if seg.value(c))
-            parts.append(f"{seg.duration_s / 60:g} min " + (level or "stopped"))
+            parts.append(f"{format_duration(seg.duration_s)} " + (level or "stopped"))
         if len(parts) > 8:
-            return f"{len(parts)} segments, {self.duration_s / 60:g} min in all"
+            return f"{len(parts)} segments, {format_duration(self.duration_s)} in all"
         return "; ".join(parts)
