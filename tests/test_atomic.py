@@ -9,6 +9,7 @@ never /dev/null itself.
 """
 
 import errno
+import json
 import os
 import re
 import stat
@@ -17,7 +18,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from greyml import GMC, make_test_index
+from greyml import GMC, Compensator, make_test_index
 from greyml._atomic import check_target, not_regular, write_atomic
 from greyml._cli._files import _write_text
 from greyml.cli import main
@@ -171,6 +172,9 @@ def test_ctrl_c_leaves_no_half_written_file_and_no_temporary(existing, tmp_path)
 WRITERS = {
     "write_tests_csv": lambda path, overwrite: write_tests_csv(_frame(), path, overwrite=overwrite),
     "save_model": lambda path, overwrite: save_model(_model(), path, overwrite=overwrite),
+    "Compensator.export": lambda path, overwrite: Compensator(
+        ["T1_C"], [("T1_C", 1, 600.0, 1.0)]
+    ).export("json", path, overwrite=overwrite),
 }
 
 
@@ -194,6 +198,8 @@ def test_each_writer_replaces_a_regular_file_with_overwrite(writer, tmp_path):
     WRITERS[writer](path, True)
     if writer == "write_tests_csv":
         assert read_tests_csv(path).equals(_frame())
+    elif writer == "Compensator.export":
+        assert json.loads(path.read_text())["inputs"][0]["name"] == "T1_C"
     else:
         assert isinstance(load_model(path), GMC)
     assert sorted(p.name for p in tmp_path.iterdir()) == ["target"]

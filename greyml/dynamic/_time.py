@@ -28,6 +28,7 @@ import pandas as pd
 
 from greyml._sequences import TEST_LEVEL, TIME_LEVEL, segment_label
 from greyml._time import format_duration
+from greyml._validation import float_vector
 
 __all__ = [
     "MAX_TERMS",
@@ -85,12 +86,9 @@ def check_time_constants(values, what):
     ``what`` names them in the one-line ValueError, e.g. ``"The
     'time_constants' parameter of LagFeatures"``.
     """
-    try:
-        taus = np.asarray(values, dtype=float).reshape(-1)
-    except (TypeError, ValueError):
-        raise ValueError(
-            f"{what} must be a sequence of time constants in seconds. Got {values!r} instead."
-        ) from None
+    taus = float_vector(
+        values, f"{what} must be a sequence of time constants in seconds. Got {values!r} instead."
+    )
     if taus.size == 0:
         raise ValueError(f"{what} needs at least one time constant.")
     if taus.size > MAX_TIME_CONSTANTS:

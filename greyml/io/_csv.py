@@ -27,7 +27,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from greyml._atomic import _publish, write_atomic
+from greyml._atomic import write_atomic
 from greyml._sequences import TEST_LEVEL, TIME_LEVEL, make_test_index, segments_by_test
 from greyml._time import TIME_UNITS  # the units time_unit= accepts
 from greyml._validation import check_unique_columns
@@ -283,16 +283,6 @@ def _check_writable(out):
                 "as an empty cell). Replace or drop the infinities."
             )
 
-
-def _rename_new(temp, path):
-    """Rename ``temp`` to ``path``, refusing to replace a file made meanwhile.
-
-    Kept only for ``greyml/dynamic/_export.py`` until it calls
-    :func:`greyml._atomic.write_atomic`; then this goes.
-    """
-    _publish(temp, path, False, None)
-    if os.path.lexists(temp):
-        os.unlink(temp)
 
 
 def read_tests_csv(

@@ -9,13 +9,12 @@ from __future__ import annotations
 
 import json
 import os
-import secrets
 from pathlib import Path
 
+from greyml._atomic import write_atomic
 from greyml.controller.export._c import write_c
 from greyml.controller.export._program import describe
 from greyml.controller.export._st import write_st
-from greyml.io._csv import _rename_new
 
 __all__ = ["LANGUAGES", "export_compensator", "export_text"]
 
@@ -46,19 +45,4 @@ def export_compensator(
     path = Path(path)
     if path.is_dir():
         raise ValueError(f"Compensator.export: {os.fspath(path)!r} is a folder; give a file name.")
-    if path.exists() and not overwrite:
-        raise FileExistsError(f"{os.fspath(path)!r} exists; pass overwrite=True to replace it.")
-    temp = path.parent / f".{path.name}.{os.getpid()}.{secrets.token_hex(4)}.part"
-    fd = os.open(temp, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o666)
-    try:
-        with open(fd, "w", encoding="ascii", newline="\n") as fh:
-            fh.write(text)
-        if overwrite:
-            os.replace(temp, path)
-        else:
-            _rename_new(temp, path)
-    except BaseException:
-        if os.path.exists(temp):
-            os.unlink(temp)
-        raise
-    return path
+    return write_atomic(path, text, overwrite=overwrite, encoding="ascii", newline="\n")
