@@ -18,7 +18,6 @@ import re
 import shutil
 import sys
 import urllib.request
-import warnings
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
@@ -118,12 +117,6 @@ intersphinx_timeout = 10
 # (tests/test_examples.py sets it); the gallery captures the figures itself,
 # so the build leaves the variable unset and nothing is written or printed.
 os.environ.pop("GREYML_EXAMPLE_OUT", None)
-
-# sphinx-gallery finds the objects an example uses by trying each shorter
-# module path (greyml.fuzzy.log_firing before greyml.fuzzy.kernels.log_firing):
-# the old kernel paths answer with a FutureWarning (greyml._moved) that is no
-# news to the reader of a build log
-warnings.filterwarnings("ignore", message=r"greyml\.\w+\.\w+ moved to ", category=FutureWarning)
 
 sphinx_gallery_conf = {
     # examples/README.txt is the gallery's header; each sub-folder with a

@@ -62,18 +62,7 @@ __all__ = [
 ]
 
 
-#: Old names, still found for one release with a FutureWarning (greyml._moved).
-_RENAMED = {
-    # pytest collects a function named test_* that a test module imports
-    "test_ids": "groups_of",
-}
-
-
 def __getattr__(name):
-    if name in _RENAMED:
-        from greyml._moved import renamed
-
-        return renamed("greyml", name, _RENAMED[name], __getattr__(_RENAMED[name]))
     module = _LAZY.get(name)
     if module is None:
         raise AttributeError(f"module 'greyml' has no attribute {name!r}")

@@ -1,32 +1,16 @@
-"""Parameters renamed to one name for one idea, the old names kept for one release.
+"""What ``greyml/dynamic/`` still reads of the old-name layer, until it goes.
 
-An estimator declares ``_renamed_params = {"old": "new"}``, keeps ``old`` as a
-constructor parameter whose default is ``"deprecated"`` (hidden from its
-constraints' messages) and reads the value with :func:`renamed_value`, which
-says with a ``FutureWarning`` that the old name was used. A fitted attribute
-renamed the same way is declared in ``_renamed_attributes`` and kept readable
-under its old name by :func:`renamed_attribute`. :mod:`greyml.persist` maps a
-model file that still holds an old name onto the new one.
-
-A parameter added since a release is declared in ``_added_params`` (its
-name): a model file written before it existed takes its default, which is the
-behaviour before it (:func:`upgrade_renamed` does both).
+Nothing was released, so nothing is deprecated: every other package has
+dropped its old names. ``LagFeatures`` (``sample_step_s``) and
+``ThermalTransferFunction`` (``relative_to_start``) still import these two
+names; once they do not, this module goes too.
 """
 
 from __future__ import annotations
 
-import inspect
 import warnings
 
-from greyml._param_validation import Hidden, StrOptions
-
 DEPRECATED = "deprecated"
-
-
-def renamed_constraints(old, new, constraint):
-    """The ``_parameter_constraints`` entries of a renamed parameter: ``new``
-    takes ``constraint``; ``old`` takes it too or its hidden default."""
-    return {new: [constraint], old: [constraint, Hidden(StrOptions({DEPRECATED}))]}
 
 
 def renamed_value(estimator, old, new):
@@ -42,40 +26,3 @@ def renamed_value(estimator, old, new):
         stacklevel=3,
     )
     return value
-
-
-def renamed_attribute(old, new):
-    """A read-only property ``old`` that gives the fitted attribute ``new`` with a FutureWarning."""
-
-    def getter(self):
-        if new not in vars(self):  # unfitted: as if neither name existed
-            raise AttributeError(f"{type(self).__name__!r} object has no attribute {old!r}")
-        warnings.warn(
-            f"The fitted attribute {old!r} of {type(self).__name__} was renamed {new!r}, "
-            f"the name scikit-learn uses; {old!r} goes away in the next release.",
-            FutureWarning,
-            stacklevel=2,
-        )
-        return vars(self)[new]
-
-    return property(getter, doc=f"Old name of ``{new}`` (deprecated).")
-
-
-def upgrade_renamed(attributes, cls):
-    """A model file's attributes with the old names of ``cls._renamed_params`` and
-    ``cls._renamed_attributes`` moved to the new, and the parameters of
-    ``cls._added_params`` that the file lacks at their defaults."""
-    for old, new in getattr(cls, "_renamed_params", {}).items():
-        if old in attributes and new not in attributes:
-            attributes[new] = attributes[old]
-            attributes[old] = DEPRECATED
-    for old, new in getattr(cls, "_renamed_attributes", {}).items():
-        if old in attributes:
-            value = attributes.pop(old)
-            attributes.setdefault(new, value)
-    added = [name for name in getattr(cls, "_added_params", ()) if name not in attributes]
-    if added:
-        parameters = inspect.signature(cls.__init__).parameters
-        for name in added:
-            attributes[name] = parameters[name].default
-    return attributes

@@ -173,32 +173,6 @@ def test_gains_that_do_not_match_the_blocks_are_refused(tmp_path):
     _refused(_rewrite(path, edit, tmp_path / "inf.greyml"), "intercept_")
 
 
-def test_a_file_from_before_sample_interval_loads_as_it_was_saved(tmp_path):
-    X, y = _recording()
-    model = ThermalTransferFunction(drivers=["spindle_rpm"]).fit(X, y)
-    path = save_model(model, tmp_path / "ttf.greyml")
-
-    def edit(state):
-        del state["state"]["sample_interval"]
-
-    loaded = load_model(_rewrite(path, edit, tmp_path / "before.greyml"))
-    assert loaded.sample_interval is None
-    np.testing.assert_array_equal(loaded.predict(X), model.predict(X))
-    # LagFeatures called it sample_step_s: the file's value moves to the new name
-    array = X.to_numpy()[:5]
-    lags = LagFeatures([300.0], sample_interval=15.0).fit(array)
-    lags = save_model(lags, tmp_path / "l.greyml")
-
-    def old_name(state):
-        state["state"]["sample_step_s"] = state["state"].pop("sample_interval")
-
-    loaded = load_model(_rewrite(lags, old_name, tmp_path / "old-name.greyml"))
-    assert (loaded.sample_interval, loaded.sample_step_s) == (15.0, "deprecated")
-    np.testing.assert_array_equal(
-        loaded.transform(array), LagFeatures([300.0], sample_interval=15.0).fit_transform(array)
-    )
-
-
 @pytest.mark.parametrize("bad", [-15.0, 0.0, {"kind": "float", "value": "inf"}, "15"])
 def test_a_saved_sample_interval_must_be_a_finite_positive_number(tmp_path, bad):
     X, y = _recording()

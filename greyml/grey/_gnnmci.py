@@ -5,7 +5,6 @@ from __future__ import annotations
 from sklearn.utils.validation import check_is_fitted
 
 from greyml._param_validation import Integral, Interval
-from greyml._renamed import DEPRECATED, renamed_constraints, renamed_value
 from greyml._sequences import segment_label
 from greyml._validation import validate_sequences
 from greyml.grey._gmc import _GreyConvolutionModel
@@ -60,9 +59,6 @@ class GNNMCI(_GreyConvolutionModel):
         As in :class:`GMC`.
     random_state : int, Generator, RandomState or None, default=None
         Seeds the swarm. The global NumPy state is never used.
-    n_particles : int, default="deprecated"
-        The old name of ``n_population``: still accepted in this release, with
-        a ``FutureWarning``.
 
     Attributes
     ----------
@@ -119,15 +115,10 @@ class GNNMCI(_GreyConvolutionModel):
 
     _parameter_constraints: dict = {
         **_GreyConvolutionModel._parameter_constraints,
-        **renamed_constraints(
-            "n_particles", "n_population", Interval(Integral, 2, None, closed="left")
-        ),
+        "n_population": [Interval(Integral, 2, None, closed="left")],
         # the swarm's own settings, passed on unchanged
         **{k: ParticleSwarm._parameter_constraints[k] for k in ("c1", "c2", "inertia")},
     }
-
-    #: old parameter names, still accepted for one release (greyml._renamed)
-    _renamed_params = {"n_particles": "n_population"}
 
     def __init__(
         self,
@@ -143,7 +134,6 @@ class GNNMCI(_GreyConvolutionModel):
         polish=True,
         warm_start_ls=True,
         random_state=None,
-        n_particles=DEPRECATED,
     ):
         self.n_population = n_population
         self.max_iter = max_iter
@@ -156,11 +146,10 @@ class GNNMCI(_GreyConvolutionModel):
         self.polish = polish
         self.warm_start_ls = warm_start_ls
         self.random_state = random_state
-        self.n_particles = n_particles
 
     def _check_params(self):
         return ParticleSwarm(
-            n_population=renamed_value(self, "n_particles", "n_population"),
+            n_population=self.n_population,
             max_iter=self.max_iter,
             c1=self.c1,
             c2=self.c2,

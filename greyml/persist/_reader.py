@@ -11,7 +11,6 @@ from pathlib import Path
 import numpy as np
 import sklearn
 
-from greyml._renamed import upgrade_renamed
 from greyml.exceptions import UnsafeModelError
 from greyml.persist._archive import (
     _check_max_bytes,
@@ -197,12 +196,11 @@ class _Reader:
         state = node.get("state")
         if type(state) is not dict:
             raise _Corrupt(f"the {name} object has no attribute table")
-        renamed = getattr(cls, "_renamed_attributes", {})  # old names, moved below
         for key in state:
             if (
                 not key.isidentifier()
                 or key.startswith("__")
-                or (_shadows_behaviour(cls, key) and key not in renamed)
+                or _shadows_behaviour(cls, key)
             ):
                 raise _Corrupt(f"the {name} object sets the forbidden attribute {key!r}")
         if "items" in node and not issubclass(cls, dict):
@@ -220,7 +218,6 @@ class _Reader:
             attributes["n_jobs"] = None
         if "memory" in attributes:  # so are folders: a cache the file names is never used
             attributes["memory"] = None
-        upgrade_renamed(attributes, cls)  # a file from before a parameter was renamed
         obj = cls.__new__(cls)
         if "items" in node:
             dict.update(obj, self._pairs(node, depth))
