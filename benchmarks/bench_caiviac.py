@@ -135,7 +135,7 @@ def load_or_say(args, target, reference):
 
 
 def where_looked(path):
-    from greyml.datasets import caiviac_candidates
+    from greyml.datasets._caiviac import caiviac_candidates
 
     if path is not None:
         return str(path)
@@ -745,7 +745,7 @@ def run_dynamic(args):
     """The issue-16 comparison: every target and reference, same folds."""
     from threadpoolctl import threadpool_limits
 
-    from greyml import GreyConditioningWarning
+    from greyml.exceptions import GreyConditioningWarning
 
     results = {}
     start_all = time.perf_counter()
@@ -925,7 +925,7 @@ def main(argv=None):
     with threadpool_limits(limits=1), warnings.catch_warnings():
         # GM(1,N) of 16 near-collinear sensors is rank deficient in some folds:
         # the selector says so and uses the minimum-norm weights
-        from greyml import GreyConditioningWarning
+        from greyml.exceptions import GreyConditioningWarning
 
         warnings.simplefilter("ignore", GreyConditioningWarning)
         records = nested(X, y, args.jobs)

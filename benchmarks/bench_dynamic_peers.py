@@ -110,7 +110,7 @@ def candidates(path):
     if path is not None:
         path = Path(path)
         return [path / "cycles.csv" if path.is_dir() else path]
-    from greyml.datasets import caiviac_candidates
+    from greyml.datasets._caiviac import caiviac_candidates
 
     return [Path(folder) / "cycles.csv" for folder in caiviac_candidates()]
 

@@ -155,7 +155,7 @@ sphinx_gallery_conf = {
 # docs/landing_figure.py draws the CAIVIAC recording when it lies beside this
 # checkout (greyml.datasets.caiviac_candidates), else the simulated VMC; the
 # caption under it (|landing-data| in index.rst) says which.
-from greyml.datasets import caiviac_candidates  # noqa: E402
+from greyml.datasets._caiviac import caiviac_candidates
 
 if any((folder / "cycles.csv").is_file() for folder in caiviac_candidates()):
     _LANDING_DATA = (

@@ -13,7 +13,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from greyml import ThermalTransferFunction, groups_of
-from greyml.datasets import caiviac_candidates, load_caiviac, load_vmc_tests
+from greyml.datasets import load_caiviac, load_vmc_tests
+from greyml.datasets._caiviac import caiviac_candidates
 from greyml.metrics import rmse
 
 if any((folder / "cycles.csv").is_file() for folder in caiviac_candidates()):

@@ -24,7 +24,7 @@ import numpy as np
 import pandas as pd
 
 from greyml import Compensator, ThermalTransferFunction, make_test_index
-from greyml.datasets import caiviac_candidates
+from greyml.datasets._caiviac import caiviac_candidates
 from greyml.dynamic._export import export_text
 from greyml.io import read_tests_csv
 

@@ -5,7 +5,8 @@ import pandas as pd
 import pytest
 from scipy.signal import lfilter
 
-from greyml import make_test_index, simulate_gmc
+from greyml import make_test_index
+from greyml.grey._functions import simulate_gmc
 
 TRUE_B1 = 0.3
 TRUE_B = np.array([0.8, -0.5, 0.3, 0.2])

@@ -17,7 +17,7 @@ from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import StandardScaler
 
 from greyml import ANFISFCM, ANFISGrid, groups_of, make_test_index
-from greyml.fuzzy.kernels import (
+from greyml.fuzzy._kernels import (
     JangStepSize,
     anfis_forward,
     log_firing,

@@ -134,7 +134,7 @@ def test_help_names_the_new_flags(capsys):
 
 
 def test_caiviac_events_at_spindle_speed_changes_are_labelled(tmp_path, capsys):
-    from greyml.datasets import caiviac_candidates
+    from greyml.datasets._caiviac import caiviac_candidates
 
     found = [f / "cycles.csv" for f in caiviac_candidates() if (f / "cycles.csv").is_file()]
     if not found:

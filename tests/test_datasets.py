@@ -6,13 +6,13 @@ import pytest
 
 from greyml._sequences import segments_by_test
 from greyml.datasets import (
-    caiviac_candidates,
     load_caiviac,
     load_gantry_tests,
     load_probe_test,
     load_vmc_tests,
     make_tests,
 )
+from greyml.datasets._caiviac import caiviac_candidates
 from greyml.simulation import Effects, HeatingTest, Programme, linear_drift, vmc
 
 LOADERS = [load_vmc_tests, load_probe_test, load_gantry_tests]

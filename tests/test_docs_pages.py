@@ -33,7 +33,7 @@ def test_the_trust_pages_caiviac_numbers_are_the_examples(tmp_path, monkeypatch,
     import re
     import runpy
 
-    from greyml.datasets import caiviac_candidates
+    from greyml.datasets._caiviac import caiviac_candidates
 
     if not any((f / "cycles.csv").is_file() for f in caiviac_candidates()):
         pytest.skip("the CAIVIAC recording (../shared/realdata/caiviac) is absent")

@@ -13,9 +13,10 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from greyml import LagFeatures, ThermalTransferFunction, WarmStartWarning, make_test_index
+from greyml import LagFeatures, ThermalTransferFunction, make_test_index
 from greyml.cli import main
 from greyml.dynamic._kernels import lag_filter
+from greyml.exceptions import WarmStartWarning
 from greyml.io import read_tests_csv, write_tests_csv
 
 STEP = 60.0
@@ -303,7 +304,7 @@ def test_cli_fits_and_predicts_a_logged_recording_as_the_api(tmp_path):
 
 
 def test_cli_on_caiviac_equals_the_api(tmp_path):
-    from greyml.datasets import caiviac_candidates
+    from greyml.datasets._caiviac import caiviac_candidates
 
     found = [f / "cycles.csv" for f in caiviac_candidates() if (f / "cycles.csv").is_file()]
     if not found:

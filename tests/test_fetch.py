@@ -12,7 +12,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from greyml.datasets import _fetch, caiviac_candidates, fetch_caiviac
+from greyml.datasets import _fetch, fetch_caiviac
+from greyml.datasets._caiviac import caiviac_candidates
 
 pytest.importorskip("openpyxl")
 

@@ -10,9 +10,11 @@ from sklearn.model_selection import GridSearchCV, LeaveOneGroupOut, cross_val_sc
 from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import StandardScaler
 
-from greyml import GMC, GNNMCI, GreyStabilityWarning, groups_of, make_test_index, simulate_gmc
-from greyml.grey._response import gmc_forcing, gmc_initial
-from greyml.grey.kernels import ago, gmc_response, gnnmci_layers
+from greyml import GMC, GNNMCI, groups_of, make_test_index
+from greyml.exceptions import GreyStabilityWarning
+from greyml.grey._functions import simulate_gmc
+from greyml.grey._kernels import ago
+from greyml.grey._response import gmc_forcing, gmc_initial, gmc_response, gnnmci_layers
 
 
 def _midpoint_tests(noise=0.0, seed=0):

@@ -3,7 +3,8 @@ import pickle
 import numpy as np
 import pytest
 
-from greyml.optimize import CuckooSearch, ParticleSwarm, levy_steps, mantegna_sigma
+from greyml.optimize import CuckooSearch, ParticleSwarm
+from greyml.optimize._cuckoo import levy_steps, mantegna_sigma
 
 OPTIMIZERS = [ParticleSwarm, CuckooSearch]  # classes: each test makes its own
 

@@ -42,8 +42,9 @@ from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import StandardScaler
 from threadpoolctl import threadpool_limits
 
-from greyml import ThermalTransferFunction, WarmStartWarning, groups_of
-from greyml.datasets import caiviac_candidates
+from greyml import ThermalTransferFunction, groups_of
+from greyml.datasets._caiviac import caiviac_candidates
+from greyml.exceptions import WarmStartWarning
 from greyml.io import read_tests_csv
 from greyml.metrics import rmse
 

@@ -47,14 +47,9 @@ from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import StandardScaler
 from threadpoolctl import threadpool_limits
 
-from greyml import (
-    GMC,
-    GreyConditioningWarning,
-    GreyInfluenceSelector,
-    RelativeToStart,
-    groups_of,
-)
+from greyml import GMC, GreyInfluenceSelector, RelativeToStart, groups_of
 from greyml.datasets import load_caiviac
+from greyml.exceptions import GreyConditioningWarning
 from greyml.metrics import rmse
 
 TARGET = "ch1_um"

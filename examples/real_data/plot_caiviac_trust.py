@@ -32,7 +32,7 @@ import numpy as np
 from threadpoolctl import threadpool_limits
 
 from greyml import ThermalTransferFunction, groups_of
-from greyml.datasets import caiviac_candidates
+from greyml.datasets._caiviac import caiviac_candidates
 from greyml.io import read_tests_csv
 from greyml.metrics import rmse
 

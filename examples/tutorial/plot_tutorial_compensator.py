@@ -57,7 +57,8 @@ from sklearn.preprocessing import StandardScaler
 
 from greyml import ThermalTransferFunction, groups_of
 from greyml.cli import main as greyml_command
-from greyml.datasets import caiviac_candidates, make_tests
+from greyml.datasets import make_tests
+from greyml.datasets._caiviac import caiviac_candidates
 from greyml.io import read_tests_csv
 from greyml.metrics import rmse
 from greyml.persist import save_model

@@ -34,7 +34,7 @@ def caiviac_candidates():
     The folders depend on where greyml and the current directory are; the
     last one always ends in ``shared/realdata/caiviac``:
 
-    >>> from greyml.datasets import caiviac_candidates
+    >>> from greyml.datasets._caiviac import caiviac_candidates
     >>> folders = caiviac_candidates()
     >>> type(folders).__name__, len(folders) >= 1
     ('list', True)

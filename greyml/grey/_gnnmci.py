@@ -101,7 +101,7 @@ class GNNMCI(_GreyConvolutionModel):
     --------
     >>> import numpy as np
     >>> from greyml import GNNMCI
-    >>> from greyml.grey import simulate_gmc
+    >>> from greyml.grey._functions import simulate_gmc
     >>> rng = np.random.default_rng(0)
     >>> X = 1 + rng.random((60, 2))
     >>> y = simulate_gmc(X, development=0.4, driving=[0.5, -0.2], control=0.1,

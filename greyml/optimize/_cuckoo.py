@@ -19,7 +19,7 @@ def mantegna_sigma(beta):
 
     Examples
     --------
-    >>> from greyml.optimize import mantegna_sigma
+    >>> from greyml.optimize._cuckoo import mantegna_sigma
     >>> mantegna_sigma(1.0)  # Γ(2) sin(π/2) / (Γ(1) · 1 · 2⁰)
     1.0
     >>> round(mantegna_sigma(1.5), 6)
@@ -38,7 +38,7 @@ def levy_steps(shape, beta, rng, sigma=None):
     Mostly short steps and now and then a very long one (heavy tails):
 
     >>> import numpy as np
-    >>> from greyml.optimize import levy_steps
+    >>> from greyml.optimize._cuckoo import levy_steps
     >>> s = levy_steps((100, 100), beta=1.5, rng=np.random.default_rng(0))
     >>> s.shape
     (100, 100)

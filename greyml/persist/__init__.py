@@ -61,7 +61,6 @@ limits, and the allowlist), ``_writer`` (:func:`save_model`), ``_archive``
 (:func:`load_model`, :func:`describe_model`).
 """
 
-from greyml.exceptions import UnsafeModelError
 from greyml.persist._archive import _read_npy  # noqa: F401 (greyml.persist._read_npy)
 from greyml.persist._format import (  # noqa: F401 (the constants, as greyml.persist.NAME)
     ALLOWED_CLASSES,
@@ -72,4 +71,4 @@ from greyml.persist._format import (  # noqa: F401 (the constants, as greyml.per
 from greyml.persist._reader import describe_model, load_model
 from greyml.persist._writer import save_model
 
-__all__ = ["UnsafeModelError", "describe_model", "load_model", "save_model"]
+__all__ = ["describe_model", "load_model", "save_model"]
