@@ -151,13 +151,18 @@ sphinx_gallery_conf = {
     "inspect_global_variables": True,
 }
 
-# -- the landing page's figure (matplotlib's plot directive) ---------------
-# docs/landing_figure.py draws the CAIVIAC recording when it lies beside this
-# checkout (greyml.datasets.caiviac_candidates), else the simulated VMC; the
-# caption under it (|landing-data| in index.rst) says which.
-from greyml.datasets._caiviac import caiviac_candidates
+# -- the real data ------------------------------------------------------------
+# The CAIVIAC recording, never part of greyml: $GREYML_CAIVIAC, else
+# ../shared/realdata/caiviac beside this checkout. The variable is set for the
+# gallery's examples and the landing figure, which read it from there (and run
+# on simulated data, or skip, when the folder holds no cycles.csv).
+os.environ.setdefault("GREYML_CAIVIAC", str(HERE.parent.parent / "shared" / "realdata" / "caiviac"))
 
-if any((folder / "cycles.csv").is_file() for folder in caiviac_candidates()):
+# -- the landing page's figure (matplotlib's plot directive) ---------------
+# docs/landing_figure.py draws the CAIVIAC recording when it is found, else
+# the simulated VMC; the caption under it (|landing-data| in index.rst) says
+# which.
+if (Path(os.environ["GREYML_CAIVIAC"]) / "cycles.csv").is_file():
     _LANDING_DATA = (
         "the CAIVIAC recording of a real machine tool (probe ch1, five 8 h cycles "
         "at 1250 to 5000 rpm), found beside this checkout when the page was "

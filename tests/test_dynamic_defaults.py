@@ -304,12 +304,9 @@ def test_cli_fits_and_predicts_a_logged_recording_as_the_api(tmp_path):
 
 
 def test_cli_on_caiviac_equals_the_api(tmp_path):
-    from greyml.datasets._caiviac import caiviac_candidates
+    from conftest import caiviac_csv_or_skip
 
-    found = [f / "cycles.csv" for f in caiviac_candidates() if (f / "cycles.csv").is_file()]
-    if not found:
-        pytest.skip("the CAIVIAC recording (../shared/realdata/caiviac) is absent")
-    _cli_equals_api(os.fspath(found[0]), "ch1_um", ["1", "2", "3", "4"], "5", tmp_path)
+    _cli_equals_api(os.fspath(caiviac_csv_or_skip()), "ch1_um", ["1", "2", "3", "4"], "5", tmp_path)
 
 
 def _fit_argv(path, out, *extra):

@@ -33,7 +33,9 @@ on both probes.
 """
 
 # %%
+import os
 import warnings
+from pathlib import Path
 
 import matplotlib.pyplot as plt
 import numpy as np
@@ -43,7 +45,6 @@ from sklearn.preprocessing import StandardScaler
 from threadpoolctl import threadpool_limits
 
 from greyml import ThermalTransferFunction, groups_of
-from greyml.datasets._caiviac import caiviac_candidates
 from greyml.exceptions import WarmStartWarning
 from greyml.io import read_tests_csv
 from greyml.metrics import rmse
@@ -53,12 +54,23 @@ DRIVER = "spindle_rpm"
 SPEEDS = {"1": 1250, "2": 2500, "3": 3750, "4": 5000, "5": 3500}
 
 
+def caiviac_csv():
+    """The CAIVIAC ``cycles.csv``: in ``$GREYML_CAIVIAC``, else in
+    ``../shared/realdata/caiviac`` beside this checkout; None when absent."""
+    folder = os.environ.get("GREYML_CAIVIAC")
+    if not folder:  # sphinx-gallery runs an example in its folder, without __file__
+        here = Path(__file__).resolve().parent if "__file__" in globals() else Path.cwd()
+        folder = here.parents[1].parent / "shared" / "realdata" / "caiviac"
+    path = Path(folder) / "cycles.csv"
+    return path if path.is_file() else None
+
+
 def load():
     """(X, y) as logged: speed and temperatures, ch1 from the recording's zero; or None."""
-    found = [f / "cycles.csv" for f in caiviac_candidates() if (f / "cycles.csv").is_file()]
-    if not found:
+    path = caiviac_csv()
+    if path is None:
         return None
-    frame = read_tests_csv(found[0], test_column="cycle")
+    frame = read_tests_csv(path, test_column="cycle")
     inputs = [DRIVER] + [c for c in frame.columns if c.endswith("_C")]
     return frame[inputs], frame[TARGET]
 
@@ -208,7 +220,10 @@ def stream(model, X):
 # ---
 loaded = load()
 if loaded is None:
-    print("CAIVIAC data not found (see greyml.datasets.load_caiviac); skipping this example.")
+    print(
+        "CAIVIAC data not found (see the installation page, or set GREYML_CAIVIAC);"
+        " skipping this example."
+    )
 else:
     X, y = loaded
     # one BLAS thread: the products are small, and on busy cores more threads only wait
