@@ -3,6 +3,7 @@
 # The public names are imported on first use (PEP 562), so that the command
 # line answers ``greyml --version`` and ``--help`` without importing NumPy,
 # pandas or scikit-learn.
+#: greyml's version (PEP 440).
 __version__ = "0.1.0.dev0"
 
 #: Where each public name lives.
