@@ -8,8 +8,6 @@ __version__ = "0.1.0.dev0"
 
 #: Where each public name lives.
 _LAZY = {
-    "TEST_LEVEL": "greyml._sequences",
-    "TIME_LEVEL": "greyml._sequences",
     "groups_of": "greyml._sequences",
     "make_test_index": "greyml._sequences",
     "Compensator": "greyml.dynamic",
@@ -32,8 +30,6 @@ __all__ = [
     "ANFISFCM",
     "GMC",
     "GNNMCI",
-    "TEST_LEVEL",
-    "TIME_LEVEL",
     "ANFISGrid",
     "AccumulatedTargetRegressor",
     "Compensator",

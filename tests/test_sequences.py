@@ -63,5 +63,5 @@ def test_no_public_name_is_collected_by_pytest():
     import greyml
 
     # pytest collects from a test module the functions named test* and classes Test*
-    # that it imports (TEST_LEVEL, a string, is not one)
+    # that it imports
     assert [name for name in greyml.__all__ if name.startswith(("test", "Test"))] == []
