@@ -1,4 +1,22 @@
-"""greyml: thermal-error models of CNC machine tools, scikit-learn compatible."""
+"""greyml: thermal-error models of CNC machine tools, scikit-learn compatible.
+
+From the top level: the estimators and transformers (:class:`ThermalTransferFunction`,
+:class:`LagFeatures`, :class:`GMC`, :class:`GNNMCI`, :class:`AGO`,
+:class:`AccumulatedTargetRegressor`, :class:`ANFISGrid`, :class:`ANFISFCM`,
+:class:`MLPBaseline`, :class:`RelativeToStart`), the sensor selector
+(:class:`GreyInfluenceSelector`), the splitter :class:`TrainOnOneTest`, the
+runtime :class:`Compensator`, and the helpers of the test layout
+(:func:`make_test_index`, :func:`groups_of`). The rest by job:
+
+- :mod:`greyml.datasets`, :mod:`greyml.io`, :mod:`greyml.simulation`: data
+  sets, CSV files and the thermal simulator;
+- :mod:`greyml.persist`: model files read without pickle;
+- :mod:`greyml.gap`: the sim-to-real gap diagnosis;
+- :mod:`greyml.metrics`: accuracy measures and scorers;
+- :mod:`greyml.optimize`: the population optimisers of the grey models;
+- :mod:`greyml.exceptions`: every warning and error;
+- :mod:`greyml.utils.discovery`: the list of greyml's estimators.
+"""
 
 # The public names are imported on first use (PEP 562), so that the command
 # line answers ``greyml --version`` and ``--help`` without importing NumPy,

@@ -1,5 +1,9 @@
 """Save fitted models to a file, and load them back without running code from it.
 
+- :func:`save_model`: a fitted model (or pipeline) to a file;
+- :func:`load_model`: the model back, refusing any class not allowed;
+- :func:`describe_model`: what a file holds, read without building anything.
+
 A pickle (or joblib) file can run any code when it is loaded, so a model file
 from someone else is as dangerous as a script from them. greyml's model files
 hold data only:
