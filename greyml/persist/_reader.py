@@ -197,11 +197,7 @@ class _Reader:
         if type(state) is not dict:
             raise _Corrupt(f"the {name} object has no attribute table")
         for key in state:
-            if (
-                not key.isidentifier()
-                or key.startswith("__")
-                or _shadows_behaviour(cls, key)
-            ):
+            if not key.isidentifier() or key.startswith("__") or _shadows_behaviour(cls, key):
                 raise _Corrupt(f"the {name} object sets the forbidden attribute {key!r}")
         if "items" in node and not issubclass(cls, dict):
             raise _Corrupt(f"the {name} object has dict items but is not a dict")
