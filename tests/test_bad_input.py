@@ -272,7 +272,9 @@ def test_bad_parameter(estimator, params, match):
 BAD_VALUES = [np.nan, np.inf, -np.inf]
 
 
-@pytest.mark.filterwarnings("ignore::greyml.exceptions.GreyStabilityWarning")  # fits of drawn subsets
+@pytest.mark.filterwarnings(
+    "ignore::greyml.exceptions.GreyStabilityWarning"
+)  # fits of drawn subsets
 @settings(max_examples=200, deadline=None)
 @given(
     entry=st.sampled_from([e for e in ENTRIES if {"model", "fitted"} <= e.has]),
