@@ -207,7 +207,7 @@ class _GreyConvolutionModel(RegressorMixin, BaseEstimator):
             label) from test label to value; tests it leaves out start as with
             ``None``. A given test's prediction starts at that value and adds
             the model's predicted change since the first row
-            (:func:`~greyml.grey.gmc_predict`). With ``None``, a test whose
+            (``gmc_predict``). With ``None``, a test whose
             first driver values lie away from the training tests' first values
             by more than their range (at least ``START_TOLERANCE`` = 10 % of
             the column's range in ``fit``) gets a

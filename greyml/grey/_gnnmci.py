@@ -84,9 +84,9 @@ class GNNMCI(_GreyConvolutionModel):
     -----
     Layer C multiplies by the sigmoid b = 1/(1 + e^{−b₁k}) and layer D
     multiplies by w₃ = 1 + e^{−b₁k}, so the layers multiply out exactly to the
-    GMC midpoint response (:func:`greyml.grey.gnnmci_layers` shows each layer;
+    GMC midpoint response (:meth:`layer_outputs` shows each layer;
     a test checks they agree). greyml therefore evaluates the network through
-    the shared O(n) response of :mod:`greyml.grey`, which cannot overflow in
+    the O(n) response GMC shares, which cannot overflow in
     the layer products when ``|b₁k|`` is large. What distinguishes GNNMCI from
     ``GMC(solver="ls")`` is its training: the weights minimise the error of
     the whole trajectory rather than of the grey differential equation.
@@ -167,7 +167,7 @@ class GNNMCI(_GreyConvolutionModel):
         -------
         list of dict
             One dict per test with the test's label under ``"test"`` and the
-            layers as :func:`greyml.grey.gnnmci_layers` returns them.
+            layers as the kernel ``gnnmci_layers`` returns them.
         """
         check_is_fitted(self)
         Xa, _, segments = validate_sequences(self, X, reset=False, min_samples_per_test=1)
