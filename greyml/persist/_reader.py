@@ -405,8 +405,8 @@ def load_model(path, *, trusted=None, max_bytes=DEFAULT_MAX_BYTES):
     greyml model's fitted attributes are checked against their physical
     domain and against each other (time constants > 0, a compensator's state
     against its terms), and the work of one ``predict`` row or one ``update``
-    is bounded (at most :data:`greyml.dynamic.MAX_TIME_CONSTANTS` time
-    constants and :data:`greyml.dynamic.MAX_TERMS` terms).
+    is bounded (at most 1,000 time constants and 100,000 terms: the
+    ``MAX_TIME_CONSTANTS`` and ``MAX_TERMS`` of ``greyml/dynamic``).
 
     Parameters
     ----------
