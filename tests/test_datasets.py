@@ -169,3 +169,15 @@ def test_caiviac_wrong_file(tmp_path):
     bad.write_text("time_s,cycle\n0,1\n")
     with pytest.raises(ValueError, match="lacks the column"):
         load_caiviac(tmp_path)
+
+
+def test_caiviac_without_a_path_reads_fetch_caiviacs_cache(tmp_path, monkeypatch):
+    from test_bad_input_io import _caiviac_file
+
+    cache = tmp_path / "home" / "greyml" / "caiviac"
+    cache.mkdir(parents=True)
+    given = load_caiviac(_caiviac_file(cache))
+    monkeypatch.setenv("SCIKIT_LEARN_DATA", str(tmp_path / "home"))
+    cached = load_caiviac()
+    pd.testing.assert_frame_equal(cached.frame, given.frame)
+    assert cached.tests == ["cycle1", "cycle2"]
