@@ -54,21 +54,18 @@ DRIVER = "spindle_rpm"
 SPEEDS = {"1": 1250, "2": 2500, "3": 3750, "4": 5000, "5": 3500}
 
 
-def caiviac_csv():
-    """The CAIVIAC ``cycles.csv``: in ``$GREYML_CAIVIAC``, else in
-    ``../shared/realdata/caiviac`` beside this checkout; None when absent."""
-    folder = os.environ.get("GREYML_CAIVIAC")
-    if not folder:  # sphinx-gallery runs an example in its folder, without __file__
-        here = Path(__file__).resolve().parent if "__file__" in globals() else Path.cwd()
-        folder = here.parents[1].parent / "shared" / "realdata" / "caiviac"
-    path = Path(folder) / "cycles.csv"
-    return path if path.is_file() else None
+#: The recording: in the folder $GREYML_CAIVIAC names (docs/conf.py sets it for
+#: the gallery), else in ../shared/realdata/caiviac beside this checkout.
+CAIVIAC = Path(
+    os.environ.get("GREYML_CAIVIAC")
+    or Path(__file__).resolve().parents[3] / "shared" / "realdata" / "caiviac"
+)
 
 
 def load():
     """(X, y) as logged: speed and temperatures, ch1 from the recording's zero; or None."""
-    path = caiviac_csv()
-    if path is None:
+    path = CAIVIAC / "cycles.csv"
+    if not path.is_file():
         return None
     frame = read_tests_csv(path, test_column="cycle")
     inputs = [DRIVER] + [c for c in frame.columns if c.endswith("_C")]

@@ -60,21 +60,18 @@ SPEEDS = {"cycle1": 1250, "cycle2": 2500, "cycle3": 3750, "cycle4": 5000, "cycle
 NESTED = {"median": 4.37, "ridge": 4.72}
 
 
-def caiviac_csv():
-    """The CAIVIAC ``cycles.csv``: in ``$GREYML_CAIVIAC``, else in
-    ``../shared/realdata/caiviac`` beside this checkout; None when absent."""
-    folder = os.environ.get("GREYML_CAIVIAC")
-    if not folder:  # sphinx-gallery runs an example in its folder, without __file__
-        here = Path(__file__).resolve().parent if "__file__" in globals() else Path.cwd()
-        folder = here.parents[1].parent / "shared" / "realdata" / "caiviac"
-    path = Path(folder) / "cycles.csv"
-    return path if path.is_file() else None
+#: The recording: in the folder $GREYML_CAIVIAC names (docs/conf.py sets it for
+#: the gallery), else in ../shared/realdata/caiviac beside this checkout.
+CAIVIAC = Path(
+    os.environ.get("GREYML_CAIVIAC")
+    or Path(__file__).resolve().parents[3] / "shared" / "realdata" / "caiviac"
+)
 
 
 def load():
     """(X, y): temperature rises and ch1 from each cycle's first reading, or None."""
-    path = caiviac_csv()
-    if path is None:
+    path = CAIVIAC / "cycles.csv"
+    if not path.is_file():
         return None
     data = load_caiviac(path, reference="cycle", target=TARGET)
     X = data.frame[data.sensors]

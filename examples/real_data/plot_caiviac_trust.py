@@ -45,21 +45,18 @@ EVERY_ROWS = 240  # one reading an hour at 15 s a row
 DRIFT_UM_PER_H = 1.5
 
 
-def caiviac_csv():
-    """The CAIVIAC ``cycles.csv``: in ``$GREYML_CAIVIAC``, else in
-    ``../shared/realdata/caiviac`` beside this checkout; None when absent."""
-    folder = os.environ.get("GREYML_CAIVIAC")
-    if not folder:  # sphinx-gallery runs an example in its folder, without __file__
-        here = Path(__file__).resolve().parent if "__file__" in globals() else Path.cwd()
-        folder = here.parents[1].parent / "shared" / "realdata" / "caiviac"
-    path = Path(folder) / "cycles.csv"
-    return path if path.is_file() else None
+#: The recording: in the folder $GREYML_CAIVIAC names (docs/conf.py sets it for
+#: the gallery), else in ../shared/realdata/caiviac beside this checkout.
+CAIVIAC = Path(
+    os.environ.get("GREYML_CAIVIAC")
+    or Path(__file__).resolve().parents[3] / "shared" / "realdata" / "caiviac"
+)
 
 
 def load():
     """The recording as logged (inputs, ch1 from the recording's zero), or None."""
-    path = caiviac_csv()
-    if path is None:
+    path = CAIVIAC / "cycles.csv"
+    if not path.is_file():
         return None
     frame = read_tests_csv(path, test_column="cycle")
     return frame[INPUTS], frame[TARGET]

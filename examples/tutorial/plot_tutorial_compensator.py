@@ -64,21 +64,12 @@ from greyml.metrics import rmse
 from greyml.persist import save_model
 from greyml.simulation import Programme, diurnal
 
-
-def caiviac_csv():
-    """The CAIVIAC ``cycles.csv``: in ``$GREYML_CAIVIAC``, else in
-    ``../shared/realdata/caiviac`` beside this checkout; None when absent."""
-    folder = os.environ.get("GREYML_CAIVIAC")
-    if not folder:
-        # sphinx-gallery runs an example in its folder, without __file__
-        if "__file__" in globals():
-            here = Path(__file__).resolve().parent
-        else:
-            here = Path.cwd()
-        shared = here.parents[1].parent / "shared"
-        folder = shared / "realdata" / "caiviac"
-    path = Path(folder) / "cycles.csv"
-    return path if path.is_file() else None
+#: The recording: in the folder $GREYML_CAIVIAC names (docs/conf.py sets it for
+#: the gallery), else in ../shared/realdata/caiviac beside this checkout.
+CAIVIAC = Path(
+    os.environ.get("GREYML_CAIVIAC")
+    or Path(__file__).resolve().parents[3] / "shared" / "realdata" / "caiviac"
+)
 
 
 SPEEDS_RPM = (1250, 2500, 3750, 5000, 3500)
@@ -109,9 +100,9 @@ def write_simulated_log(path):
     return "dz_um"
 
 
-found = caiviac_csv()
+found = CAIVIAC / "cycles.csv"
 scratch = tempfile.TemporaryDirectory()  # the simulated log's, if any
-if found is not None:
+if found.is_file():
     path, target = found, "ch1_um"
     print("Data: the real CAIVIAC recording (CAIVIAC/FL_THERMAL,")
     print(f"      MIT licence), {path.name}, probe channel {target}")
