@@ -367,3 +367,11 @@ def test_clustering_a_subset_keeps_memberships_of_every_row():
     np.testing.assert_allclose(
         np.sort(part.cluster_centers_[:, 0]), np.sort(full.cluster_centers_[:, 0]), atol=0.15
     )
+
+
+def test_max_iter_and_cluster_centers_are_the_names():
+    X, y = make_friedman1(n_samples=80, n_features=5, random_state=0)
+    X = X[:, :3]
+    model = ANFISFCM(n_clusters=2, max_iter=4, random_state=0).fit(X, y)
+    assert model.n_iter_ == 4
+    assert model.cluster_centers_.shape == (2, 3)

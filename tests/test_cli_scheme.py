@@ -164,6 +164,15 @@ def _subcommands():
     return parser, subs.choices
 
 
+def test_no_help_speaks_of_deprecation(capsys):
+    parser, commands = _subcommands()
+    assert re.search(r"--n-sensors N\s", commands["select"].format_help())  # help is read
+    for name, text in [("greyml", parser.format_help())] + [
+        (f"greyml {command}", sub.format_help()) for command, sub in commands.items()
+    ]:
+        assert "deprecat" not in text.lower(), name
+
+
 def test_simulate_seed_is_random_state(capsys, tmp_path):
     argv = ["simulate", "--machine", "vmc-probe", "--programme", "10:spindle_rpm=3000,5"]
     code, _, err = _run(capsys, [*argv, "--random-state", "3", "--out", tmp_path / "new.csv"])
