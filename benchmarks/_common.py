@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import json
+import os
 import platform
 import sys
 from importlib import metadata
+from pathlib import Path
 
 
 def package_versions(names, missing="not installed"):
@@ -36,3 +38,39 @@ def write_json(path, results, *, packages, argv=None, **meta):
     with open(path, "w", encoding="utf-8") as fh:
         json.dump(results, fh, indent=1, default=float)
     print(f"wrote {path}")
+
+
+#: Where this repository's checkout keeps the real recording (never copied in).
+_SHARED_CAIVIAC = Path("..") / "shared" / "realdata" / "caiviac"
+
+
+def caiviac_files(path=None):
+    """The files the CAIVIAC ``cycles.csv`` is looked for in, in order.
+
+    ``path`` (the file, or the folder holding it) if given; else
+    ``$GREYML_CAIVIAC``, then ``../shared/realdata/caiviac`` beside this
+    checkout and beside the current directory. greyml itself reads only a
+    path it is given or :func:`greyml.datasets.fetch_caiviac`'s cache.
+    """
+    if path is not None:
+        path = Path(path)
+        return [path / "cycles.csv" if path.is_dir() else path]
+    folders = []
+    env = os.environ.get("GREYML_CAIVIAC")
+    if env:
+        folders.append(Path(env))
+    folders.append((Path(__file__).resolve().parents[1] / _SHARED_CAIVIAC).resolve())
+    here = (Path.cwd() / _SHARED_CAIVIAC).resolve()
+    if here not in folders:
+        folders.append(here)
+    return [folder / "cycles.csv" for folder in folders]
+
+
+def find_data(path=None):
+    """The first of :func:`caiviac_files` that exists, or None after saying where it was looked for."""
+    files = caiviac_files(path)
+    found = [p for p in files if p.is_file()]
+    if not found:
+        print(f"CAIVIAC data not found at {', '.join(str(p) for p in files)}; skipping")
+        return None
+    return found[0]

@@ -79,8 +79,8 @@ import warnings
 from collections import Counter
 
 import numpy as np
+from _common import caiviac_files, write_json
 from _common import package_versions as _package_versions
-from _common import write_json
 
 TARGET = "ch1_um"
 REFERENCE = "cycle"
@@ -106,7 +106,10 @@ def load(path=None, target=TARGET, reference=REFERENCE, step=STEP):
     from greyml import RelativeToStart
     from greyml.datasets import load_caiviac
 
-    data = load_caiviac(path, reference=reference, target=target)
+    file = find_file(path)
+    if file is None:
+        raise FileNotFoundError(where_looked(path))
+    data = load_caiviac(file, reference=reference, target=target)
     frame = data.frame
     if step > 1:
         frame = frame[frame.groupby(level="test", sort=False).cumcount().to_numpy() % step == 0]
@@ -134,12 +137,15 @@ def load_or_say(args, target, reference):
         return None
 
 
-def where_looked(path):
-    from greyml.datasets import caiviac_candidates
+def find_file(path):
+    """The first of the files ``caiviac_files`` names that exists, or None."""
+    return next((p for p in caiviac_files(path) if p.is_file()), None)
 
+
+def where_looked(path):
     if path is not None:
         return str(path)
-    return ", ".join(str(folder / "cycles.csv") for folder in caiviac_candidates())
+    return ", ".join(str(p) for p in caiviac_files(path))
 
 
 # ------------------------------------------------------------------------------
@@ -745,7 +751,7 @@ def run_dynamic(args):
     """The issue-16 comparison: every target and reference, same folds."""
     from threadpoolctl import threadpool_limits
 
-    from greyml import GreyConditioningWarning
+    from greyml.exceptions import GreyConditioningWarning
 
     results = {}
     start_all = time.perf_counter()
@@ -925,7 +931,7 @@ def main(argv=None):
     with threadpool_limits(limits=1), warnings.catch_warnings():
         # GM(1,N) of 16 near-collinear sensors is rank deficient in some folds:
         # the selector says so and uses the minimum-norm weights
-        from greyml import GreyConditioningWarning
+        from greyml.exceptions import GreyConditioningWarning
 
         warnings.simplefilter("ignore", GreyConditioningWarning)
         records = nested(X, y, args.jobs)

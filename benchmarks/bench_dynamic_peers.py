@@ -43,7 +43,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-from _common import package_versions, write_json
+from _common import find_data, package_versions, write_json
 
 TARGETS = ("ch1_um", "ch3_um")
 DRIVER = "spindle_rpm"
@@ -103,26 +103,6 @@ def revision():
 
 
 # Data ------------------------------------------------------------------------
-
-
-def candidates(path):
-    """Files the recording is looked for in, in order."""
-    if path is not None:
-        path = Path(path)
-        return [path / "cycles.csv" if path.is_dir() else path]
-    from greyml.datasets import caiviac_candidates
-
-    return [Path(folder) / "cycles.csv" for folder in caiviac_candidates()]
-
-
-def find_data(path):
-    """The first of :func:`candidates` that exists, or None after saying where it was looked for."""
-    found = [p for p in candidates(path) if p.is_file()]
-    if not found:
-        where = ", ".join(str(p) for p in candidates(path))
-        print(f"CAIVIAC data not found at {where}; skipping")
-        return None
-    return found[0]
 
 
 def load(path, target):

@@ -16,7 +16,8 @@ import time
 
 import numpy as np
 
-from greyml.grey.kernels import ago, gmc_predict, gmc_response, gmc_sse_population
+from greyml.grey._kernels import ago
+from greyml.grey._response import gmc_predict, gmc_response, gmc_sse_population
 
 
 def best_of(fn, repeat=7):

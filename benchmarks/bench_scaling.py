@@ -74,7 +74,7 @@ def make_sequence(n_samples, n_inputs, seed=0):
     """
     from scipy.signal import lfilter
 
-    from greyml.grey import simulate_gmc
+    from greyml.grey._functions import simulate_gmc
 
     rng = np.random.default_rng(seed)
     n_segments = -(-n_samples // SEGMENT)

@@ -162,7 +162,8 @@ def extrapolation():
     """Least squares on Abdulshahed et al.'s (2015) five rises, trained on Test IV, on other speeds."""
     from greyml import metrics
     from greyml.datasets import make_tests
-    from greyml.simulation import Effects, Programme, vmc_tests
+    from greyml.simulation import Effects, Programme
+    from greyml.simulation._catalogue import vmc_tests
 
     programmes = {"IV": next(t for t in vmc_tests() if t.label == TRAIN_TEST)}
     for label, ((minutes, rpm), cooling) in EXTRAPOLATION_PROGRAMMES.items():

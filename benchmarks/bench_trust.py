@@ -53,8 +53,8 @@ import warnings
 from pathlib import Path
 
 import numpy as np
-from _common import write_json
-from bench_dynamic_peers import DRIVER, candidates, default_model, load
+from _common import caiviac_files, write_json
+from bench_dynamic_peers import DRIVER, default_model, load
 
 from greyml.controller import Compensator
 
@@ -337,12 +337,15 @@ def summarise(fold_rows, change_rows):
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--data", help="cycles.csv or its folder (default: where greyml looks)")
+    parser.add_argument(
+        "--data",
+        help="cycles.csv or its folder (default: $GREYML_CAIVIAC, then ../shared/realdata/caiviac)",
+    )
     parser.add_argument("--json", help="write the results as JSON here")
     args = parser.parse_args(argv)
-    path = next((p for p in candidates(args.data) if p.is_file()), None)
+    path = next((p for p in caiviac_files(args.data) if p.is_file()), None)
     if path is None:
-        print(f"CAIVIAC data not found at {candidates(args.data)[0]}; skipping")
+        print(f"CAIVIAC data not found at {caiviac_files(args.data)[0]}; skipping")
         return 0
     warnings.simplefilter("ignore")  # the folds' fit warnings are not the subject here
     fold_rows, change_rows = [], []

@@ -18,7 +18,6 @@ import re
 import shutil
 import sys
 import urllib.request
-import warnings
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
 
@@ -119,12 +118,6 @@ intersphinx_timeout = 10
 # so the build leaves the variable unset and nothing is written or printed.
 os.environ.pop("GREYML_EXAMPLE_OUT", None)
 
-# sphinx-gallery finds the objects an example uses by trying each shorter
-# module path (greyml.fuzzy.log_firing before greyml.fuzzy.kernels.log_firing):
-# the old kernel paths answer with a FutureWarning (greyml._moved) that is no
-# news to the reader of a build log
-warnings.filterwarnings("ignore", message=r"greyml\.\w+\.\w+ moved to ", category=FutureWarning)
-
 sphinx_gallery_conf = {
     # examples/README.txt is the gallery's header; each sub-folder with a
     # README.txt is a section, in this order (a folder not named here comes
@@ -158,13 +151,18 @@ sphinx_gallery_conf = {
     "inspect_global_variables": True,
 }
 
-# -- the landing page's figure (matplotlib's plot directive) ---------------
-# docs/landing_figure.py draws the CAIVIAC recording when it lies beside this
-# checkout (greyml.datasets.caiviac_candidates), else the simulated VMC; the
-# caption under it (|landing-data| in index.rst) says which.
-from greyml.datasets import caiviac_candidates  # noqa: E402
+# -- the real data ------------------------------------------------------------
+# The CAIVIAC recording, never part of greyml: $GREYML_CAIVIAC, else
+# ../shared/realdata/caiviac beside this checkout. The variable is set for the
+# gallery's examples and the landing figure, which read it from there (and run
+# on simulated data, or skip, when the folder holds no cycles.csv).
+os.environ.setdefault("GREYML_CAIVIAC", str(HERE.parent.parent / "shared" / "realdata" / "caiviac"))
 
-if any((folder / "cycles.csv").is_file() for folder in caiviac_candidates()):
+# -- the landing page's figure (matplotlib's plot directive) ---------------
+# docs/landing_figure.py draws the CAIVIAC recording when it is found, else
+# the simulated VMC; the caption under it (|landing-data| in index.rst) says
+# which.
+if (Path(os.environ["GREYML_CAIVIAC"]) / "cycles.csv").is_file():
     _LANDING_DATA = (
         "the CAIVIAC recording of a real machine tool (probe ch1, five 8 h cycles "
         "at 1250 to 5000 rpm), found beside this checkout when the page was "

@@ -1,23 +1,27 @@
 """The landing page's figure: a transfer function predicting a cycle it has not seen.
 
-On the CAIVIAC recording (a real machine tool) when it is present beside
-this checkout, else on greyml's simulated VMC; docs/conf.py gives the page
-the caption that says which. A ThermalTransferFunction of the spindle speed
-and at most five temperature sensors is fitted on every cycle but the last
-(the last given with weight 0, so that its lags run on) and predicts the
-last. Run by matplotlib's plot directive when the documentation is built
-(about 5 s).
+On the CAIVIAC recording (a real machine tool) when it is found in
+``$GREYML_CAIVIAC`` (which docs/conf.py sets), else on greyml's simulated VMC;
+docs/conf.py gives the page the caption that says which. A
+ThermalTransferFunction of the spindle speed and at most five temperature
+sensors is fitted on every cycle but the last (the last given with weight 0,
+so that its lags run on) and predicts the last. Run by matplotlib's plot
+directive when the documentation is built (about 5 s).
 """
+
+import os
+from pathlib import Path
 
 import matplotlib.pyplot as plt
 import numpy as np
 
 from greyml import ThermalTransferFunction, groups_of
-from greyml.datasets import caiviac_candidates, load_caiviac, load_vmc_tests
+from greyml.datasets import load_caiviac, load_vmc_tests
 from greyml.metrics import rmse
 
-if any((folder / "cycles.csv").is_file() for folder in caiviac_candidates()):
-    data = load_caiviac()  # ch1 from each cycle's first row
+CAIVIAC = Path(os.environ.get("GREYML_CAIVIAC", "")) / "cycles.csv"
+if os.environ.get("GREYML_CAIVIAC") and CAIVIAC.is_file():
+    data = load_caiviac(CAIVIAC)  # ch1 from each cycle's first row
     X, y = data.frame[data.inputs + data.sensors], data.frame["ch1_um"]
     driver, target, source = "spindle_rpm", "probe ch1", "CAIVIAC recording"
 else:

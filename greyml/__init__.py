@@ -1,14 +1,31 @@
-"""greyml: thermal-error models of CNC machine tools, scikit-learn compatible."""
+"""greyml: thermal-error models of CNC machine tools, scikit-learn compatible.
+
+From the top level: the estimators and transformers (:class:`ThermalTransferFunction`,
+:class:`LagFeatures`, :class:`GMC`, :class:`GNNMCI`, :class:`AGO`,
+:class:`AccumulatedTargetRegressor`, :class:`ANFISGrid`, :class:`ANFISFCM`,
+:class:`MLPBaseline`, :class:`RelativeToStart`), the sensor selector
+(:class:`GreyInfluenceSelector`), the splitter :class:`TrainOnOneTest`, the
+runtime :class:`Compensator`, and the helpers of the test layout
+(:func:`make_test_index`, :func:`groups_of`). The rest by job:
+
+- :mod:`greyml.datasets`, :mod:`greyml.io`, :mod:`greyml.simulation`: data
+  sets, CSV files and the thermal simulator;
+- :mod:`greyml.persist`: model files read without pickle;
+- :mod:`greyml.gap`: the sim-to-real gap diagnosis;
+- :mod:`greyml.metrics`: accuracy measures and scorers;
+- :mod:`greyml.optimize`: the population optimisers of the grey models;
+- :mod:`greyml.exceptions`: every warning and error;
+- :mod:`greyml.utils.discovery`: the list of greyml's estimators.
+"""
 
 # The public names are imported on first use (PEP 562), so that the command
 # line answers ``greyml --version`` and ``--help`` without importing NumPy,
 # pandas or scikit-learn.
+#: greyml's version (PEP 440).
 __version__ = "0.1.0.dev0"
 
 #: Where each public name lives.
 _LAZY = {
-    "TEST_LEVEL": "greyml._sequences",
-    "TIME_LEVEL": "greyml._sequences",
     "groups_of": "greyml._sequences",
     "make_test_index": "greyml._sequences",
     "Compensator": "greyml.controller",
@@ -20,14 +37,7 @@ _LAZY = {
     "GMC": "greyml.grey",
     "GNNMCI": "greyml.grey",
     "AccumulatedTargetRegressor": "greyml.grey",
-    "GreyConditioningWarning": "greyml.exceptions",
-    "GreyStabilityWarning": "greyml.exceptions",
-    "GreyWarmStartWarning": "greyml.exceptions",
-    "fit_gm1n": "greyml.grey",
-    "simulate_gmc": "greyml.grey",
     "MLPBaseline": "greyml.neural",
-    "UnderdeterminedWarning": "greyml.exceptions",
-    "WarmStartWarning": "greyml.exceptions",
     "RelativeToStart": "greyml.preprocessing",
     "GreyInfluenceSelector": "greyml.selection",
     "TrainOnOneTest": "greyml.selection",
@@ -38,42 +48,22 @@ __all__ = [
     "ANFISFCM",
     "GMC",
     "GNNMCI",
-    "TEST_LEVEL",
-    "TIME_LEVEL",
     "ANFISGrid",
     "AccumulatedTargetRegressor",
     "Compensator",
-    "GreyConditioningWarning",
     "GreyInfluenceSelector",
-    "GreyStabilityWarning",
-    "GreyWarmStartWarning",
     "LagFeatures",
     "MLPBaseline",
     "RelativeToStart",
     "ThermalTransferFunction",
     "TrainOnOneTest",
-    "UnderdeterminedWarning",
-    "WarmStartWarning",
     "__version__",
-    "fit_gm1n",
     "groups_of",
     "make_test_index",
-    "simulate_gmc",
 ]
 
 
-#: Old names, still found for one release with a FutureWarning (greyml._moved).
-_RENAMED = {
-    # pytest collects a function named test_* that a test module imports
-    "test_ids": "groups_of",
-}
-
-
 def __getattr__(name):
-    if name in _RENAMED:
-        from greyml._moved import renamed
-
-        return renamed("greyml", name, _RENAMED[name], __getattr__(_RENAMED[name]))
     module = _LAZY.get(name)
     if module is None:
         raise AttributeError(f"module 'greyml' has no attribute {name!r}")

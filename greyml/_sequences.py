@@ -191,8 +191,8 @@ def segments_by_test(X, n_samples: int | None = None) -> list[Segment]:
 def groups_of(X) -> np.ndarray:
     """The test label of every row, for ``groups=`` of scikit-learn splitters.
 
-    Called ``test_ids`` until this release (a name pytest would collect as a
-    test); that name still works, with a ``FutureWarning``.
+    Not called ``test_ids``: pytest would collect that name from a test
+    module that imports it.
 
     Examples
     --------

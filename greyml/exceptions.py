@@ -1,10 +1,16 @@
 """The warnings and errors that greyml raises.
 
-Every greyml warning and error class is defined here, as scikit-learn keeps its
-own in :mod:`sklearn.exceptions`; each is also importable from the module that
-raises it (``from greyml.grey import GreyStabilityWarning`` names the same
-class as ``from greyml.exceptions import GreyStabilityWarning``), and the
-warnings of the estimators from :mod:`greyml` itself.
+Every greyml warning and error class is defined here and imported from here
+only, as scikit-learn keeps its own in :mod:`sklearn.exceptions`:
+
+- :class:`GreyConditioningWarning`, :class:`GreyStabilityWarning`,
+  :class:`GreyWarmStartWarning`: a grey model's system, its stability, a test
+  that starts elsewhere;
+- :class:`WarmStartWarning`: a dynamic model predicting a test without its
+  history;
+- :class:`UnderdeterminedWarning`: more weights than training rows;
+- :class:`GapWarning`: a gap diagnosis that needs a second look;
+- :class:`UnsafeModelError`: a model file that names a class not allowed.
 
 Every greyml warning is a :class:`UserWarning`, so one filter silences them
 all; :class:`UnsafeModelError` is a :class:`ValueError`.
@@ -32,7 +38,8 @@ class GreyConditioningWarning(UserWarning):
 
     >>> import warnings
     >>> import numpy as np
-    >>> from greyml.grey import GreyConditioningWarning, fit_gm1n
+    >>> from greyml.exceptions import GreyConditioningWarning
+    >>> from greyml.grey._functions import fit_gm1n
     >>> x = np.array([1.0, 1.2, 1.5, 1.9, 2.2])
     >>> y = np.array([0.5, 0.9, 1.4, 1.6, 2.1])
     >>> with warnings.catch_warnings(record=True) as caught:
@@ -61,7 +68,8 @@ class GreyStabilityWarning(UserWarning):
 
     >>> import warnings
     >>> import numpy as np
-    >>> from greyml.grey import GMC, GreyStabilityWarning
+    >>> from greyml import GMC
+    >>> from greyml.exceptions import GreyStabilityWarning
     >>> X = np.linspace(1.0, 2.0, 40)[:, None]
     >>> y = np.exp(0.05 * np.arange(40))
     >>> with warnings.catch_warnings(record=True) as caught:
@@ -92,7 +100,8 @@ class WarmStartWarning(UserWarning):
     >>> import warnings
     >>> import numpy as np
     >>> import pandas as pd
-    >>> from greyml import ThermalTransferFunction, WarmStartWarning, make_test_index
+    >>> from greyml import ThermalTransferFunction, make_test_index
+    >>> from greyml.exceptions import WarmStartWarning
     >>> t = np.arange(0.0, 8 * 3600, 60.0)
     >>> rpm = np.where(t % (4 * 3600) < 2 * 3600, 3000.0, 0.0)
     >>> X = pd.DataFrame({"spindle_rpm": rpm},
@@ -127,7 +136,7 @@ class GreyWarmStartWarning(WarmStartWarning):
     >>> import numpy as np
     >>> import pandas as pd
     >>> from greyml import GMC, make_test_index
-    >>> from greyml.grey import GreyWarmStartWarning
+    >>> from greyml.exceptions import GreyWarmStartWarning
     >>> t = np.arange(40.0)
     >>> rise = 5 * (1 - np.exp(-t / 10))
     >>> index = make_test_index(["I"] * 40 + ["II"] * 40, np.r_[t, t])
@@ -165,7 +174,8 @@ class UnderdeterminedWarning(UserWarning):
 
     >>> import warnings
     >>> import numpy as np
-    >>> from greyml.neural import MLPBaseline, UnderdeterminedWarning
+    >>> from greyml import MLPBaseline
+    >>> from greyml.exceptions import UnderdeterminedWarning
     >>> rng = np.random.default_rng(0)
     >>> X, y = rng.random((20, 3)), rng.random(20)
     >>> with warnings.catch_warnings(record=True) as caught:
@@ -186,7 +196,7 @@ class GapWarning(UserWarning):
     Examples
     --------
     >>> import warnings
-    >>> from greyml.gap import GapWarning
+    >>> from greyml.exceptions import GapWarning
     >>> with warnings.catch_warnings(record=True) as caught:
     ...     warnings.simplefilter("always")
     ...     warnings.warn("time constant at its bound", GapWarning)
@@ -209,7 +219,8 @@ class UnsafeModelError(ValueError):
     >>> import tempfile
     >>> from pathlib import Path
     >>> from sklearn.dummy import DummyRegressor
-    >>> from greyml.persist import UnsafeModelError, load_model, save_model
+    >>> from greyml.exceptions import UnsafeModelError
+    >>> from greyml.persist import load_model, save_model
     >>> model = DummyRegressor().fit([[0.0], [0.0], [0.0]], [1.0, 2.0, 6.0])
     >>> with tempfile.TemporaryDirectory() as folder:  # doctest: +ELLIPSIS
     ...     path = save_model(model, Path(folder) / "dummy.greyml")

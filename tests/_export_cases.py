@@ -22,11 +22,11 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from conftest import caiviac_csv
 
 from greyml import Compensator, ThermalTransferFunction, make_test_index
 from greyml.controller import Uncertainty
 from greyml.controller.export._write import export_text
-from greyml.datasets import caiviac_candidates
 from greyml.io import read_tests_csv
 
 DAY_S = 24 * 3600.0
@@ -36,12 +36,11 @@ TARGET = "ch1_um"
 @functools.lru_cache(maxsize=1)
 def recording():
     """(X, y, source): the recording's inputs and target, and where they come from."""
-    for folder in caiviac_candidates():
-        path = Path(folder) / "cycles.csv"
-        if path.is_file():
-            frame = read_tests_csv(path, test_column="cycle")
-            sensors = [c for c in frame.columns if c.startswith("t") and c.endswith("_C")]
-            return frame[["spindle_rpm", *sensors]], frame[TARGET], "CAIVIAC"
+    path = caiviac_csv()
+    if path is not None:
+        frame = read_tests_csv(path, test_column="cycle")
+        sensors = [c for c in frame.columns if c.startswith("t") and c.endswith("_C")]
+        return frame[["spindle_rpm", *sensors]], frame[TARGET], "CAIVIAC"
     return (*_simulated(), "simulated")
 
 

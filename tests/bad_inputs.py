@@ -18,7 +18,8 @@ from dataclasses import dataclass, field
 import numpy as np
 import pandas as pd
 
-from greyml import make_test_index, simulate_gmc
+from greyml import make_test_index
+from greyml.grey._functions import simulate_gmc
 
 SENSORS = ["T1_C", "T2_C", "T3_C"]
 TARGET = "dz_um"

@@ -1,11 +1,41 @@
-"""Shared fixtures: multi-test data with known GMC coefficients."""
+"""Shared fixtures: multi-test data with known GMC coefficients, where the real data lies."""
+
+import os
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pytest
 from scipy.signal import lfilter
 
-from greyml import make_test_index, simulate_gmc
+from greyml import make_test_index
+from greyml.grey._functions import simulate_gmc
+
+#: Where this repository's checkout keeps the real CAIVIAC recording (never copied in).
+_SHARED_CAIVIAC = Path(__file__).resolve().parents[1].parent / "shared" / "realdata" / "caiviac"
+
+
+def caiviac_csv():
+    """The CAIVIAC ``cycles.csv`` the tests read, or None when it is absent.
+
+    ``$GREYML_CAIVIAC`` (the folder holding it) if set, else
+    ``../shared/realdata/caiviac`` beside this checkout. greyml itself reads
+    only a path it is given or :func:`greyml.datasets.fetch_caiviac`'s cache.
+    """
+    folder = Path(os.environ.get("GREYML_CAIVIAC") or _SHARED_CAIVIAC)
+    path = folder / "cycles.csv"
+    return path if path.is_file() else None
+
+
+def caiviac_csv_or_skip():
+    """:func:`caiviac_csv`, or skip the test when the recording is absent."""
+    path = caiviac_csv()
+    if path is None:
+        pytest.skip(
+            "the CAIVIAC recording ($GREYML_CAIVIAC or ../shared/realdata/caiviac) is absent"
+        )
+    return path
+
 
 TRUE_B1 = 0.3
 TRUE_B = np.array([0.8, -0.5, 0.3, 0.2])

@@ -6,7 +6,7 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
 from greyml import AGO, make_test_index
-from greyml.grey.kernels import ago, iago
+from greyml.grey._kernels import ago, iago
 
 
 def two_tests():

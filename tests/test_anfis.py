@@ -6,7 +6,6 @@ import pickle
 import numpy as np
 import pandas as pd
 import pytest
-from conftest import rewrite_model_file
 from sklearn.datasets import make_friedman1
 from sklearn.model_selection import (
     GridSearchCV,
@@ -18,7 +17,7 @@ from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import StandardScaler
 
 from greyml import ANFISFCM, ANFISGrid, groups_of, make_test_index
-from greyml.fuzzy.kernels import (
+from greyml.fuzzy._kernels import (
     JangStepSize,
     anfis_forward,
     log_firing,
@@ -370,29 +369,9 @@ def test_clustering_a_subset_keeps_memberships_of_every_row():
     )
 
 
-def test_n_epochs_and_cluster_centres_are_the_old_names(tmp_path):
-    from greyml.persist import load_model, save_model
-
+def test_max_iter_and_cluster_centers_are_the_names():
     X, y = make_friedman1(n_samples=80, n_features=5, random_state=0)
     X = X[:, :3]
-    new = ANFISFCM(n_clusters=2, max_iter=4, random_state=0).fit(X, y)
-    with pytest.warns(FutureWarning, match="'n_epochs' parameter of ANFISFCM was renamed"):
-        old = ANFISFCM(n_clusters=2, n_epochs=4, random_state=0).fit(X, y)
-    assert old.n_iter_ == new.n_iter_ == 4
-    np.testing.assert_array_equal(old.predict(X), new.predict(X))
-    with pytest.warns(FutureWarning, match="'cluster_centres_' of ANFISFCM was renamed"):
-        np.testing.assert_array_equal(new.cluster_centres_, new.cluster_centers_)
-    assert new.cluster_centers_.shape == (2, 3)
-    assert not hasattr(ANFISFCM(), "cluster_centres_")  # unfitted: neither name
-    # a file written before both renames loads with the new names
-    path = save_model(new, tmp_path / "new.greyml")
-
-    def older(state):
-        state["n_epochs"] = state.pop("max_iter")
-        state["cluster_centres_"] = state.pop("cluster_centers_")
-
-    loaded = load_model(rewrite_model_file(path, tmp_path / "old.greyml", older))
-    assert loaded.max_iter == 4 and loaded.n_epochs == "deprecated"
-    np.testing.assert_array_equal(loaded.cluster_centers_, new.cluster_centers_)
-    assert "cluster_centres_" not in vars(loaded)
-    np.testing.assert_array_equal(loaded.predict(X), new.predict(X))
+    model = ANFISFCM(n_clusters=2, max_iter=4, random_state=0).fit(X, y)
+    assert model.n_iter_ == 4
+    assert model.cluster_centers_.shape == (2, 3)

@@ -24,13 +24,12 @@ from greyml import (
     AccumulatedTargetRegressor,
     ANFISGrid,
     GreyInfluenceSelector,
-    GreyWarmStartWarning,
     LagFeatures,
     MLPBaseline,
     TrainOnOneTest,
-    fit_gm1n,
-    simulate_gmc,
 )
+from greyml.exceptions import GreyWarmStartWarning
+from greyml.grey._functions import fit_gm1n, simulate_gmc
 
 
 class Entry:
@@ -153,7 +152,7 @@ def _finite_output(out):
 
 
 @pytest.mark.parametrize("entry, case", PAIRS)
-@pytest.mark.filterwarnings("ignore::greyml.GreyWarmStartWarning")  # see below
+@pytest.mark.filterwarnings("ignore::greyml.exceptions.GreyWarmStartWarning")  # see below
 def test_bad_input(entry, case):
     X, y = valid_data()
     X0, y0 = X.copy(), y.copy()
@@ -273,7 +272,9 @@ def test_bad_parameter(estimator, params, match):
 BAD_VALUES = [np.nan, np.inf, -np.inf]
 
 
-@pytest.mark.filterwarnings("ignore::greyml.GreyStabilityWarning")  # fits of drawn subsets
+@pytest.mark.filterwarnings(
+    "ignore::greyml.exceptions.GreyStabilityWarning"
+)  # fits of drawn subsets
 @settings(max_examples=200, deadline=None)
 @given(
     entry=st.sampled_from([e for e in ENTRIES if {"model", "fitted"} <= e.has]),

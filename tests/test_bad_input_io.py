@@ -27,7 +27,8 @@ import pytest
 from bad_inputs import CASES, SENSORS, TARGET, assert_clear_message, valid_data
 
 from greyml.cli import main
-from greyml.datasets import bunch_from_frame, load_caiviac, make_tests
+from greyml.datasets import load_caiviac, make_tests
+from greyml.datasets._simulated import bunch_from_frame
 from greyml.gap import diagnose_gap, gap_breakdown, residual_diagnostics
 from greyml.io import check_test_frame, read_tests_csv, write_tests_csv
 from greyml.metrics import correlation, improvement, nash_sutcliffe, residual_band, rmse
@@ -41,17 +42,15 @@ from greyml.simulation import (
     Segment,
     TemperatureSensor,
     ThermalMachine,
-    constant,
     diurnal,
     door_openings,
     gantry,
-    gantry_tests,
     linear_drift,
-    probe_test,
     simulate_test,
     vmc,
-    vmc_tests,
 )
+from greyml.simulation._ambient import constant
+from greyml.simulation._catalogue import gantry_tests, probe_test, vmc_tests
 
 # -- which cases make sense where --------------------------------------------
 

@@ -134,12 +134,9 @@ def test_help_names_the_new_flags(capsys):
 
 
 def test_caiviac_events_at_spindle_speed_changes_are_labelled(tmp_path, capsys):
-    from greyml.datasets import caiviac_candidates
+    from conftest import caiviac_csv_or_skip
 
-    found = [f / "cycles.csv" for f in caiviac_candidates() if (f / "cycles.csv").is_file()]
-    if not found:
-        pytest.skip("the CAIVIAC recording (../shared/realdata/caiviac) is absent")
-    data = str(found[0])
+    data = str(caiviac_csv_or_skip())
     model, pred, report = tmp_path / "tf.greyml", tmp_path / "pred.csv", tmp_path / "gap.json"
     # a model of the temperatures alone: it lacks the probes' response to speed
     common = ["--test-column", "cycle", "--quiet"]

@@ -123,25 +123,14 @@ def test_lazy_package_attributes_are_the_classes():
 
 
 # ------------------------------------------------------------------------------
-# One flag scheme; old spellings work with one deprecation line
+# One flag scheme
 # ------------------------------------------------------------------------------
 
 
-def test_select_new_and_old_spellings_agree(case, capsys):
+def test_select_takes_n_sensors_and_train_tests(case, capsys):
     new = ["select", case["data"], "--target", "dz_um", "--n-sensors", "2", "--train-tests", "A"]
-    code, out_new, err = _run(capsys, new)
+    code, _, err = _run(capsys, new)
     assert code == 0 and err == "", err
-    old = ["select", case["data"], "--target", "dz_um", "--n", "2", "--train-test", "A"]
-    code, out_old, err = _run(capsys, old)
-    assert code == 0
-    assert out_old == out_new
-    lines = err.splitlines()
-    assert lines == [
-        "greyml select: warning: --n is deprecated and will be removed in the next release; "
-        "use --n-sensors",
-        "greyml select: warning: --train-test is deprecated and will be removed in the next "
-        "release; use --train-tests",
-    ]
 
 
 def test_select_clusters_as_the_selector_does_by_default(case, capsys):
@@ -158,13 +147,8 @@ def test_select_clusters_as_the_selector_does_by_default(case, capsys):
 
 def test_fit_select_is_n_sensors(case, capsys, tmp_path):
     argv = ["fit", case["data"], "--target", "dz_um", "--model", "gmc", "--quiet"]
-    code, out, err = _run(capsys, [*argv, "--select", "2", "--out", tmp_path / "a.greyml"])
-    assert code == 0
-    assert err.count("\n") == 1 and "--select is deprecated" in err and "--n-sensors" in err
-    old_inputs = [line for line in out.splitlines() if "inputs:" in line]
     code, out, err = _run(capsys, [*argv, "--n-sensors", "2", "--out", tmp_path / "b.greyml"])
     assert code == 0 and err == ""
-    assert [line for line in out.splitlines() if "inputs:" in line] == old_inputs
     err = _error(capsys, [*argv, "--n-sensors", "9", "--out", tmp_path / "c.greyml"])
     assert "--n-sensors 9" in err and "3 candidate" in err
 
@@ -180,46 +164,22 @@ def _subcommands():
     return parser, subs.choices
 
 
-def test_no_help_shows_a_deprecated_flag(capsys):
-    from greyml._cli._flags import _Deprecated
-
+def test_no_help_speaks_of_deprecation(capsys):
     parser, commands = _subcommands()
-    old = {
-        flag
-        for sub in commands.values()
-        for action in sub._actions
-        if isinstance(action, _Deprecated)
-        for flag in action.option_strings
-    }
-    assert old == {"--n", "--select", "--seed", "--train-test"}
-    flag = re.compile(r"(?<![\w-])(" + "|".join(map(re.escape, sorted(old))) + r")(?![\w-])")
     assert re.search(r"--n-sensors N\s", commands["select"].format_help())  # help is read
     for name, text in [("greyml", parser.format_help())] + [
         (f"greyml {command}", sub.format_help()) for command, sub in commands.items()
     ]:
-        shown = sorted({m.group(1) for m in flag.finditer(text)})
-        assert shown == [], f"{name} --help shows {shown}"
         assert "deprecat" not in text.lower(), name
-    # hidden, not gone: an old spelling still parses, with its one line
-    args = parser.parse_args(["select", "a.csv", "--target", "z", "--n", "3"])
-    assert args.n == 3
-    assert capsys.readouterr().err == (
-        "greyml select: warning: --n is deprecated and will be removed in the next release; "
-        "use --n-sensors\n"
-    )
 
 
 def test_simulate_seed_is_random_state(capsys, tmp_path):
     argv = ["simulate", "--machine", "vmc-probe", "--programme", "10:spindle_rpm=3000,5"]
     code, _, err = _run(capsys, [*argv, "--random-state", "3", "--out", tmp_path / "new.csv"])
     assert code == 0 and err == ""
-    code, _, err = _run(capsys, [*argv, "--seed", "3", "--out", tmp_path / "old.csv"])
-    assert code == 0
-    assert err == (
-        "greyml simulate: warning: --seed is deprecated and will be removed in the next "
-        "release; use --random-state\n"
-    )
-    assert (tmp_path / "new.csv").read_bytes() == (tmp_path / "old.csv").read_bytes()
+    code, _, err = _run(capsys, [*argv, "--random-state", "3", "--out", tmp_path / "again.csv"])
+    assert code == 0 and err == ""
+    assert (tmp_path / "new.csv").read_bytes() == (tmp_path / "again.csv").read_bytes()
     code, _, _ = _run(capsys, [*argv, "--random-state", "4", "--out", tmp_path / "other.csv"])
     assert (tmp_path / "other.csv").read_bytes() != (tmp_path / "new.csv").read_bytes()
 

@@ -3,11 +3,11 @@
 import numpy as np
 import pandas as pd
 import pytest
+from conftest import caiviac_csv_or_skip
 
 from greyml._sequences import segments_by_test
 from greyml.controller import Compensator
 from greyml.datasets import (
-    caiviac_candidates,
     load_caiviac,
     load_gantry_tests,
     load_probe_test,
@@ -107,10 +107,7 @@ def test_make_tests_errors(kwargs, match):
 
 # ------------------------------------------------------------------ CAIVIAC
 def _caiviac_or_skip():
-    try:
-        return load_caiviac()
-    except FileNotFoundError:
-        pytest.skip("the CAIVIAC recording (../shared/realdata/caiviac) is absent")
+    return load_caiviac(caiviac_csv_or_skip())
 
 
 def test_caiviac_layout():
@@ -139,37 +136,33 @@ def test_caiviac_model_takes_rows_read_from_the_file():
     model = ThermalTransferFunction(drivers=["spindle_rpm"], max_sensors=2, time_constants=[900.0])
     model.fit(frame[["spindle_rpm", *data.sensors]], frame["ch1_um"])
     comp = Compensator.from_model(model, nominal_step_s=15.0)
-    raw = read_tests_csv(caiviac_candidates_file(), test_column="cycle")
+    raw = read_tests_csv(caiviac_csv_or_skip(), test_column="cycle")
     row = raw.iloc[0][["spindle_rpm", *data.sensors]].to_dict()
     correction = comp.update({"time_s": raw.index[0][1], **row})
     assert np.isfinite(correction)
 
 
 def test_caiviac_reference_recording():
-    _caiviac_or_skip()
-    rec = load_caiviac(reference="recording").frame
-    raw = pd.read_csv(caiviac_candidates_file())
+    path = caiviac_csv_or_skip()
+    rec = load_caiviac(path, reference="recording").frame
+    raw = pd.read_csv(path)
     np.testing.assert_array_equal(rec["ch3_um"].to_numpy(), raw["ch3_um"].to_numpy())
     np.testing.assert_array_equal(rec["t5_C"].to_numpy(), raw["t5_C"].to_numpy())
-
-
-def caiviac_candidates_file():
-    for folder in caiviac_candidates():
-        if (folder / "cycles.csv").is_file():
-            return folder / "cycles.csv"
-    pytest.skip("the CAIVIAC recording is absent")
 
 
 def test_caiviac_missing_gives_clear_error(tmp_path, monkeypatch):
     with pytest.raises(FileNotFoundError, match="No CAIVIAC recording"):
         load_caiviac(tmp_path)
-    # with nothing where the default search looks, the message lists the places
+    # without a path and with nothing in fetch_caiviac's cache, the message names
+    # the cache and both ways to give the data; no folder beside the checkout is read
+    monkeypatch.setenv("SCIKIT_LEARN_DATA", str(tmp_path / "home"))
     monkeypatch.setenv("GREYML_CAIVIAC", str(tmp_path))
-    monkeypatch.setattr(
-        "greyml.datasets._caiviac.caiviac_candidates", lambda: [tmp_path / "a", tmp_path / "b"]
-    )
-    with pytest.raises(FileNotFoundError, match="looked for .*a.cycles.csv.*b.cycles.csv"):
+    with pytest.raises(
+        FileNotFoundError,
+        match=r"not in fetch_caiviac's cache .*home.greyml.caiviac.cycles\.csv.*path=.*fetch_caiviac\(\)",
+    ):
         load_caiviac()
+    assert not (tmp_path / "home").exists()  # looking creates nothing
 
 
 def test_caiviac_wrong_file(tmp_path):
@@ -177,3 +170,15 @@ def test_caiviac_wrong_file(tmp_path):
     bad.write_text("time_s,cycle\n0,1\n")
     with pytest.raises(ValueError, match="lacks the column"):
         load_caiviac(tmp_path)
+
+
+def test_caiviac_without_a_path_reads_fetch_caiviacs_cache(tmp_path, monkeypatch):
+    from test_bad_input_io import _caiviac_file
+
+    cache = tmp_path / "home" / "greyml" / "caiviac"
+    cache.mkdir(parents=True)
+    given = load_caiviac(_caiviac_file(cache))
+    monkeypatch.setenv("SCIKIT_LEARN_DATA", str(tmp_path / "home"))
+    cached = load_caiviac()
+    pd.testing.assert_frame_equal(cached.frame, given.frame)
+    assert cached.tests == ["cycle1", "cycle2"]

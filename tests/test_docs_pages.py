@@ -33,10 +33,9 @@ def test_the_trust_pages_caiviac_numbers_are_the_examples(tmp_path, monkeypatch,
     import re
     import runpy
 
-    from greyml.datasets import caiviac_candidates
+    from conftest import caiviac_csv_or_skip
 
-    if not any((f / "cycles.csv").is_file() for f in caiviac_candidates()):
-        pytest.skip("the CAIVIAC recording (../shared/realdata/caiviac) is absent")
+    caiviac_csv_or_skip()
     monkeypatch.setenv("MPLBACKEND", "Agg")
     monkeypatch.delenv("GREYML_EXAMPLE_OUT", raising=False)
     monkeypatch.chdir(tmp_path)

@@ -154,12 +154,11 @@ def test_saved_mid_stream_and_resumed_equals_uninterrupted(tmp_path):
 
 
 def test_caiviac_cycle_streams_as_predict():
+    from conftest import caiviac_csv_or_skip
+
     from greyml.datasets import load_caiviac
 
-    try:
-        data = load_caiviac()
-    except FileNotFoundError:
-        pytest.skip("the CAIVIAC recording (../shared/realdata/caiviac) is absent")
+    data = load_caiviac(caiviac_csv_or_skip())
     frame = data.frame
     columns = ["spindle_rpm"] + [f"t{k}_C" for k in range(1, 17)]
     X, y = frame[columns].copy(), frame["ch1_um"]

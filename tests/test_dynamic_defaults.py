@@ -13,10 +13,11 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from greyml import LagFeatures, ThermalTransferFunction, WarmStartWarning, make_test_index
+from greyml import LagFeatures, ThermalTransferFunction, make_test_index
 from greyml.cli import main
 from greyml.controller import Compensator
 from greyml.dynamic._kernels import lag_filter
+from greyml.exceptions import WarmStartWarning
 from greyml.io import read_tests_csv, write_tests_csv
 
 STEP = 60.0
@@ -304,12 +305,9 @@ def test_cli_fits_and_predicts_a_logged_recording_as_the_api(tmp_path):
 
 
 def test_cli_on_caiviac_equals_the_api(tmp_path):
-    from greyml.datasets import caiviac_candidates
+    from conftest import caiviac_csv_or_skip
 
-    found = [f / "cycles.csv" for f in caiviac_candidates() if (f / "cycles.csv").is_file()]
-    if not found:
-        pytest.skip("the CAIVIAC recording (../shared/realdata/caiviac) is absent")
-    _cli_equals_api(os.fspath(found[0]), "ch1_um", ["1", "2", "3", "4"], "5", tmp_path)
+    _cli_equals_api(os.fspath(caiviac_csv_or_skip()), "ch1_um", ["1", "2", "3", "4"], "5", tmp_path)
 
 
 def _fit_argv(path, out, *extra):

@@ -11,8 +11,9 @@ import urllib.request
 import numpy as np
 import pandas as pd
 import pytest
+from conftest import caiviac_csv_or_skip
 
-from greyml.datasets import _fetch, caiviac_candidates, fetch_caiviac
+from greyml.datasets import _fetch, fetch_caiviac
 
 pytest.importorskip("openpyxl")
 
@@ -119,12 +120,7 @@ def test_without_openpyxl(served, tmp_path, monkeypatch):
 
 def test_cycles_from_spindle_starts_match_the_published_cycles():
     """The rule fetch_caiviac numbers cycles by gives cycles.csv's own cycle column."""
-    for folder in caiviac_candidates():
-        if (folder / "cycles.csv").is_file():
-            raw = pd.read_csv(folder / "cycles.csv")
-            break
-    else:
-        pytest.skip("the CAIVIAC recording (../shared/realdata/caiviac) is absent")
+    raw = pd.read_csv(caiviac_csv_or_skip())
     cycles = _fetch._cycles(raw["spindle_rpm"].to_numpy(dtype=float))
     np.testing.assert_array_equal(cycles, raw["cycle"].to_numpy())
 

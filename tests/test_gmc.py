@@ -10,16 +10,10 @@ from sklearn.model_selection import GridSearchCV, LeaveOneGroupOut, cross_val_sc
 from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import StandardScaler
 
-from greyml import (
-    GMC,
-    GreyConditioningWarning,
-    GreyStabilityWarning,
-    GreyWarmStartWarning,
-    groups_of,
-    make_test_index,
-    simulate_gmc,
-)
-from greyml.grey.kernels import gmc_design
+from greyml import GMC, groups_of, make_test_index
+from greyml.exceptions import GreyConditioningWarning, GreyStabilityWarning, GreyWarmStartWarning
+from greyml.grey._functions import simulate_gmc
+from greyml.grey._kernels import gmc_design
 from greyml.optimize import ParticleSwarm
 
 SENSORS = ["T1_C", "T2_C", "T3_C", "T4_C"]

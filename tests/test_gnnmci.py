@@ -5,14 +5,16 @@ import pickle
 import numpy as np
 import pandas as pd
 import pytest
-from conftest import TRUE_B, TRUE_B1, TRUE_U, exciting_drivers, rewrite_model_file
+from conftest import TRUE_B, TRUE_B1, TRUE_U, exciting_drivers
 from sklearn.model_selection import GridSearchCV, LeaveOneGroupOut, cross_val_score
 from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import StandardScaler
 
-from greyml import GMC, GNNMCI, GreyStabilityWarning, groups_of, make_test_index, simulate_gmc
-from greyml.grey._response import gmc_forcing, gmc_initial
-from greyml.grey.kernels import ago, gmc_response, gnnmci_layers
+from greyml import GMC, GNNMCI, groups_of, make_test_index
+from greyml.exceptions import GreyStabilityWarning
+from greyml.grey._functions import simulate_gmc
+from greyml.grey._kernels import ago
+from greyml.grey._response import gmc_forcing, gmc_initial, gmc_response, gnnmci_layers
 
 
 def _midpoint_tests(noise=0.0, seed=0):
@@ -162,23 +164,3 @@ def test_stable_default_keeps_b1_non_negative_where_unconstrained_diverges():
     assert np.sqrt(np.mean(err**2)) < 0.25 * np.abs(y[~train]).max()
     with pytest.raises(ValueError, match="'bounds' parameter of GNNMCI"):
         GNNMCI(bounds="loose").fit(X[train], y[train])
-
-
-def test_n_particles_is_the_old_name_of_n_population(tmp_path):
-    from greyml.persist import load_model, save_model
-
-    X, y = _midpoint_tests()
-    with pytest.warns(FutureWarning, match="'n_particles' parameter of GNNMCI was renamed"):
-        old = GNNMCI(n_particles=6, max_iter=3, random_state=0).fit(X, y)
-    new = GNNMCI(n_population=6, max_iter=3, random_state=0).fit(X, y)
-    np.testing.assert_array_equal(old.predict(X), new.predict(X))
-    # a file written before the rename (n_particles, no n_population) loads as n_population
-    path = save_model(new, tmp_path / "new.greyml")
-
-    def older(state):
-        state["n_particles"] = state.pop("n_population")
-
-    old_file = rewrite_model_file(path, tmp_path / "old.greyml", older)
-    loaded = load_model(old_file)
-    assert loaded.n_population == 6 and loaded.n_particles == "deprecated"
-    np.testing.assert_array_equal(loaded.predict(X), new.predict(X))

@@ -5,20 +5,18 @@ import warnings
 import numpy as np
 import pytest
 
-from greyml import GreyConditioningWarning, fit_gm1n
-from greyml.grey.kernels import (
-    ago,
-    gm1n_design,
+from greyml.exceptions import GreyConditioningWarning
+from greyml.grey._functions import fit_gm1n
+from greyml.grey._kernels import ago, gm1n_design, gmc_lstsq, iago
+from greyml.grey._response import (
     gmc_basis,
-    gmc_lstsq,
     gmc_predict,
     gmc_predict_population,
     gmc_response,
     gmc_separable,
     gmc_sse_population,
-    iago,
 )
-from greyml.optimize import PENALTY
+from greyml.optimize._base import PENALTY
 
 
 def literal_trapezoid(f, b1, x0):

@@ -1,34 +1,31 @@
-"""Each model family's kernels live in one documented namespace; old imports warn."""
+"""Each model family's kernels are private; its package exports the models only."""
 
 import importlib
 
 import pytest
 
 FAMILIES = {
-    "greyml.grey": ["AGO", "AccumulatedTargetRegressor", "GMC", "GNNMCI", "fit_gm1n"],
+    "greyml.grey": ["AGO", "AccumulatedTargetRegressor", "GMC", "GNNMCI"],
     "greyml.fuzzy": ["ANFISFCM", "ANFISGrid"],
     "greyml.neural": ["MLPBaseline"],
+}
+#: The private modules holding each family's kernels.
+KERNELS = {
+    "greyml.grey": ["greyml.grey._kernels", "greyml.grey._response"],
+    "greyml.fuzzy": ["greyml.fuzzy._kernels"],
+    "greyml.neural": ["greyml.neural._kernels"],
 }
 
 
 @pytest.mark.parametrize("package", sorted(FAMILIES))
-def test_kernels_namespace_holds_the_kernels_and_the_package_the_models(package):
+def test_the_package_exports_the_models_and_the_private_modules_the_kernels(package):
     pkg = importlib.import_module(package)
-    kernels = importlib.import_module(f"{package}.kernels")
-    assert set(FAMILIES[package]) <= set(pkg.__all__)
-    # not both: no kernel in the package's own public names
-    assert not set(kernels.__all__) & set(pkg.__all__)
-    for name in kernels.__all__:
-        assert callable(getattr(kernels, name)) or name == "ACTIVATIONS", name
-
-
-@pytest.mark.parametrize("package", sorted(FAMILIES))
-def test_old_kernel_imports_warn_and_give_the_same_object(package):
-    pkg = importlib.import_module(package)
-    kernels = importlib.import_module(f"{package}.kernels")
-    name = kernels.__all__[0]
-    with pytest.warns(FutureWarning, match=rf"{package}\.{name} moved to {package}\.kernels"):
-        old = getattr(pkg, name)
-    assert old is getattr(kernels, name)
-    with pytest.raises(AttributeError, match="has no attribute 'not_a_kernel'"):
-        pkg.not_a_kernel  # noqa: B018
+    assert set(FAMILIES[package]) == set(pkg.__all__)
+    assert not hasattr(pkg, "kernels")  # no public kernels namespace
+    for module_name in KERNELS[package]:
+        kernels = importlib.import_module(module_name)
+        # not both: no kernel in the package's own public names
+        assert not set(kernels.__all__) & set(pkg.__all__)
+        for name in kernels.__all__:
+            value = getattr(kernels, name)
+            assert callable(value) or name.isupper(), name  # constants: ACTIVATIONS, ...

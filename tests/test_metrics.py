@@ -16,7 +16,6 @@ from sklearn.metrics import make_scorer, r2_score, root_mean_squared_error
 from sklearn.model_selection import GridSearchCV, KFold, cross_validate
 
 from greyml.metrics import (
-    SCORERS,
     correlation,
     get_scorer,
     improvement,
@@ -25,6 +24,7 @@ from greyml.metrics import (
     rmse,
     scoring,
 )
+from greyml.metrics._scorers import SCORERS
 
 METRICS = [rmse, correlation, nash_sutcliffe, residual_band, improvement]
 GREYML_NAMES = [

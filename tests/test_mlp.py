@@ -17,8 +17,9 @@ from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import StandardScaler
 
 from greyml import groups_of, make_test_index
-from greyml.neural import MLPBaseline, UnderdeterminedWarning
-from greyml.neural.kernels import (
+from greyml.exceptions import UnderdeterminedWarning
+from greyml.neural import MLPBaseline
+from greyml.neural._kernels import (
     hidden,
     init_nguyen_widrow,
     levenberg_marquardt,

@@ -6,12 +6,19 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from greyml import ANFISFCM, ANFISGrid, GreyConditioningWarning, fit_gm1n, make_test_index
-from greyml.fuzzy._kernels import NO_FIRE_LOG
-from greyml.fuzzy.kernels import JangStepSize, anfis_forward, hybrid_learning, normalised_firing
-from greyml.grey._kernels import CONDITION_LIMIT, gm1n_conditioning
-from greyml.grey.kernels import gm1n_design
-from greyml.optimize import PENALTY, CuckooSearch, ParticleSwarm
+from greyml import ANFISFCM, ANFISGrid, make_test_index
+from greyml.exceptions import GreyConditioningWarning
+from greyml.fuzzy._kernels import (
+    NO_FIRE_LOG,
+    JangStepSize,
+    anfis_forward,
+    hybrid_learning,
+    normalised_firing,
+)
+from greyml.grey._functions import fit_gm1n
+from greyml.grey._kernels import CONDITION_LIMIT, gm1n_conditioning, gm1n_design
+from greyml.optimize import CuckooSearch, ParticleSwarm
+from greyml.optimize._base import PENALTY
 
 OPTIMIZERS = [
     lambda: ParticleSwarm(max_iter=150),

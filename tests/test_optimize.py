@@ -3,7 +3,8 @@ import pickle
 import numpy as np
 import pytest
 
-from greyml.optimize import CuckooSearch, ParticleSwarm, levy_steps, mantegna_sigma
+from greyml.optimize import CuckooSearch, ParticleSwarm
+from greyml.optimize._cuckoo import levy_steps, mantegna_sigma
 
 OPTIMIZERS = [ParticleSwarm, CuckooSearch]  # classes: each test makes its own
 
@@ -135,18 +136,3 @@ def test_optimizers_pickle_and_compare():
     # scikit-learn's repr: the settings that differ from the defaults
     assert repr(ParticleSwarm()) == "ParticleSwarm()"
     assert repr(ParticleSwarm(n_population=10, c1=1.5)) == "ParticleSwarm(c1=1.5, n_population=10)"
-
-
-@pytest.mark.parametrize(
-    "make, old",
-    [
-        (lambda **kw: ParticleSwarm(max_iter=5, **kw), "n_particles"),
-        (lambda **kw: CuckooSearch(max_iter=5, **kw), "n_nests"),
-    ],
-)
-def test_old_population_names_warn_and_still_work(make, old):
-    sphere = lambda P: (P**2).sum(axis=1)  # noqa: E731
-    new = make(n_population=7).minimize(sphere, (-1, 1), np.random.default_rng(0), n_dim=2)
-    with pytest.warns(FutureWarning, match=rf"'{old}' parameter .* was renamed 'n_population'"):
-        was = make(**{old: 7}).minimize(sphere, (-1, 1), np.random.default_rng(0), n_dim=2)
-    assert was.nfev == new.nfev and was.fun == new.fun

@@ -29,14 +29,9 @@ from greyml import (
     MLPBaseline,
     groups_of,
 )
+from greyml.exceptions import UnsafeModelError
 from greyml.optimize import CuckooSearch
-from greyml.persist import (
-    ALLOWED_CLASSES,
-    UnsafeModelError,
-    describe_model,
-    load_model,
-    save_model,
-)
+from greyml.persist import ALLOWED_CLASSES, describe_model, load_model, save_model
 from greyml.utils.discovery import all_estimators
 
 DRIVERS = ["T1_C", "T2_C", "T3_C", "T4_C"]

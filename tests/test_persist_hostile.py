@@ -37,7 +37,7 @@ from greyml import (
     make_test_index,
     persist,
 )
-from greyml.grey import simulate_gmc
+from greyml.grey._functions import simulate_gmc
 from greyml.io import write_tests_csv
 from greyml.persist import DEFAULT_MAX_BYTES, load_model, save_model
 

@@ -20,9 +20,9 @@ from greyml import (
     MLPBaseline,
     RelativeToStart,
     make_test_index,
-    simulate_gmc,
 )
-from greyml.grey.kernels import ago, iago
+from greyml.grey._functions import simulate_gmc
+from greyml.grey._kernels import ago, iago
 from greyml.utils.discovery import all_estimators
 
 PROPERTY_SETTINGS = settings(
@@ -192,7 +192,7 @@ def test_fit_does_not_mutate_dataframe_inputs(name):
 
 # without the test index the rows are one long test, on which GMC is unstable;
 # stability is not what this test is about
-@pytest.mark.filterwarnings("ignore::greyml.GreyStabilityWarning")
+@pytest.mark.filterwarnings("ignore::greyml.exceptions.GreyStabilityWarning")
 @pytest.mark.parametrize("name", sorted(_all_estimators()))
 def test_fit_does_not_mutate_ndarray_inputs(name):
     estimator = _all_estimators()[name]
@@ -278,7 +278,7 @@ def drifting_tests(draw):
     return pd.concat(Xs), pd.concat(ys)
 
 
-@pytest.mark.filterwarnings("ignore::greyml.GreyStabilityWarning")  # noisy drawn data
+@pytest.mark.filterwarnings("ignore::greyml.exceptions.GreyStabilityWarning")  # noisy drawn data
 @PROPERTY_SETTINGS
 @given(data=drifting_tests(), name=st.sampled_from(FAST_NAMES), as_array=st.booleans())
 def test_fit_never_mutates_inputs_property(data, name, as_array):
@@ -298,7 +298,7 @@ def test_fit_never_mutates_inputs_property(data, name, as_array):
         pd.testing.assert_series_equal(y, y_keep)
 
 
-@pytest.mark.filterwarnings("ignore::greyml.GreyStabilityWarning")  # noisy drawn data
+@pytest.mark.filterwarnings("ignore::greyml.exceptions.GreyStabilityWarning")  # noisy drawn data
 @PROPERTY_SETTINGS
 @given(data=drifting_tests(), name=st.sampled_from(FAST_STOCHASTIC), seed=st.integers(0, 2**31))
 def test_same_seed_bit_identical_property(data, name, seed):
@@ -308,7 +308,7 @@ def test_same_seed_bit_identical_property(data, name, seed):
     assert np.array_equal(first, second)
 
 
-@pytest.mark.filterwarnings("ignore::greyml.GreyStabilityWarning")  # noisy drawn data
+@pytest.mark.filterwarnings("ignore::greyml.exceptions.GreyStabilityWarning")  # noisy drawn data
 @PROPERTY_SETTINGS
 @given(data=drifting_tests(), name=st.sampled_from(FAST_STOCHASTIC), seed=st.integers(0, 2**31))
 def test_global_random_state_untouched_property(data, name, seed):

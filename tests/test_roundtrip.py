@@ -40,7 +40,8 @@ from greyml import (
     ThermalTransferFunction,
     TrainOnOneTest,
 )
-from greyml.persist import UnsafeModelError, describe_model, load_model, save_model
+from greyml.exceptions import UnsafeModelError
+from greyml.persist import describe_model, load_model, save_model
 from greyml.utils.discovery import all_estimators
 
 DRIVERS = ["T1_C", "T2_C", "T3_C", "T4_C"]

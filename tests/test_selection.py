@@ -9,7 +9,7 @@ from sklearn.pipeline import make_pipeline
 
 from greyml import GreyInfluenceSelector, TrainOnOneTest, groups_of, make_test_index
 from greyml.datasets import load_vmc_tests
-from greyml.grey.kernels import gm1n_lstsq
+from greyml.grey._kernels import gm1n_lstsq
 
 
 def _three_groups(seed=0):
@@ -76,7 +76,7 @@ def test_pandas_in_and_out_keeps_the_test_index():
 
 # the three-group data are not a heating test: GMC fits them with b1 < 0, which
 # is not what this test is about (the test index reaching the model is)
-@pytest.mark.filterwarnings("ignore::greyml.GreyStabilityWarning")
+@pytest.mark.filterwarnings("ignore::greyml.exceptions.GreyStabilityWarning")
 def test_transform_hands_the_tests_on_in_a_pipeline():
     # without the test index the next step would accumulate across tests
     from greyml import GMC

@@ -59,12 +59,9 @@ def test_index_survives_sklearn_indexing():
     assert seq.segments_by_test(sub) == [Segment("B", 0, 2)]
 
 
-def test_no_public_name_is_collected_by_pytest_and_the_old_name_still_works():
+def test_no_public_name_is_collected_by_pytest():
     import greyml
 
     # pytest collects from a test module the functions named test* and classes Test*
-    # that it imports (TEST_LEVEL, a string, is not one)
+    # that it imports
     assert [name for name in greyml.__all__ if name.startswith(("test", "Test"))] == []
-    with pytest.warns(FutureWarning, match=r"^greyml\.test_ids was renamed greyml\.groups_of;"):
-        old = greyml.test_ids
-    assert old is groups_of

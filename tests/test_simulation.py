@@ -10,21 +10,23 @@ from greyml.simulation import (
     Programme,
     TemperatureSensor,
     ThermalMachine,
-    add_lag_states,
-    conductance_matrix,
-    constant,
     diurnal,
     door_openings,
     gantry,
     linear_drift,
+    simulate_test,
+    vmc,
+)
+from greyml.simulation._ambient import constant
+from greyml.simulation._catalogue import gantry_tests
+from greyml.simulation._network import (
+    add_lag_states,
+    conductance_matrix,
     network_matrices,
     propagate,
-    simulate_test,
     steady_state,
-    vmc,
     zoh_discretize,
 )
-from greyml.simulation._catalogue import gantry_tests
 
 BARE = Effects.none()
 

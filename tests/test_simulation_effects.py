@@ -8,15 +8,8 @@ test) to show that the noise streams do not shift when an effect is removed.
 import numpy as np
 import pytest
 
-from greyml.simulation import (
-    FBG_TEMPERATURE_SENSITIVITY_UE_PER_C,
-    Effects,
-    Programme,
-    gantry,
-    linear_drift,
-    simulate_test,
-    vmc,
-)
+from greyml.simulation import Effects, Programme, gantry, linear_drift, simulate_test, vmc
+from greyml.simulation._machine import FBG_TEMPERATURE_SENSITIVITY_UE_PER_C
 
 
 def changed(a, b):

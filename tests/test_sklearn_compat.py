@@ -118,14 +118,14 @@ def _expected_failures(estimator):
 
 # scikit-learn's checks fit random numbers, not heating tests: a grey model
 # calibrated on them is often unstable (b1 < 0), which is not what they check
-@pytest.mark.filterwarnings("ignore::greyml.GreyStabilityWarning")
+@pytest.mark.filterwarnings("ignore::greyml.exceptions.GreyStabilityWarning")
 # ... and a default MLPBaseline on their 20-30 rows has more weights than rows:
 # it trains and says so, which test_mlp.py checks (and the transfer function
 # with more gains than rows, test_transfer.py)
-@pytest.mark.filterwarnings("ignore::greyml.UnderdeterminedWarning")
+@pytest.mark.filterwarnings("ignore::greyml.exceptions.UnderdeterminedWarning")
 # ... and they predict on rows drawn from their data, whose first row is not
 # where the training rows started (tested in test_gmc.py)
-@pytest.mark.filterwarnings("ignore::greyml.GreyWarmStartWarning")
+@pytest.mark.filterwarnings("ignore::greyml.exceptions.GreyWarmStartWarning")
 @parametrize_with_checks(ESTIMATORS, expected_failed_checks=_expected_failures)
 def test_sklearn_compatible(estimator, check):
     check(estimator)

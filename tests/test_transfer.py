@@ -7,8 +7,9 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from greyml import LagFeatures, ThermalTransferFunction, UnderdeterminedWarning, make_test_index
+from greyml import LagFeatures, ThermalTransferFunction, make_test_index
 from greyml.controller import Compensator
+from greyml.exceptions import UnderdeterminedWarning
 
 STEP = 60.0
 

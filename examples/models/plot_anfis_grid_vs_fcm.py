@@ -53,7 +53,7 @@ import pandas as pd
 
 from greyml import ANFISFCM, ANFISGrid, RelativeToStart, groups_of
 from greyml.datasets import load_vmc_tests
-from greyml.fuzzy.kernels import log_firing, normalised_firing
+from greyml.fuzzy._kernels import log_firing, normalised_firing
 from greyml.metrics import rmse
 
 SENSORS = ["T65_C", "T25_C", "T53_C", "T71_C", "T8_C"]

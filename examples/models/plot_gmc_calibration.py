@@ -32,8 +32,9 @@ import numpy as np
 from sklearn.linear_model import LinearRegression
 from sklearn.pipeline import make_pipeline
 
-from greyml import AGO, GMC, GNNMCI, AccumulatedTargetRegressor, GreyStabilityWarning
+from greyml import AGO, GMC, GNNMCI, AccumulatedTargetRegressor
 from greyml.datasets import load_probe_test
+from greyml.exceptions import GreyStabilityWarning
 from greyml.metrics import correlation, improvement, nash_sutcliffe, residual_band, rmse
 
 CALIBRATION_FRACTION = float(os.environ.get("GREYML_CALIBRATION_FRACTION", 0.5))

@@ -69,13 +69,13 @@ from greyml import (
     ANFISFCM,
     GMC,
     GreyInfluenceSelector,
-    GreyStabilityWarning,
     MLPBaseline,
     RelativeToStart,
     TrainOnOneTest,
     groups_of,
 )
 from greyml.datasets import load_vmc_tests
+from greyml.exceptions import GreyStabilityWarning
 from greyml.metrics import get_scorer, rmse
 
 vmc = load_vmc_tests()

@@ -83,9 +83,6 @@ def _add_fit_parser(subparsers):
         dest="select",
         help="keep N sensors with GreyInfluenceSelector before the model",
     )
-    flags._add_old_spelling(
-        parser, "--select", dest="select", new="--n-sensors", type=flags._count, metavar="N"
-    )
     parser.add_argument(
         "--cluster-on",
         choices=("series", "influence"),

@@ -9,7 +9,6 @@ from __future__ import annotations
 import argparse
 import functools
 import inspect
-import sys
 import textwrap
 
 from greyml._command_names import CSV_TIME_UNITS
@@ -61,47 +60,11 @@ class _Parser(argparse.ArgumentParser):
         return super().format_help()
 
 
-class _Deprecated(argparse.Action):
-    """An old spelling of an option: works, with a one-line message on standard error.
-
-    ``new`` is the option to use instead; ``extend=True`` adds the value to a
-    list (as ``action="extend"``), ``as_list=True`` adds one value; a list
-    keeps each value once.
-    """
-
-    def __init__(self, option_strings, dest, *, new, extend=False, as_list=False, **kwargs):
-        self.new = new
-        self.extend = extend
-        self.as_list = as_list
-        super().__init__(option_strings, dest, **kwargs)
-
-    def __call__(self, parser, namespace, values, option_string=None):
-        print(
-            f"{parser.prog}: warning: {option_string} is deprecated and will be removed in the "
-            f"next release; use {self.new}",
-            file=sys.stderr,
-        )
-        if self.extend or self.as_list:
-            items = list(getattr(namespace, self.dest, None) or [])
-            items += values if self.extend else [values]
-            values = _unique(items)
-        setattr(namespace, self.dest, values)
-
-
 class _Names(argparse.Action):
     """``action="extend"`` that keeps each name once, in its first order."""
 
     def __call__(self, parser, namespace, values, option_string=None):
         setattr(namespace, self.dest, _unique([*(getattr(namespace, self.dest) or []), *values]))
-
-
-def _add_old_spelling(parser, flag, *, new, **kwargs):
-    """``flag``, a deprecated spelling of ``new`` that is left out of the help.
-
-    ``kwargs`` (``dest``, ``type``, ``metavar``, ``as_list``...) go to
-    ``add_argument`` and :class:`_Deprecated`.
-    """
-    parser.add_argument(flag, action=_Deprecated, new=new, help=argparse.SUPPRESS, **kwargs)
 
 
 def _add_names(parser, flag, help, *, metavar="A,B", dest=None):

@@ -37,23 +37,11 @@ def _add_select_parser(subparsers):
         dest="n",
         help="sensors to keep (default: 5)",
     )
-    flags._add_old_spelling(
-        parser, "--n", dest="n", new="--n-sensors", type=flags._count, metavar="N"
-    )
     parser.add_argument("--cluster-on", choices=("series", "influence"), help=flags._CLUSTER_HELP)
     flags._add_names(
         parser,
         "--train-tests",
         "select on these tests only (default: all tests)",
-    )
-    flags._add_old_spelling(
-        parser,
-        "--train-test",
-        dest="train_tests",
-        new="--train-tests",
-        type=flags._name,
-        metavar="LABEL",
-        as_list=True,
     )
     flags._add_names(parser, "--sensors", flags._SENSORS_HELP)
     flags._add_random_state(parser, "seed of the c-means starts (default: 0)")

@@ -66,9 +66,6 @@ def _add_simulate_parser(subparsers):
         "seed of the measurement noise (default: 0, the data of greyml.datasets)",
         dest="seed",
     )
-    flags._add_old_spelling(
-        parser, "--seed", dest="seed", new="--random-state", type=int, metavar="N"
-    )
     parser.add_argument("--force", action="store_true", help="replace FILE.csv if it exists")
     flags._end_options(parser, _run_simulate, reads_csv=False)
 

@@ -14,43 +14,20 @@ from greyml.io import check_test_frame
 from greyml.io._csv_numbers import _numeric_column
 from greyml.io._csv_text import _line
 
-__all__ = ["load_caiviac", "caiviac_candidates"]
+__all__ = ["load_caiviac"]
 
-_RELATIVE = Path("..") / "shared" / "realdata" / "caiviac"
 _FILE = "cycles.csv"
 _PROBES = [f"ch{k}_um" for k in range(1, 6)]
 _TEMPS = [f"t{k}_C" for k in range(1, 17)]
 
 
-def caiviac_candidates():
-    """Folders :func:`load_caiviac` looks in when no path is given, in order.
-
-    ``$GREYML_CAIVIAC`` if set, then ``../shared/realdata/caiviac`` relative
-    to the repository root (the folder holding the ``greyml`` package) and to
-    the current directory.
-
-    Examples
-    --------
-    The folders depend on where greyml and the current directory are; the
-    last one always ends in ``shared/realdata/caiviac``:
-
-    >>> from greyml.datasets import caiviac_candidates
-    >>> folders = caiviac_candidates()
-    >>> type(folders).__name__, len(folders) >= 1
-    ('list', True)
-    >>> folders[-1].parts[-3:]
-    ('shared', 'realdata', 'caiviac')
-    """
-    out = []
-    env = os.environ.get("GREYML_CAIVIAC")
-    if env:
-        out.append(Path(env))
-    repo = Path(__file__).resolve().parents[2]
-    out.append((repo / _RELATIVE).resolve())
-    here = (Path.cwd() / _RELATIVE).resolve()
-    if here not in out:
-        out.append(here)
-    return out
+def cache_folder(data_home=None):
+    """Where :func:`~greyml.datasets.fetch_caiviac` keeps the recording:
+    ``<data_home>/greyml/caiviac``, ``data_home`` as for
+    :func:`sklearn.datasets.get_data_home` (nothing is created here)."""
+    if data_home is None:
+        data_home = os.environ.get("SCIKIT_LEARN_DATA", Path("~") / "scikit_learn_data")
+    return Path(os.path.expanduser(os.fspath(data_home))) / "greyml" / "caiviac"
 
 
 def _resolve(path):
@@ -60,15 +37,13 @@ def _resolve(path):
         if not p.is_file():
             raise FileNotFoundError(f"No CAIVIAC recording at {os.fspath(p)!r}.")
         return p
-    tried = []
-    for folder in caiviac_candidates():
-        p = folder / _FILE
-        tried.append(os.fspath(p))
-        if p.is_file():
-            return p
+    p = cache_folder() / _FILE
+    if p.is_file():
+        return p
     raise FileNotFoundError(
-        "The CAIVIAC recording was not found; looked for " + ", ".join(tried) + ". "
-        "Pass path= or set GREYML_CAIVIAC to the folder holding cycles.csv."
+        f"The CAIVIAC recording is not in fetch_caiviac's cache ({os.fspath(p)!r}) and no "
+        "path was given: pass load_caiviac(path=...) (cycles.csv or the folder holding it), "
+        "or call greyml.datasets.fetch_caiviac() once to download and cache it."
     )
 
 
@@ -118,9 +93,10 @@ def load_caiviac(path=None, *, reference="cycle", return_X_y=False, target="ch1_
 
     Five cycles of 4 h spindle on and 4 h off (1250, 2500, 3750, 5000 and
     3500 rpm) measured on a real machine tool, 15 s sampling, published by
-    CAIVIAC/FL_THERMAL under the MIT licence; the first 40.1 h are read from
-    ``../shared/realdata/caiviac/cycles.csv`` where it lies (the data is not
-    part of greyml).
+    CAIVIAC/FL_THERMAL under the MIT licence. The data is not part of
+    greyml: this reads a ``cycles.csv`` you give it (``path``), or else the
+    copy of the whole recording that :func:`fetch_caiviac` downloaded and
+    cached; it never downloads anything itself.
 
     Each cycle becomes a test labelled ``"cycle1"`` … ``"cycle5"`` with
     ``time_s`` from the cycle's first row. Columns: ``spindle_rpm``,
@@ -135,8 +111,10 @@ def load_caiviac(path=None, *, reference="cycle", return_X_y=False, target="ch1_
     Parameters
     ----------
     path : str or path-like, optional
-        ``cycles.csv`` or the folder holding it. By default the folders of
-        :func:`caiviac_candidates`.
+        ``cycles.csv`` or the folder holding it. By default the copy in
+        :func:`fetch_caiviac`'s cache (``<data home>/greyml/caiviac``,
+        scikit-learn's data home: ``$SCIKIT_LEARN_DATA`` or
+        ``~/scikit_learn_data``).
     reference : {"cycle", "recording"}, default="cycle"
         ``"cycle"``: probe readings relative to each cycle's first row (like
         the simulated tests, whose displacement starts at 0). ``"recording"``:
@@ -154,8 +132,8 @@ def load_caiviac(path=None, *, reference="cycle", return_X_y=False, target="ch1_
     Raises
     ------
     FileNotFoundError
-        If the recording is not where it is looked for; the message lists the
-        places.
+        If there is no file at ``path``, or, without ``path``, no cached copy;
+        the message names the place and both ways to give the data.
     ValueError
         If the file is empty, lacks one of the expected columns, holds a cell
         that is not a finite number, or a cycle whose rows are not contiguous
@@ -163,7 +141,8 @@ def load_caiviac(path=None, *, reference="cycle", return_X_y=False, target="ch1_
 
     Examples
     --------
-    >>> data = load_caiviac()  # doctest: +SKIP
+    >>> from greyml.datasets import load_caiviac
+    >>> data = load_caiviac("shared/realdata/caiviac")  # doctest: +SKIP
     >>> data.tests  # doctest: +SKIP
     ['cycle1', 'cycle2', 'cycle3', 'cycle4', 'cycle5']
     """

@@ -10,13 +10,12 @@ from __future__ import annotations
 import hashlib
 import os
 import urllib.request
-from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
 from greyml._atomic import write_atomic
-from greyml.datasets._caiviac import _PROBES, _TEMPS, load_caiviac
+from greyml.datasets._caiviac import _PROBES, _TEMPS, cache_folder, load_caiviac
 
 __all__ = ["fetch_caiviac"]
 
@@ -43,9 +42,7 @@ LICENSE_TEXT = (
 
 
 def _folder(data_home):
-    from sklearn.datasets import get_data_home
-
-    folder = Path(get_data_home(data_home)) / "greyml" / "caiviac"
+    folder = cache_folder(data_home)
     folder.mkdir(parents=True, exist_ok=True)
     return folder
 
@@ -164,7 +161,7 @@ def fetch_caiviac(
 
     See Also
     --------
-    load_caiviac : the first 40.1 h, read from a folder beside the checkout.
+    load_caiviac : the same reader, for a copy of cycles.csv you give it.
 
     Examples
     --------

@@ -74,7 +74,7 @@ def bunch_from_frame(frame, *, sensors, targets, sensor_groups, description, inp
     --------
     >>> import pandas as pd
     >>> from greyml import make_test_index
-    >>> from greyml.datasets import bunch_from_frame
+    >>> from greyml.datasets._simulated import bunch_from_frame
     >>> frame = pd.DataFrame(
     ...     {"spindle_rpm": [4000.0, 0.0, 0.0], "T1_C": [20.0, 20.4, 20.1],
     ...      "dz_um": [0.0, 3.1, 0.0]},
@@ -317,8 +317,7 @@ def load_vmc_tests(*, effects=None, return_X_y=False, target="dy_um"):
     """Abdulshahed et al.'s (2015) Tests I–VI on the small VMC, simulated (76 sensors).
 
     Six heating/cooling tests at 4000 and 8000 rpm in different ambient
-    conditions and thermal histories (see
-    :func:`greyml.simulation.vmc_tests`), sampled every minute: columns
+    conditions and thermal histories, sampled every minute: columns
     ``spindle_rpm``, ``feed_mm_min``, ``ambient_C``, ``T1_C`` … ``T76_C`` and
     ``dx_um``, ``dy_um``, ``dz_um`` (test-bar displacement relative to each
     test's start). Deterministic.

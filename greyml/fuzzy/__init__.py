@@ -1,13 +1,9 @@
 """Takagi–Sugeno fuzzy inference (ANFIS) with Jang's hybrid learning.
 
-Its numerical kernels are in :mod:`greyml.fuzzy.kernels`.
+- :class:`ANFISGrid`: the rule base from a grid partition of the inputs;
+- :class:`ANFISFCM`: the rule base from fuzzy c-means clusters.
 """
 
-from greyml._moved import moved_getattr
-from greyml.fuzzy import kernels
 from greyml.fuzzy._anfis import ANFISFCM, ANFISGrid
 
-__all__ = ["ANFISFCM", "ANFISGrid", "kernels"]
-
-# the kernels were exported here until this release
-__getattr__ = moved_getattr("greyml.fuzzy", kernels.__all__, "greyml.fuzzy.kernels")
+__all__ = ["ANFISFCM", "ANFISGrid"]

@@ -11,12 +11,6 @@ from sklearn.utils.validation import check_is_fitted
 
 from greyml._checking import checking_split
 from greyml._param_validation import Integral, Interval, Real
-from greyml._renamed import (
-    DEPRECATED,
-    renamed_attribute,
-    renamed_constraints,
-    renamed_value,
-)
 from greyml._rng import RANDOM_STATE_CONSTRAINT, make_generator
 from greyml._threads import blas_threads_for
 from greyml._validation import (
@@ -46,7 +40,7 @@ class _ANFISBase(RegressorMixin, BaseEstimator):
     initial premise (``_initial_premise``)."""
 
     _parameter_constraints: dict = {
-        **renamed_constraints("n_epochs", "max_iter", Interval(Integral, 1, None, closed="left")),
+        "max_iter": [Interval(Integral, 1, None, closed="left")],
         "step_size": [Interval(Real, 0, None, closed="neither")],
         "step_increase": [Interval(Real, 0, None, closed="neither")],
         "step_decrease": [Interval(Real, 0, None, closed="neither")],
@@ -55,9 +49,6 @@ class _ANFISBase(RegressorMixin, BaseEstimator):
         "error_goal": [Interval(Real, 0, None, closed="left")],
         "random_state": RANDOM_STATE_CONSTRAINT,
     }
-
-    #: old parameter names, still accepted for one release (greyml._renamed)
-    _renamed_params = {"n_epochs": "max_iter"}
 
     def _check_params(self):
         """Checks of a partition's parameters that the constraints cannot say."""
@@ -171,7 +162,7 @@ class _ANFISBase(RegressorMixin, BaseEstimator):
             c0,
             s0,
             mf_of_rule,
-            n_epochs=renamed_value(self, "n_epochs", "max_iter"),
+            n_epochs=self.max_iter,
             alpha=self.alpha,
             step=step,
             min_width=MIN_WIDTH,
@@ -320,9 +311,6 @@ class ANFISGrid(_ANFISBase):
         on a 2-core machine (``benchmarks/bench_scaling.py``).
     random_state : int, Generator or None, default=None
         Chooses held-out tests. The global NumPy state is never used.
-    n_epochs : int, default="deprecated"
-        The old name of ``max_iter``: still accepted in this release, with a
-        ``FutureWarning``.
 
     Attributes
     ----------
@@ -414,7 +402,6 @@ class ANFISGrid(_ANFISBase):
         error_goal=0.0,
         max_rules=1024,
         random_state=None,
-        n_epochs=DEPRECATED,
     ):
         self.n_mfs = n_mfs
         self.mf_overlap = mf_overlap
@@ -427,7 +414,6 @@ class ANFISGrid(_ANFISBase):
         self.error_goal = error_goal
         self.max_rules = max_rules
         self.random_state = random_state
-        self.n_epochs = n_epochs
 
     _parameter_constraints: dict = {
         **_ANFISBase._parameter_constraints,
@@ -532,7 +518,7 @@ class ANFISFCM(_ANFISBase):
         c-means stops when the root-mean-square change of the memberships
         between iterations falls below it (independent of the sample count).
     max_iter, step_size, step_increase, step_decrease, alpha, \
-validation_fraction, error_goal, n_epochs
+validation_fraction, error_goal
         As in :class:`ANFISGrid`.
     random_state : int, Generator or None, default=None
         Seeds the initial fuzzy partition (passed to scikit-fuzzy as ``init``,
@@ -542,9 +528,7 @@ validation_fraction, error_goal, n_epochs
     Attributes
     ----------
     cluster_centers_ : ndarray of shape (n_clusters, ``n_features_in_``)
-        c-means centres in the inputs' units (before hybrid learning). The old
-        name ``cluster_centres_`` still reads in this release, with a
-        ``FutureWarning``.
+        c-means centres in the inputs' units (before hybrid learning).
     fpc_ : float
         Fuzzy partition coefficient of the clustering (1 = crisp).
     rules_, n_rules_, best_epoch_, n_iter_, train_error_, check_error_, \
@@ -604,7 +588,6 @@ feature_names_in_
         validation_fraction=0.0,
         error_goal=0.0,
         random_state=None,
-        n_epochs=DEPRECATED,
     ):
         self.n_clusters = n_clusters
         self.m = m
@@ -619,7 +602,6 @@ feature_names_in_
         self.validation_fraction = validation_fraction
         self.error_goal = error_goal
         self.random_state = random_state
-        self.n_epochs = n_epochs
 
     _parameter_constraints: dict = {
         **_ANFISBase._parameter_constraints,
@@ -629,10 +611,6 @@ feature_names_in_
         "fcm_max_samples": [Interval(Integral, 2, None, closed="left")],
         "fcm_tol": [Interval(Real, 0, None, closed="neither")],
     }
-
-    #: old names of fitted attributes, still readable for one release (greyml._renamed)
-    _renamed_attributes = {"cluster_centres_": "cluster_centers_"}
-    cluster_centres_ = renamed_attribute("cluster_centres_", "cluster_centers_")
 
     def _min_rows(self, n_features):
         return max(n_features + 2, self.n_clusters)

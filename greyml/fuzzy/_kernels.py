@@ -70,7 +70,7 @@ def log_firing(X, centres, widths):
     strengths e^{−½((x − c)/σ)²} at x = 0 and x = 1:
 
     >>> import numpy as np
-    >>> from greyml.fuzzy.kernels import log_firing
+    >>> from greyml.fuzzy._kernels import log_firing
     >>> X = np.array([[0.0], [1.0]])
     >>> logw = log_firing(X, centres=np.array([[0.0], [2.0]]), widths=np.ones((2, 1)))
     >>> np.round(np.exp(logw), 6).tolist()
@@ -101,7 +101,7 @@ def normalised_firing(logw, floor=None):
     Examples
     --------
     >>> import numpy as np
-    >>> from greyml.fuzzy.kernels import normalised_firing
+    >>> from greyml.fuzzy._kernels import normalised_firing
     >>> np.round(normalised_firing(np.log([[1.0, 3.0]])), 6).tolist()
     [[0.25, 0.75]]
 
@@ -154,7 +154,7 @@ def anfis_forward(X, mf_centres, mf_widths, mf_of_rule, consequents, floor=None)
     ŷ(1) = ½·1 + ½·2:
 
     >>> import numpy as np
-    >>> from greyml.fuzzy.kernels import anfis_forward
+    >>> from greyml.fuzzy._kernels import anfis_forward
     >>> y, wbar, rule_out = anfis_forward(
     ...     np.array([[1.0]]),
     ...     mf_centres=np.array([0.0, 2.0]),
@@ -210,7 +210,7 @@ def solve_consequents(wbar, X, y, alpha):
     One rule that always fires is ordinary linear regression: y = 1 + 2x.
 
     >>> import numpy as np
-    >>> from greyml.fuzzy.kernels import solve_consequents
+    >>> from greyml.fuzzy._kernels import solve_consequents
     >>> X = np.array([[0.0], [1.0], [2.0]])
     >>> theta = solve_consequents(np.ones((3, 1)), X, np.array([1.0, 3.0, 5.0]), alpha=0.0)
     >>> np.round(theta, 6).tolist()
@@ -268,7 +268,7 @@ def premise_gradient(X, err, wbar, rule_out, y_hat, mf_centres, mf_widths, mf_of
     rule, away from it for the second) lowers the error:
 
     >>> import numpy as np
-    >>> from greyml.fuzzy.kernels import anfis_forward, premise_gradient
+    >>> from greyml.fuzzy._kernels import anfis_forward, premise_gradient
     >>> X = np.array([[1.0]])
     >>> c, s, rules = np.array([0.0, 2.0]), np.array([1.0, 1.0]), np.array([[0], [1]])
     >>> y_hat, wbar, rule_out = anfis_forward(X, c, s, rules, np.array([[0.0, 0.0], [2.0, 0.0]]))
@@ -304,7 +304,7 @@ class JangStepSize:
     --------
     Four reductions in a row grow the step by 10 %:
 
-    >>> from greyml.fuzzy.kernels import JangStepSize
+    >>> from greyml.fuzzy._kernels import JangStepSize
     >>> step = JangStepSize(initial=0.01)
     >>> [round(step.update(e), 6) for e in [5, 4, 3, 2, 1]]
     [0.01, 0.01, 0.01, 0.01, 0.011]
@@ -394,7 +394,7 @@ def hybrid_learning(
     Two rules learn the kink of ``y = |x − 0.4|``:
 
     >>> import numpy as np
-    >>> from greyml.fuzzy.kernels import JangStepSize, hybrid_learning
+    >>> from greyml.fuzzy._kernels import JangStepSize, hybrid_learning
     >>> X = np.linspace(0.0, 1.0, 21)[:, None]
     >>> y = np.abs(X[:, 0] - 0.4)
     >>> result = hybrid_learning(
@@ -484,7 +484,7 @@ def fuzzy_cmeans(data, n_clusters, m, tol, max_iter, rng, n_init=1):
     Two well separated groups of points:
 
     >>> import numpy as np
-    >>> from greyml.fuzzy.kernels import fuzzy_cmeans
+    >>> from greyml.fuzzy._kernels import fuzzy_cmeans
     >>> data = np.array([[0.0], [0.1], [0.2], [5.0], [5.1], [5.2]])
     >>> centres, u, n_iter, fpc = fuzzy_cmeans(
     ...     data, n_clusters=2, m=2.0, tol=1e-6, max_iter=100, rng=np.random.default_rng(0))
@@ -516,7 +516,7 @@ def fcm_memberships(data, centres, m):
     x = 1 lies halfway.
 
     >>> import numpy as np
-    >>> from greyml.fuzzy.kernels import fcm_memberships
+    >>> from greyml.fuzzy._kernels import fcm_memberships
     >>> u = fcm_memberships(np.array([[0.5], [1.0]]), np.array([[0.0], [2.0]]), m=2.0)
     >>> np.round(u, 6).tolist()
     [[0.9, 0.5], [0.1, 0.5]]

@@ -1,32 +1,18 @@
 """Grey models: AGO, GM(1,N), GMC(1,N) and the grey neural network GNNMCI(1,N).
 
-Their numerical kernels are in :mod:`greyml.grey.kernels`.
+- :class:`GMC`: the grey convolution model GMC(1,N), the time response of a
+  first-order system driven by the inputs' accumulation;
+- :class:`GNNMCI`: the grey neural network GNNMCI(1,N), GMC's response as a
+  network trained by particle swarm;
+- :class:`AGO`: the accumulated generating operation as a transformer;
+- :class:`AccumulatedTargetRegressor`: any regressor fitted on the
+  accumulated target and de-accumulated back.
+
+Their warnings are in :mod:`greyml.exceptions`.
 """
 
-from greyml._moved import moved_getattr
-from greyml.grey import kernels
 from greyml.grey._ago import AGO, AccumulatedTargetRegressor
-from greyml.grey._functions import fit_gm1n, simulate_gmc
-from greyml.grey._gmc import (
-    GMC,
-    GreyConditioningWarning,
-    GreyStabilityWarning,
-    GreyWarmStartWarning,
-)
+from greyml.grey._gmc import GMC
 from greyml.grey._gnnmci import GNNMCI
 
-__all__ = [
-    "AGO",
-    "AccumulatedTargetRegressor",
-    "GMC",
-    "GNNMCI",
-    "GreyConditioningWarning",
-    "GreyStabilityWarning",
-    "GreyWarmStartWarning",
-    "fit_gm1n",
-    "kernels",
-    "simulate_gmc",
-]
-
-# the kernels were exported here until this release
-__getattr__ = moved_getattr("greyml.grey", kernels.__all__, "greyml.grey.kernels")
+__all__ = ["AGO", "AccumulatedTargetRegressor", "GMC", "GNNMCI"]

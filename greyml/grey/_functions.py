@@ -54,7 +54,7 @@ def fit_gm1n(X, y):
     Examples
     --------
     >>> import numpy as np
-    >>> from greyml.grey import fit_gm1n
+    >>> from greyml.grey._functions import fit_gm1n
     >>> X = np.array([[1.0, 2.0], [1.2, 1.9], [1.5, 2.2], [1.9, 2.1], [2.2, 2.5]])
     >>> y = np.array([0.5, 0.9, 1.4, 1.6, 2.1])
     >>> a, b = fit_gm1n(X, y)
@@ -115,7 +115,7 @@ def simulate_gmc(X, development, driving, control=0.0, *, form="trapezoid", init
     is 0, ½·1 + ½·2 = 1.5 and ½·1 + 2 + ½·3 = 4, whose IAGO is 0, 1.5, 2.5:
 
     >>> import numpy as np
-    >>> from greyml.grey import simulate_gmc
+    >>> from greyml.grey._functions import simulate_gmc
     >>> simulate_gmc(np.ones((3, 1)), 0.0, [1.0], initial="zero").tolist()
     [0.0, 1.5, 2.5]
     """

@@ -24,8 +24,8 @@ from greyml.exceptions import (
 )
 from greyml.grey._kernels import _grey_lstsq, ago, gmc_design, gmc_lstsq_fixed_b1
 from greyml.grey._response import gmc_predict, gmc_separable, gmc_sse_population
-from greyml.optimize import CuckooSearch, ParticleSwarm, PopulationOptimizer
-from greyml.optimize._base import PENALTY, check_bounds
+from greyml.optimize import CuckooSearch, ParticleSwarm
+from greyml.optimize._base import PENALTY, PopulationOptimizer, check_bounds
 
 __all__ = ["GMC", "GreyConditioningWarning", "GreyStabilityWarning", "GreyWarmStartWarning"]
 
@@ -207,7 +207,7 @@ class _GreyConvolutionModel(RegressorMixin, BaseEstimator):
             label) from test label to value; tests it leaves out start as with
             ``None``. A given test's prediction starts at that value and adds
             the model's predicted change since the first row
-            (:func:`~greyml.grey.gmc_predict`). With ``None``, a test whose
+            (``gmc_predict``). With ``None``, a test whose
             first driver values lie away from the training tests' first values
             by more than their range (at least ``START_TOLERANCE`` = 10 % of
             the column's range in ``fit``) gets a
@@ -421,7 +421,7 @@ class GMC(_GreyConvolutionModel):
     --------
     >>> import numpy as np
     >>> from greyml import GMC
-    >>> from greyml.grey import simulate_gmc
+    >>> from greyml.grey._functions import simulate_gmc
     >>> rng = np.random.default_rng(0)
     >>> X = 1 + rng.random((60, 2))
     >>> y = simulate_gmc(X, development=0.4, driving=[0.5, -0.2], control=0.1)

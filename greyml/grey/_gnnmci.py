@@ -5,7 +5,6 @@ from __future__ import annotations
 from sklearn.utils.validation import check_is_fitted
 
 from greyml._param_validation import Integral, Interval
-from greyml._renamed import DEPRECATED, renamed_constraints, renamed_value
 from greyml._sequences import segment_label
 from greyml._validation import validate_sequences
 from greyml.grey._gmc import _GreyConvolutionModel
@@ -60,9 +59,6 @@ class GNNMCI(_GreyConvolutionModel):
         As in :class:`GMC`.
     random_state : int, Generator, RandomState or None, default=None
         Seeds the swarm. The global NumPy state is never used.
-    n_particles : int, default="deprecated"
-        The old name of ``n_population``: still accepted in this release, with
-        a ``FutureWarning``.
 
     Attributes
     ----------
@@ -88,9 +84,9 @@ class GNNMCI(_GreyConvolutionModel):
     -----
     Layer C multiplies by the sigmoid b = 1/(1 + e^{−b₁k}) and layer D
     multiplies by w₃ = 1 + e^{−b₁k}, so the layers multiply out exactly to the
-    GMC midpoint response (:func:`greyml.grey.gnnmci_layers` shows each layer;
+    GMC midpoint response (:meth:`layer_outputs` shows each layer;
     a test checks they agree). greyml therefore evaluates the network through
-    the shared O(n) response of :mod:`greyml.grey`, which cannot overflow in
+    the O(n) response GMC shares, which cannot overflow in
     the layer products when ``|b₁k|`` is large. What distinguishes GNNMCI from
     ``GMC(solver="ls")`` is its training: the weights minimise the error of
     the whole trajectory rather than of the grey differential equation.
@@ -105,7 +101,7 @@ class GNNMCI(_GreyConvolutionModel):
     --------
     >>> import numpy as np
     >>> from greyml import GNNMCI
-    >>> from greyml.grey import simulate_gmc
+    >>> from greyml.grey._functions import simulate_gmc
     >>> rng = np.random.default_rng(0)
     >>> X = 1 + rng.random((60, 2))
     >>> y = simulate_gmc(X, development=0.4, driving=[0.5, -0.2], control=0.1,
@@ -119,15 +115,10 @@ class GNNMCI(_GreyConvolutionModel):
 
     _parameter_constraints: dict = {
         **_GreyConvolutionModel._parameter_constraints,
-        **renamed_constraints(
-            "n_particles", "n_population", Interval(Integral, 2, None, closed="left")
-        ),
+        "n_population": [Interval(Integral, 2, None, closed="left")],
         # the swarm's own settings, passed on unchanged
         **{k: ParticleSwarm._parameter_constraints[k] for k in ("c1", "c2", "inertia")},
     }
-
-    #: old parameter names, still accepted for one release (greyml._renamed)
-    _renamed_params = {"n_particles": "n_population"}
 
     def __init__(
         self,
@@ -143,7 +134,6 @@ class GNNMCI(_GreyConvolutionModel):
         polish=True,
         warm_start_ls=True,
         random_state=None,
-        n_particles=DEPRECATED,
     ):
         self.n_population = n_population
         self.max_iter = max_iter
@@ -156,11 +146,10 @@ class GNNMCI(_GreyConvolutionModel):
         self.polish = polish
         self.warm_start_ls = warm_start_ls
         self.random_state = random_state
-        self.n_particles = n_particles
 
     def _check_params(self):
         return ParticleSwarm(
-            n_population=renamed_value(self, "n_particles", "n_population"),
+            n_population=self.n_population,
             max_iter=self.max_iter,
             c1=self.c1,
             c2=self.c2,
@@ -178,7 +167,7 @@ class GNNMCI(_GreyConvolutionModel):
         -------
         list of dict
             One dict per test with the test's label under ``"test"`` and the
-            layers as :func:`greyml.grey.gnnmci_layers` returns them.
+            layers as the kernel ``gnnmci_layers`` returns them.
         """
         check_is_fitted(self)
         Xa, _, segments = validate_sequences(self, X, reset=False, min_samples_per_test=1)

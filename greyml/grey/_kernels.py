@@ -51,7 +51,7 @@ def ago(x, test_bounds=None):
 
     Examples
     --------
-    >>> from greyml.grey.kernels import ago
+    >>> from greyml.grey._kernels import ago
     >>> ago([1, 2, 3]).tolist()
     [1.0, 3.0, 6.0]
 
@@ -72,7 +72,7 @@ def iago(x1, test_bounds=None):
 
     Examples
     --------
-    >>> from greyml.grey.kernels import ago, iago
+    >>> from greyml.grey._kernels import ago, iago
     >>> iago([1, 3, 6]).tolist()
     [1.0, 2.0, 3.0]
 
@@ -98,7 +98,7 @@ def background(x1, test_bounds=None):
 
     Examples
     --------
-    >>> from greyml.grey.kernels import background
+    >>> from greyml.grey._kernels import background
     >>> background([1, 3, 6]).tolist()  # ½(1 + 3), ½(3 + 6)
     [2.0, 4.5]
 
@@ -129,7 +129,7 @@ def gm1n_design(y, X, test_bounds=None):
     x₁ = (1, 2, 4) and one driver held at 1: x₁⁽¹⁾ = (1, 3, 7), so
     z₁⁽¹⁾ = (2, 5), and x₂⁽¹⁾ = (1, 2, 3).
 
-    >>> from greyml.grey.kernels import gm1n_design
+    >>> from greyml.grey._kernels import gm1n_design
     >>> B, Y = gm1n_design([1.0, 2.0, 4.0], [[1.0], [1.0], [1.0]])
     >>> B.tolist(), Y.tolist()
     ([[-2.0, 2.0], [-5.0, 3.0]], [2.0, 4.0])
@@ -168,7 +168,7 @@ def gm1n_lstsq(y, X, test_bounds=None):
     −5a + 3b = 4, has the exact solution a = −0.5, b = 0.5:
 
     >>> import numpy as np
-    >>> from greyml.grey.kernels import gm1n_lstsq
+    >>> from greyml.grey._kernels import gm1n_lstsq
     >>> a, b, rank, _ = gm1n_lstsq([1.0, 2.0, 4.0], [[1.0], [1.0], [1.0]])
     >>> round(float(a), 6), np.round(b, 6).tolist(), int(rank)
     (-0.5, [0.5], 2)
@@ -277,7 +277,7 @@ def gmc_design(y, X, test_bounds=None):
     x₁ = (1, 2, 4) gives z₁⁽¹⁾ = (2, 5); a driver held at 1 gives
     x₂⁽¹⁾ = (1, 2, 3) and z₂⁽¹⁾ = (1.5, 2.5).
 
-    >>> from greyml.grey.kernels import gmc_design
+    >>> from greyml.grey._kernels import gmc_design
     >>> B, Y = gmc_design([1.0, 2.0, 4.0], [[1.0], [1.0], [1.0]])
     >>> B.tolist(), Y.tolist()
     ([[-2.0, 1.5, 1.0], [-5.0, 2.5, 1.0]], [2.0, 4.0])
@@ -300,7 +300,7 @@ def gmc_lstsq(y, X, test_bounds=None):
     (1 + ½b₁)x₁⁽⁰⁾(k) = b₂z₂⁽¹⁾(k) + u − b₁x₁⁽¹⁾(k−1).
 
     >>> import numpy as np
-    >>> from greyml.grey.kernels import ago, background, gmc_lstsq
+    >>> from greyml.grey._kernels import ago, background, gmc_lstsq
     >>> X = np.array([[1.0], [2.0], [1.0], [3.0], [2.0]])
     >>> z2 = background(ago(X))[:, 0]
     >>> y = [1.0]
@@ -328,7 +328,7 @@ def gmc_lstsq_fixed_b1(y, X, b1, test_bounds=None):
     with b₁ fixed at its true value the rest is recovered exactly.
 
     >>> import numpy as np
-    >>> from greyml.grey.kernels import ago, background, gmc_lstsq_fixed_b1
+    >>> from greyml.grey._kernels import ago, background, gmc_lstsq_fixed_b1
     >>> X = np.array([[1.0], [2.0], [1.0], [3.0], [2.0]])
     >>> z2 = background(ago(X))[:, 0]
     >>> y = [1.0]

@@ -62,7 +62,7 @@ def gmc_response(f, b1, x0, form="trapezoid", test_bounds=None):
 
     The one implementation of the response: :func:`gmc_predict`,
     :func:`gmc_predict_population`, :func:`gmc_basis`, :func:`gnnmci_layers`
-    and :func:`~greyml.grey.simulate_gmc` all run it. The recursion restarts at
+    and ``simulate_gmc`` all run it. The recursion restarts at
     every test's first row.
 
     Parameters
@@ -104,7 +104,7 @@ def gmc_response(f, b1, x0, form="trapezoid", test_bounds=None):
     trapezoid form gives x̂(2) = ½·1 + ½·½·1 + ½·1 = 1.25, and so on:
 
     >>> import numpy as np
-    >>> from greyml.grey.kernels import gmc_response
+    >>> from greyml.grey._response import gmc_response
     >>> np.round(gmc_response([1.0, 1.0, 1.0], np.log(2), 1.0), 6).tolist()
     [1.0, 1.25, 1.375]
 
@@ -212,7 +212,8 @@ def gmc_predict(
     equation at k = 1: f(1)/(1 + b₁) = (0.5·1 + 0.1)/1.4 = 0.428571.
 
     >>> import numpy as np
-    >>> from greyml.grey.kernels import ago, gmc_predict
+    >>> from greyml.grey._kernels import ago
+    >>> from greyml.grey._response import gmc_predict
     >>> X1 = ago(np.array([[1.0], [2.0], [1.0], [3.0]]))
     >>> np.round(gmc_predict(X1, 0.4, [0.5], 0.1), 6).tolist()
     [0.428571, 0.859805, 1.161504, 1.69616]
@@ -264,7 +265,8 @@ def gmc_predict_population(X1, params, test_bounds=None, form="trapezoid", initi
     same without the driver, and one whose response explodes (b₁ ≪ 0):
 
     >>> import numpy as np
-    >>> from greyml.grey.kernels import ago, gmc_predict, gmc_predict_population
+    >>> from greyml.grey._kernels import ago
+    >>> from greyml.grey._response import gmc_predict, gmc_predict_population
     >>> X1 = ago(np.array([[1.0], [2.0], [1.0], [3.0]]))
     >>> params = [[0.4, 0.5, 0.1], [0.4, 0.0, 0.1], [-400.0, 0.5, 0.1]]
     >>> P = gmc_predict_population(X1, params)
@@ -287,7 +289,7 @@ def gmc_predict_population(X1, params, test_bounds=None, form="trapezoid", initi
 def gmc_sse_population(X1, y, params, test_bounds=None, form="trapezoid", initial="model"):
     """Σ(x̂₁⁽⁰⁾ − x₁⁽⁰⁾)² for each candidate, shape ``(P,)``, always finite.
 
-    A candidate whose trajectory explodes or overflows gets :data:`~greyml.optimize.PENALTY`.
+    A candidate whose trajectory explodes or overflows gets ``PENALTY``.
 
     Examples
     --------
@@ -295,7 +297,8 @@ def gmc_sse_population(X1, y, params, test_bounds=None, form="trapezoid", initia
     gets 1e200.
 
     >>> import numpy as np
-    >>> from greyml.grey.kernels import ago, gmc_predict, gmc_sse_population
+    >>> from greyml.grey._kernels import ago
+    >>> from greyml.grey._response import gmc_predict, gmc_sse_population
     >>> X1 = ago(np.array([[1.0], [2.0], [1.0], [3.0]]))
     >>> y = gmc_predict(X1, 0.4, [0.5], 0.1)
     >>> params = [[0.4, 0.5, 0.1], [0.4, 0.0, 0.1], [-400.0, 0.5, 0.1]]
@@ -323,7 +326,8 @@ def gmc_basis(X1, b1, test_bounds=None, form="trapezoid", initial="model"):
     Examples
     --------
     >>> import numpy as np
-    >>> from greyml.grey.kernels import ago, gmc_basis, gmc_predict
+    >>> from greyml.grey._kernels import ago
+    >>> from greyml.grey._response import gmc_basis, gmc_predict
     >>> X1 = ago(np.array([[1.0], [2.0], [1.0], [3.0]]))
     >>> phi = gmc_basis(X1, 0.4)
     >>> phi.shape
@@ -347,7 +351,7 @@ def gmc_separable(X1, y, b1, test_bounds=None, form="trapezoid", initial="model"
     Returns
     -------
     sse : ndarray of shape (P,)
-        Finite; :data:`~greyml.optimize.PENALTY` for a candidate whose response explodes.
+        Finite; ``PENALTY`` for a candidate whose response explodes.
     theta : ndarray of shape (P, N)
         (b₂…b_N, u) per candidate (zeros where the response explodes).
 
@@ -357,7 +361,8 @@ def gmc_separable(X1, y, b1, test_bounds=None, form="trapezoid", initial="model"
     the true one fits exactly, with the true linear coefficients.
 
     >>> import numpy as np
-    >>> from greyml.grey.kernels import ago, gmc_predict, gmc_separable
+    >>> from greyml.grey._kernels import ago
+    >>> from greyml.grey._response import gmc_predict, gmc_separable
     >>> X1 = ago(np.array([[1.0], [2.0], [1.0], [3.0]]))
     >>> y = gmc_predict(X1, 0.4, [0.5], 0.1)
     >>> sse, theta = gmc_separable(X1, y, [0.2, 0.4, 0.6])
@@ -424,7 +429,8 @@ def gnnmci_layers(X1, b1, coef, control, x0):
     The output layer reproduces the midpoint time response from k = 2 on:
 
     >>> import numpy as np
-    >>> from greyml.grey.kernels import ago, gmc_response, gnnmci_layers
+    >>> from greyml.grey._kernels import ago
+    >>> from greyml.grey._response import gmc_response, gnnmci_layers
     >>> X1 = ago(np.array([[1.0], [2.0], [1.0], [3.0]]))
     >>> layers = gnnmci_layers(X1, 0.4, [0.5], 0.1, x0=1.0)
     >>> [layers[name].shape for name in "ABCD"]

@@ -9,14 +9,23 @@ figures the seed papers report for a compensation model:
 - :func:`residual_band`: ``max |y - ŷ|``, the "±" band of the residual;
 - :func:`improvement`: ``1 - max |y - ŷ| / max |y|``.
 
-The scorers in :data:`SCORERS` (``"neg_rmse"``, ``"correlation"``,
-``"nash_sutcliffe"``, ``"neg_residual_band"``, ``"improvement"``) plug them
-into scikit-learn's model selection; :func:`get_scorer` and :func:`scoring`
-look them up by name.
+As scorers (``"neg_rmse"``, ``"correlation"``, ``"nash_sutcliffe"``,
+``"neg_residual_band"``, ``"improvement"``) they plug into scikit-learn's
+model selection:
+
+- :func:`get_scorer`: one scorer by name, greyml's or scikit-learn's;
+- :func:`scoring`: several, as a dict for multi-metric ``scoring=``.
 """
 
-from greyml.metrics import _metrics, _scorers
-from greyml.metrics._metrics import *  # noqa: F403 (the names of _metrics.__all__)
-from greyml.metrics._scorers import *  # noqa: F403 (the names of _scorers.__all__)
+from greyml.metrics._metrics import correlation, improvement, nash_sutcliffe, residual_band, rmse
+from greyml.metrics._scorers import get_scorer, scoring
 
-__all__ = [*_metrics.__all__, *_scorers.__all__]
+__all__ = [
+    "correlation",
+    "get_scorer",
+    "improvement",
+    "nash_sutcliffe",
+    "residual_band",
+    "rmse",
+    "scoring",
+]

@@ -26,7 +26,7 @@ from greyml.metrics._metrics import (
     rmse,
 )
 
-__all__ = ["SCORERS", "get_scorer", "scoring"]
+__all__ = ["get_scorer", "scoring"]
 
 
 SCORERS = {
@@ -55,7 +55,7 @@ def get_scorer(name):
     scorer : callable
         A scorer ``scorer(estimator, X, y)``, greater is better. For a greyml
         name it is a new copy each call, so changing it (e.g. with
-        ``set_score_request``) does not change :data:`SCORERS`.
+        ``set_score_request``) does not change greyml's own.
 
     Raises
     ------
@@ -115,7 +115,8 @@ def scoring(*names):
     ----------
     *names : str
         Scorer names, as for :func:`get_scorer` (greyml's or scikit-learn's).
-        With none, all of greyml's scorers, in the order of :data:`SCORERS`.
+        With none, all five of greyml's, in the order listed under
+        :func:`get_scorer`.
 
     Returns
     -------

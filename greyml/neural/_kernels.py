@@ -48,7 +48,7 @@ def n_params(n_in: int, n_hidden: int) -> int:
     A 2-3-1 network: 2 × 3 input weights, 3 hidden biases, 3 output weights
     and the output bias.
 
-    >>> from greyml.neural.kernels import n_params
+    >>> from greyml.neural._kernels import n_params
     >>> n_params(2, 3)
     13
     """
@@ -60,7 +60,7 @@ def pack(W, b, v, c) -> np.ndarray:
 
     Examples
     --------
-    >>> from greyml.neural.kernels import pack
+    >>> from greyml.neural._kernels import pack
     >>> pack(W=[[1.0, 2.0]], b=[3.0, 4.0], v=[5.0, 6.0], c=7.0).tolist()
     [1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0]
     """
@@ -76,7 +76,7 @@ def unpack(p, n_in: int, n_hidden: int):
     --------
     The inverse of :func:`pack`, for one input and two hidden units:
 
-    >>> from greyml.neural.kernels import unpack
+    >>> from greyml.neural._kernels import unpack
     >>> W, b, v, c = unpack([1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0], n_in=1, n_hidden=2)
     >>> W.tolist(), b.tolist(), v.tolist(), c
     ([[1.0, 2.0]], [3.0, 4.0], [5.0, 6.0], 7.0)
@@ -98,7 +98,7 @@ def hidden(X, W, b, activation: str = "logistic") -> np.ndarray:
     At z = 0 and z = ln 3 the logistic function is ½ and ¾, tanh 0 and 0.8:
 
     >>> import numpy as np
-    >>> from greyml.neural.kernels import hidden
+    >>> from greyml.neural._kernels import hidden
     >>> X, W, b = np.zeros((1, 1)), np.ones((1, 2)), np.array([0.0, np.log(3.0)])
     >>> np.round(hidden(X, W, b), 6).tolist()
     [[0.5, 0.75]]
@@ -128,7 +128,7 @@ def mlp_forward(X, p, n_hidden: int, activation: str = "logistic") -> np.ndarray
     One hidden unit: ŷ = 2σ(x) + 1, so ŷ(0) = 2 and ŷ(ln 3) = 2.5.
 
     >>> import numpy as np
-    >>> from greyml.neural.kernels import mlp_forward, pack
+    >>> from greyml.neural._kernels import mlp_forward, pack
     >>> p = pack(W=[[1.0]], b=[0.0], v=[2.0], c=1.0)
     >>> np.round(mlp_forward(np.array([[0.0], [np.log(3.0)]]), p, n_hidden=1), 6).tolist()
     [2.0, 2.5]
@@ -146,7 +146,7 @@ def mlp_residuals(X, y, p, n_hidden: int, activation: str = "logistic") -> np.nd
     The network of :func:`mlp_forward`'s example against targets of 2:
 
     >>> import numpy as np
-    >>> from greyml.neural.kernels import mlp_residuals, pack
+    >>> from greyml.neural._kernels import mlp_residuals, pack
     >>> p = pack(W=[[1.0]], b=[0.0], v=[2.0], c=1.0)
     >>> X, y = np.array([[0.0], [np.log(3.0)]]), np.array([2.0, 2.0])
     >>> np.round(mlp_residuals(X, y, p, n_hidden=1), 6).tolist()
@@ -182,7 +182,7 @@ def mlp_jacobian(X, p, n_hidden: int, activation: str = "logistic", out=None):
     derivatives with respect to (W, b, v, c) are (0·½, ½, ½, 1).
 
     >>> import numpy as np
-    >>> from greyml.neural.kernels import mlp_jacobian, pack
+    >>> from greyml.neural._kernels import mlp_jacobian, pack
     >>> p = pack(W=[[1.0]], b=[0.0], v=[2.0], c=1.0)
     >>> J, y_hat = mlp_jacobian(np.array([[0.0]]), p, n_hidden=1)
     >>> J.tolist(), y_hat.tolist()
@@ -243,7 +243,7 @@ def init_nguyen_widrow(
     2β = 2 · 0.7 · 3^(1/2) = 2.424871 for 2 inputs and 3 logistic units:
 
     >>> import numpy as np
-    >>> from greyml.neural.kernels import init_nguyen_widrow, unpack
+    >>> from greyml.neural._kernels import init_nguyen_widrow, unpack
     >>> p = init_nguyen_widrow(2, 3, np.random.default_rng(0))
     >>> p.shape
     (13,)
@@ -290,7 +290,7 @@ class LMResult:
     loss: ŷ = 2σ(0) + 1 = 2 against a target of 1.
 
     >>> import numpy as np
-    >>> from greyml.neural.kernels import levenberg_marquardt, pack
+    >>> from greyml.neural._kernels import levenberg_marquardt, pack
     >>> p = pack(W=[[1.0]], b=[0.0], v=[2.0], c=1.0)
     >>> result = levenberg_marquardt(np.array([[0.0]]), np.array([1.0]), p, 1, max_iter=0)
     >>> result.loss, result.val_loss, result.n_iter, result.best_iter, result.stop
@@ -361,7 +361,7 @@ def levenberg_marquardt(
     Three logistic units fitted to a sine on 21 points:
 
     >>> import numpy as np
-    >>> from greyml.neural.kernels import init_nguyen_widrow, levenberg_marquardt
+    >>> from greyml.neural._kernels import init_nguyen_widrow, levenberg_marquardt
     >>> X = np.linspace(-2.0, 2.0, 21)[:, None]
     >>> y = np.sin(X[:, 0])
     >>> p0 = init_nguyen_widrow(1, 3, np.random.default_rng(0))

@@ -124,7 +124,7 @@ class MLPBaseline(RegressorMixin, BaseEstimator):
     1994): each epoch solves (JᵀJ + μI)δ = Jᵀr with the analytic Jacobian J of
     the residuals r, accepts the step if it lowers the training MSE (then
     μ ← μ/10) and otherwise raises μ tenfold and solves again; μ starts at 1e-3.
-    It is implemented here (:func:`greyml.neural.levenberg_marquardt`) rather
+    It is implemented here (``levenberg_marquardt``) rather
     than with ``scipy.optimize.least_squares(method="lm")`` because MINPACK's
     ``lm`` accepts no callback (SciPy 1.17 offers one for ``"trf"`` and
     ``"dogbox"`` only), so the validation stop would need a run in chunks of

@@ -1,19 +1,16 @@
 """Population optimisers shared by the grey and neural models.
 
+- :class:`ParticleSwarm`: particle swarm optimisation with a decreasing
+  inertia weight;
+- :class:`CuckooSearch`: cuckoo search by Lévy flights.
+
 Both evaluate the whole population in one vectorised call and draw randomness
-only from the :class:`numpy.random.Generator` they are given.
+only from the :class:`numpy.random.Generator` they are given. Pass one as
+``solver=`` to :class:`~greyml.GMC`; :class:`~greyml.GNNMCI` takes the
+swarm's settings as its own parameters.
 """
 
-from greyml.optimize._base import PENALTY, PopulationOptimizer, check_bounds
-from greyml.optimize._cuckoo import CuckooSearch, levy_steps, mantegna_sigma
+from greyml.optimize._cuckoo import CuckooSearch
 from greyml.optimize._pso import ParticleSwarm
 
-__all__ = [
-    "PENALTY",
-    "CuckooSearch",
-    "ParticleSwarm",
-    "PopulationOptimizer",
-    "check_bounds",
-    "levy_steps",
-    "mantegna_sigma",
-]
+__all__ = ["CuckooSearch", "ParticleSwarm"]

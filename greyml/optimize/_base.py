@@ -75,7 +75,7 @@ def check_bounds(bounds, n_dim=None, x0=None):
 
     Examples
     --------
-    >>> from greyml.optimize import check_bounds
+    >>> from greyml.optimize._base import check_bounds
     >>> lower, upper = check_bounds((0, [1, 2]))
     >>> lower.tolist(), upper.tolist()
     ([0.0, 0.0], [1.0, 2.0])
@@ -132,7 +132,7 @@ class PopulationOptimizer(BaseEstimator):
     A random search in a few lines:
 
     >>> import numpy as np
-    >>> from greyml.optimize import PopulationOptimizer, check_bounds
+    >>> from greyml.optimize._base import PopulationOptimizer, check_bounds
     >>> class RandomSearch(PopulationOptimizer):
     ...     def __init__(self, n_points=100):
     ...         self.n_points = n_points

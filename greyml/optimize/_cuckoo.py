@@ -7,7 +7,6 @@ import math
 import numpy as np
 
 from greyml._param_validation import Integral, Interval, Real
-from greyml._renamed import DEPRECATED, renamed_constraints, renamed_value
 from greyml.optimize._base import PopulationOptimizer, _Evaluations, check_bounds
 
 __all__ = ["CuckooSearch", "mantegna_sigma", "levy_steps"]
@@ -20,7 +19,7 @@ def mantegna_sigma(beta):
 
     Examples
     --------
-    >>> from greyml.optimize import mantegna_sigma
+    >>> from greyml.optimize._cuckoo import mantegna_sigma
     >>> mantegna_sigma(1.0)  # Γ(2) sin(π/2) / (Γ(1) · 1 · 2⁰)
     1.0
     >>> round(mantegna_sigma(1.5), 6)
@@ -39,7 +38,7 @@ def levy_steps(shape, beta, rng, sigma=None):
     Mostly short steps and now and then a very long one (heavy tails):
 
     >>> import numpy as np
-    >>> from greyml.optimize import levy_steps
+    >>> from greyml.optimize._cuckoo import levy_steps
     >>> s = levy_steps((100, 100), beta=1.5, rng=np.random.default_rng(0))
     >>> s.shape
     (100, 100)
@@ -88,9 +87,6 @@ class CuckooSearch(PopulationOptimizer):
         Step-size scale of the Lévy flights (Yang 2010).
     beta : float, default=1.5
         Lévy exponent (Yang & Deb 2009).
-    n_nests : int, default="deprecated"
-        The old name of ``n_population``: still accepted in this release, with
-        a ``FutureWarning``.
 
     See Also
     --------
@@ -115,32 +111,24 @@ class CuckooSearch(PopulationOptimizer):
     True
     """
 
-    #: old parameter names, still accepted for one release (greyml._renamed)
-    _renamed_params = {"n_nests": "n_population"}
-
     _parameter_constraints: dict = {
-        **renamed_constraints(
-            "n_nests", "n_population", Interval(Integral, 2, None, closed="left")
-        ),
+        "n_population": [Interval(Integral, 2, None, closed="left")],
         "max_iter": [Interval(Integral, 1, None, closed="left")],
         "pa": [Interval(Real, 0, 1, closed="both")],
         "alpha": [Interval(Real, 0, None, closed="neither")],
         "beta": [Interval(Real, 0, 2, closed="right")],
     }
 
-    def __init__(
-        self, n_population=25, max_iter=100, pa=0.25, alpha=0.01, beta=1.5, n_nests=DEPRECATED
-    ):
+    def __init__(self, n_population=25, max_iter=100, pa=0.25, alpha=0.01, beta=1.5):
         self.n_population = n_population
         self.max_iter = max_iter
         self.pa = pa
         self.alpha = alpha
         self.beta = beta
-        self.n_nests = n_nests
 
     @property
     def population_size(self) -> int:
-        return renamed_value(self, "n_nests", "n_population")
+        return self.n_population
 
     def minimize(self, fun, bounds, rng, x0=None, n_dim=None):
         """Minimise ``fun`` over the box ``bounds`` (same contract as PSO's)."""

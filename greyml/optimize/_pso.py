@@ -10,7 +10,6 @@ from greyml._param_validation import (
     Real,
     validate_parameter_constraints,
 )
-from greyml._renamed import DEPRECATED, renamed_constraints, renamed_value
 from greyml.optimize._base import PopulationOptimizer, _Evaluations, check_bounds
 
 __all__ = ["ParticleSwarm"]
@@ -47,9 +46,6 @@ class ParticleSwarm(PopulationOptimizer):
         κ, the largest step per iteration as a fraction of each parameter's range
         (not given by the seeds; 0.2 measured best of 0.2 and 0.5 in
         ``benchmarks/bench_optimizers.py``).
-    n_particles : int, default="deprecated"
-        The old name of ``n_population``: still accepted in this release, with
-        a ``FutureWarning``.
 
     See Also
     --------
@@ -74,13 +70,8 @@ class ParticleSwarm(PopulationOptimizer):
     True
     """
 
-    #: old parameter names, still accepted for one release (greyml._renamed)
-    _renamed_params = {"n_particles": "n_population"}
-
     _parameter_constraints: dict = {
-        **renamed_constraints(
-            "n_particles", "n_population", Interval(Integral, 1, None, closed="left")
-        ),
+        "n_population": [Interval(Integral, 1, None, closed="left")],
         "max_iter": [Interval(Integral, 1, None, closed="left")],
         "c1": [Interval(Real, 0, None, closed="left")],
         "c2": [Interval(Real, 0, None, closed="left")],
@@ -96,7 +87,6 @@ class ParticleSwarm(PopulationOptimizer):
         c2=2.0,
         inertia=(0.9, 0.4),
         velocity_clamp=0.2,
-        n_particles=DEPRECATED,
     ):
         self.n_population = n_population
         self.max_iter = max_iter
@@ -104,11 +94,10 @@ class ParticleSwarm(PopulationOptimizer):
         self.c2 = c2
         self.inertia = inertia
         self.velocity_clamp = velocity_clamp
-        self.n_particles = n_particles
 
     @property
     def population_size(self) -> int:
-        return renamed_value(self, "n_particles", "n_population")
+        return self.n_population
 
     def _validated(self):
         self._validate_params()

@@ -1,5 +1,9 @@
 """Save fitted models to a file, and load them back without running code from it.
 
+- :func:`save_model`: a fitted model (or pipeline) to a file;
+- :func:`load_model`: the model back, refusing any class not allowed;
+- :func:`describe_model`: what a file holds, read without building anything.
+
 A pickle (or joblib) file can run any code when it is loaded, so a model file
 from someone else is as dangerous as a script from them. greyml's model files
 hold data only:
@@ -61,7 +65,6 @@ limits, and the allowlist), ``_writer`` (:func:`save_model`), ``_archive``
 (:func:`load_model`, :func:`describe_model`).
 """
 
-from greyml.exceptions import UnsafeModelError
 from greyml.persist._archive import _read_npy  # noqa: F401 (greyml.persist._read_npy)
 from greyml.persist._format import (  # noqa: F401 (the constants, as greyml.persist.NAME)
     ALLOWED_CLASSES,
@@ -72,4 +75,4 @@ from greyml.persist._format import (  # noqa: F401 (the constants, as greyml.per
 from greyml.persist._reader import describe_model, load_model
 from greyml.persist._writer import save_model
 
-__all__ = ["UnsafeModelError", "describe_model", "load_model", "save_model"]
+__all__ = ["describe_model", "load_model", "save_model"]

@@ -11,7 +11,6 @@ from pathlib import Path
 import numpy as np
 import sklearn
 
-from greyml._renamed import upgrade_renamed
 from greyml.exceptions import UnsafeModelError
 from greyml.persist._archive import (
     _check_max_bytes,
@@ -197,13 +196,8 @@ class _Reader:
         state = node.get("state")
         if type(state) is not dict:
             raise _Corrupt(f"the {name} object has no attribute table")
-        renamed = getattr(cls, "_renamed_attributes", {})  # old names, moved below
         for key in state:
-            if (
-                not key.isidentifier()
-                or key.startswith("__")
-                or (_shadows_behaviour(cls, key) and key not in renamed)
-            ):
+            if not key.isidentifier() or key.startswith("__") or _shadows_behaviour(cls, key):
                 raise _Corrupt(f"the {name} object sets the forbidden attribute {key!r}")
         if "items" in node and not issubclass(cls, dict):
             raise _Corrupt(f"the {name} object has dict items but is not a dict")
@@ -220,7 +214,6 @@ class _Reader:
             attributes["n_jobs"] = None
         if "memory" in attributes:  # so are folders: a cache the file names is never used
             attributes["memory"] = None
-        upgrade_renamed(attributes, cls)  # a file from before a parameter was renamed
         obj = cls.__new__(cls)
         if "items" in node:
             dict.update(obj, self._pairs(node, depth))
@@ -412,8 +405,8 @@ def load_model(path, *, trusted=None, max_bytes=DEFAULT_MAX_BYTES):
     greyml model's fitted attributes are checked against their physical
     domain and against each other (time constants > 0, a compensator's state
     against its terms), and the work of one ``predict`` row or one ``update``
-    is bounded (at most ``MAX_TIME_CONSTANTS`` time
-    constants and ``MAX_TERMS`` terms).
+    is bounded (at most 1,000 time constants and 100,000 terms: the
+    ``MAX_TIME_CONSTANTS`` and ``MAX_TERMS`` of ``greyml/dynamic``).
 
     Parameters
     ----------

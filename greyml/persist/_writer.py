@@ -278,7 +278,7 @@ def save_model(estimator, path, *, overwrite=False) -> Path:
     >>> from pathlib import Path
     >>> import numpy as np
     >>> from greyml import GMC
-    >>> from greyml.grey import simulate_gmc
+    >>> from greyml.grey._functions import simulate_gmc
     >>> from greyml.persist import load_model, save_model
     >>> X = 1 + np.random.default_rng(0).random((60, 2))
     >>> y = simulate_gmc(X, development=0.4, driving=[0.5, -0.2], control=0.1)

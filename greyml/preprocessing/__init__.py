@@ -1,4 +1,8 @@
-"""Transformations of tests that carry no learned state."""
+"""Transformations of tests that carry no learned state.
+
+- :class:`RelativeToStart`: each column as its change since its test's first
+  row.
+"""
 
 from greyml.preprocessing._start import RelativeToStart
 

@@ -86,7 +86,6 @@ class GreyInfluenceSelector(SelectorMixin, BaseEstimator):
 
     See Also
     --------
-    greyml.fit_gm1n : the GM(1,N) least squares on its own.
     greyml.TrainOnOneTest : the papers' validation, calibrating on one test.
 
     Notes

@@ -157,8 +157,8 @@ def as_profile(ambient, what="ambient") -> AmbientProfile:
         return ambient
     value = as_float(
         ambient,
-        f"{what} must be an AmbientProfile (constant, linear_drift, diurnal, "
-        "door_openings) or a temperature in °C",
+        f"{what} must be an AmbientProfile (linear_drift, diurnal, door_openings) "
+        "or a temperature in °C",
         f"The {what} temperature must be finite",
     )
     return _Constant(value)

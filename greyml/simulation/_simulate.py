@@ -304,7 +304,7 @@ def simulate_test(
     """Simulate one heating/cooling test of a machine.
 
     The network is integrated exactly for inputs held constant over each step
-    (:func:`~greyml.simulation.zoh_discretize`); steps end at every sample time,
+    (a zero-order hold); steps end at every sample time,
     every programme segment boundary and every jump of the ambient profile;
     a smoothly varying ambient is held at its value in the middle of each step.
 

@@ -66,7 +66,7 @@ def all_estimators(type_filter=None):
     from sklearn.base import BaseEstimator
 
     import greyml
-    from greyml.optimize import PopulationOptimizer
+    from greyml.optimize._base import PopulationOptimizer
 
     if type_filter is None:
         wanted = None
