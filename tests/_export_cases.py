@@ -26,7 +26,7 @@ from conftest import caiviac_csv
 
 from greyml import Compensator, ThermalTransferFunction, make_test_index
 from greyml.controller import Uncertainty
-from greyml.controller.export._write import export_text
+from greyml.controller._export._write import export_text
 from greyml.io import read_tests_csv
 
 DAY_S = 24 * 3600.0

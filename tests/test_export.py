@@ -20,8 +20,8 @@ from _export_cases import C_FLAGS, compiler, fitted, recording
 from greyml import GMC, Compensator
 from greyml.cli import main
 from greyml.controller import Uncertainty
-from greyml.controller.export._program import SCHEMA, SCHEMA_VERSION, describe
-from greyml.controller.export._write import export_text
+from greyml.controller._export._program import SCHEMA, SCHEMA_VERSION, describe
+from greyml.controller._export._write import export_text
 from greyml.persist import load_model, save_model
 
 HOSTILE = [
@@ -273,7 +273,7 @@ def test_an_infinite_bound_is_written_as_no_bound(tmp_path):
     # (the Compensator's constraints refuse them today; an export must not write 'inf')
     import dataclasses
 
-    from greyml.controller.export._write import LANGUAGES
+    from greyml.controller._export._write import LANGUAGES
 
     comp = Compensator(
         ["T1_C"], [("T1_C", 1, 600.0, 1.0)], uncertainty=Uncertainty(1.0, 0.1, 0.1, 1.0, 2.0)

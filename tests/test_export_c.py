@@ -24,7 +24,7 @@ from _export_cases import (
 )
 
 from greyml.controller import Compensator
-from greyml.controller.export._write import export_text
+from greyml.controller._export._write import export_text
 
 pytestmark = pytest.mark.skipif(
     compiler() is None, reason="no C compiler ($CC, gcc, cc or clang) on this machine"

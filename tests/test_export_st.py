@@ -19,8 +19,8 @@ import pytest
 from _export_cases import day, fitted, replay, script, scripted
 
 from greyml.controller import Compensator
-from greyml.controller.export._program import describe
-from greyml.controller.export._st import write_st
+from greyml.controller._export._program import describe
+from greyml.controller._export._st import write_st
 
 blark = pytest.importorskip("blark", reason="blark, the IEC 61131-3 parser, is in the test extra")
 

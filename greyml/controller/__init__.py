@@ -6,7 +6,8 @@
 quantum, rate limit, hold-last-value), its interval and the probe filter that
 readings correct; :class:`Uncertainty` is how far it trusts the correction.
 ``Compensator.export`` writes the same computation as C, IEC 61131-3
-Structured Text or JSON (:mod:`greyml.controller.export`).
+Structured Text or JSON (one intermediate program and a writer per language,
+in the private ``greyml.controller._export``).
 
 The models live in :mod:`greyml.dynamic`, which never imports this package.
 """

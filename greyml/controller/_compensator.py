@@ -1054,7 +1054,7 @@ class Compensator:
         >>> "int axis_z_update(axis_z_state *s, double time_s" in text
         True
         """
-        from greyml.controller.export._write import export_compensator
+        from greyml.controller._export._write import export_compensator
 
         return export_compensator(
             self, language, path, name=name, description=description, overwrite=overwrite

@@ -16,8 +16,8 @@ import math
 from string import Template
 
 from greyml.controller._output import QUANTA_MAX, QUANTUM_TOLERANCE
-from greyml.controller.export._c import header_lines, wrap
-from greyml.controller.export._program import STATUS_CODES
+from greyml.controller._export._c import header_lines, wrap
+from greyml.controller._export._program import STATUS_CODES
 
 __all__ = ["write_st"]
 

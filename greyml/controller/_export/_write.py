@@ -1,6 +1,6 @@
 """Writing a Compensator's export: C, IEC 61131-3 Structured Text or JSON, to a file.
 
-All three come from one :class:`greyml.controller.export._program.Program`; the file is
+All three come from one :class:`greyml.controller._export._program.Program`; the file is
 written beside its final name and renamed, so a failure leaves none, and an
 existing file is replaced only when asked.
 """
@@ -12,9 +12,9 @@ import os
 from pathlib import Path
 
 from greyml._atomic import write_atomic
-from greyml.controller.export._c import write_c
-from greyml.controller.export._program import describe
-from greyml.controller.export._st import write_st
+from greyml.controller._export._c import write_c
+from greyml.controller._export._program import describe
+from greyml.controller._export._st import write_st
 
 __all__ = ["LANGUAGES", "export_compensator", "export_text"]
 

@@ -15,7 +15,7 @@ import textwrap
 from string import Template
 
 from greyml.controller._output import QUANTA_MAX, QUANTUM_TOLERANCE
-from greyml.controller.export._program import STATUS_CODES
+from greyml.controller._export._program import STATUS_CODES
 
 __all__ = ["write_c"]
 
