@@ -28,6 +28,7 @@ MODULES = [
     "greyml.selection",
     "greyml.gap",
     "greyml.gap_validation",
+    "greyml.controller",
     "greyml.dynamic",
     "greyml.exceptions",
     "greyml.utils.discovery",
@@ -149,6 +150,7 @@ def test_every_public_module_imports_without_docstrings():
     modules = [
         "greyml",
         "greyml.cli",
+        "greyml.controller",
         "greyml.datasets",
         "greyml.dynamic",
         "greyml.gap",

@@ -145,6 +145,20 @@ class Uncertainty:
         The variance the slow part returns to after a reading (≥ 0).
     memory_h : float
         The slow part's memory, in hours (> 0).
+
+    Examples
+    --------
+    An offset uncertain by 2 µm and 1 µm² of white noise: at the first row the
+    90 % half-width is 1.645·√(4 + 1) µm.
+
+    >>> from greyml.controller import Compensator, Uncertainty
+    >>> u = Uncertainty(offset_var=4.0, growth_var_per_h=0.0, noise_var=1.0,
+    ...                 memory_var=4.0, memory_h=1e6)
+    >>> comp = Compensator(["T1_C"], [("T1_C", 1, None, 2.0)], uncertainty=u)
+    >>> comp.update({"time_s": 0.0, "T1_C": 1.0})
+    2.0
+    >>> round(comp.status.half_width, 3)
+    3.678
     """
 
     offset_var: float
