@@ -186,7 +186,7 @@ class GapWarning(UserWarning):
     Examples
     --------
     >>> import warnings
-    >>> from greyml.gap import GapWarning
+    >>> from greyml.exceptions import GapWarning
     >>> with warnings.catch_warnings(record=True) as caught:
     ...     warnings.simplefilter("always")
     ...     warnings.warn("time constant at its bound", GapWarning)

@@ -1,4 +1,12 @@
-"""Shared fixtures: multi-test data with known GMC coefficients."""
+"""Shared fixtures: multi-test data with known GMC coefficients.
+
+``benchmarks/`` goes on ``sys.path`` here, so that the tests import the gap
+diagnosis's validation harness (``benchmarks/gap_harness``) as the benchmark
+scripts do: the harness is not part of the package.
+"""
+
+import sys
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -6,6 +14,10 @@ import pytest
 from scipy.signal import lfilter
 
 from greyml import make_test_index, simulate_gmc
+
+BENCHMARKS = str(Path(__file__).resolve().parents[1] / "benchmarks")
+if BENCHMARKS not in sys.path:
+    sys.path.insert(0, BENCHMARKS)
 
 TRUE_B1 = 0.3
 TRUE_B = np.array([0.8, -0.5, 0.3, 0.2])
