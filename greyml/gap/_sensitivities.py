@@ -5,6 +5,8 @@ A user who simulates a machine with :mod:`greyml.simulation` hands
 that a simulation a few percent off is recalibrated rather than blamed on an
 effect; :func:`perturb_parameters` gives the machine with its parameters
 off, to see how the diagnosis of their own cases fares with such an error.
+The simulator is imported when they are called: the diagnosis itself does
+not need it.
 """
 
 from __future__ import annotations
@@ -13,10 +15,6 @@ from dataclasses import replace
 
 import numpy as np
 import pandas as pd
-
-from greyml.datasets import make_tests
-from greyml.datasets._simulated import _machine
-from greyml.simulation import Effects
 
 __all__ = ["perturb_parameters", "simulator_sensitivities"]
 
@@ -30,6 +28,22 @@ def perturb_parameters(machine, error, rng, *, kind="class"):
     ``kind="element"``: every capacity, link, convection coefficient, power
     and displacement weight off independently (a harder case).
 
+    Parameters
+    ----------
+    machine : str or ThermalMachine
+        A preset's name (``"vmc"``, ``"gantry"``) or a machine of
+        :mod:`greyml.simulation`.
+    error : float
+        The largest relative error (0.05: up to ±5 %).
+    rng : numpy.random.Generator
+        Draws the factors.
+    kind : {"class", "element"}, default="class"
+
+    Returns
+    -------
+    ThermalMachine
+        A copy of the machine with its parameters off.
+
     Examples
     --------
     >>> import numpy as np
@@ -39,6 +53,8 @@ def perturb_parameters(machine, error, rng, *, kind="class"):
     >>> [round(a / b, 4) for a, b in zip(off.capacity[:2], m.capacity[:2])]
     [1.0137, 1.0137]
     """
+    from greyml.datasets._simulated import _machine
+
     m = _machine(machine)
     if kind not in ("class", "element"):
         raise ValueError(f"kind must be 'class' or 'element'; got {kind!r}.")
@@ -98,9 +114,26 @@ def simulator_sensitivities(machine, tests, target, *, effects=None, step=0.01):
     gives. Columns that are zero everywhere (a source switched off) are
     dropped. Pass the result as ``diagnose_gap(..., sensitivities=)``.
 
+    Parameters
+    ----------
+    machine : str or ThermalMachine
+        A preset's name (``"vmc"``, ``"gantry"``) or a machine of
+        :mod:`greyml.simulation`: the simulation as it stands, with its
+        parameters as they are (off, if they are).
+    tests : dict or sequence
+        The tests, as :func:`greyml.datasets.make_tests` takes them.
+    target : str
+        The simulated column, e.g. ``"dy_um"``.
+    effects : Effects, optional
+        The simulation's effects (noise always off); all by default.
+    step : float, default=0.01
+        The relative step of the forward difference.
+
     Returns
     -------
     DataFrame indexed by (test, time_s)
+        One column per parameter, in the target's unit per relative change
+        of 1.
 
     Examples
     --------
@@ -111,6 +144,10 @@ def simulator_sensitivities(machine, tests, target, *, effects=None, step=0.01):
     ['capacity', 'conductance', 'convection', 'expansion',
      'power: spindle bearings', 'power: spindle motor']
     """
+    from greyml.datasets import make_tests
+    from greyml.datasets._simulated import _machine
+    from greyml.simulation import Effects
+
     m = _machine(machine)
     effects = (Effects() if effects is None else effects).without("noise")
     base = make_tests(m, tests, effects=effects).frame[target]
