@@ -11,7 +11,7 @@ standing until the end. The air follows a daily cycle of 0.5-2.5 °C amplitude
 starting at a random hour; before four of the six tests the machine ran at
 4000 or 8000 rpm in the same air, so they start warm. The "measured" tests have
 every effect of the simulator and measurement noise; the "simulation" lacks
-one effect (``--withheld``, a key of ``greyml.gap_validation.WITHHELD``; by
+one effect (``--withheld``, a key of ``gap_harness.WITHHELD``; by
 default the coupling of the structure to the ambient air) and noise. The diagnosis gets the two drivers, the ambient column
 and ten temperature sensors (``fbgs=()``), so that six of the seven effects of
 the library can be tried; ``fbg_temperature`` needs an FBG target.
@@ -41,9 +41,12 @@ from greyml.datasets import make_tests
 from greyml.gap import diagnose_gap, gap_breakdown, residual_diagnostics
 
 try:
-    from greyml.gap_validation import WITHHELD
-except ImportError:  # a release before issue 27 (--against), whose harness was in greyml.gap
-    from greyml.gap import WITHHELD
+    from gap_harness import WITHHELD
+except ImportError:  # --against an older greyml, which carried the harness itself
+    try:
+        from greyml.gap_validation import WITHHELD
+    except ImportError:  # a release before issue 27, whose harness was in greyml.gap
+        from greyml.gap import WITHHELD
 from greyml.simulation import Effects, HeatingTest, Programme, diurnal
 
 LIMIT_S = 30.0

@@ -1,6 +1,6 @@
 """The gap diagnosis on cases built like real measurements (issue 27, items 1 and 2).
 
-Families (``greyml.gap_validation._measured``), each over ``--seeds`` seeds
+Families (``gap_harness._measured``, beside this script), each over ``--seeds`` seeds
 at rows every 15 s, 60 s and 5 min (a seed is the same six random
 heating/cooling tests of the VMC simulator at every rate, 5.5 h each):
 
@@ -36,9 +36,8 @@ import time
 import numpy as np
 import pandas as pd
 from _common import package_versions, write_json
+from gap_harness._measured import FAMILIES, summarise_measured, validate_measured
 from threadpoolctl import threadpool_limits
-
-from greyml.gap_validation._measured import FAMILIES, summarise_measured, validate_measured
 
 
 def _counts(series):

@@ -1,7 +1,7 @@
 """Validate the gap diagnosis on withheld effects of greyml's simulator (issue #6).
 
 For each parameter error of the simulation (exact, and every physical
-parameter class off by up to ±5 %), ``greyml.gap_validation.validate_withheld`` builds
+parameter class off by up to ±5 %), ``gap_harness.validate_withheld`` (beside this script) builds
 cases from the VMC simulator: 20 with nothing withheld; ambient, heat_source,
 initial_state and drift withheld one at a time at gap peaks of 2, 5, 10 and
 30 times the probe noise (5 seeds each); and two pairs withheld at once
@@ -34,8 +34,7 @@ import time
 
 import pandas as pd
 from _common import package_versions, write_json
-
-from greyml.gap_validation import validate_withheld
+from gap_harness import validate_withheld
 
 
 def main(argv=None):

@@ -1,6 +1,12 @@
-"""Shared fixtures: multi-test data with known GMC coefficients, where the real data lies."""
+"""Shared fixtures: multi-test data with known GMC coefficients, where the real data lies.
+
+``benchmarks/`` goes on ``sys.path`` here, so that the tests import the gap
+diagnosis's validation harness (``benchmarks/gap_harness``) as the benchmark
+scripts do: the harness is not part of the package.
+"""
 
 import os
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -36,6 +42,10 @@ def caiviac_csv_or_skip():
         )
     return path
 
+
+BENCHMARKS = str(Path(__file__).resolve().parents[1] / "benchmarks")
+if BENCHMARKS not in sys.path:
+    sys.path.insert(0, BENCHMARKS)
 
 TRUE_B1 = 0.3
 TRUE_B = np.array([0.8, -0.5, 0.3, 0.2])

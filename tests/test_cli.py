@@ -11,7 +11,7 @@ import pytest
 
 from greyml import make_test_index
 from greyml.cli import main
-from greyml.gap import GapWarning
+from greyml.exceptions import GapWarning
 from greyml.io import write_tests_csv
 
 CAUSE_FIELDS = {"effect", "detail", "rmse_before", "rmse_after", "shrinkage", "significant"}
@@ -266,7 +266,7 @@ def test_python_m_greyml(drift_case):
 
 
 def test_sensitivities_recalibrate_a_simulation_off_by_five_percent(tmp_path, capsys):
-    from greyml.gap_validation import withheld_case
+    from gap_harness import withheld_case
 
     case = withheld_case(("drift",), 10, 3, param_error=0.05)
     real = write_tests_csv(case.real, tmp_path / "real.csv")

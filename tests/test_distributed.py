@@ -285,7 +285,7 @@ def test_failing_candidate_on_dask_raises_greyml_error(client, four_drivers):
 
 @pytest.mark.timeout(300)
 def test_validate_withheld_on_dask_equals_the_sequential_run(client):
-    from greyml.gap_validation import validate_withheld
+    from gap_harness import validate_withheld
 
     kwargs = dict(
         effects=("drift",),

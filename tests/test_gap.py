@@ -5,7 +5,8 @@ import pandas as pd
 import pytest
 
 from greyml import make_test_index
-from greyml.gap import EFFECTS, GapWarning, diagnose_gap
+from greyml.exceptions import GapWarning
+from greyml.gap import EFFECTS, diagnose_gap
 from greyml.gap._effects import first_order_lag
 
 NOISE = 0.1

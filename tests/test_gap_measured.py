@@ -1,4 +1,4 @@
-"""The diagnosis on small measured-like cases of greyml.gap_validation._measured (a few seeds).
+"""The diagnosis on small measured-like cases of benchmarks/gap_harness/_measured.py (a few seeds).
 
 The benchmark ``benchmarks/bench_gap_measured.py`` runs the same families
 over 20 seeds of six 5.5-hour tests; these are three tests of 2-3 hours.
@@ -6,8 +6,7 @@ over 20 seeds of six 5.5-hour tests; these are three tests of 2-3 hours.
 
 import numpy as np
 import pytest
-
-from greyml.gap_validation._measured import (
+from gap_harness._measured import (
     drop_case,
     quantised_null_case,
     run_measured_case,

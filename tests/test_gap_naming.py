@@ -10,7 +10,8 @@ import pandas as pd
 import pytest
 
 from greyml import make_test_index
-from greyml.gap import EFFECTS, LIBRARY, GapWarning, diagnose_gap
+from greyml.exceptions import GapWarning
+from greyml.gap import EFFECTS, LIBRARY, diagnose_gap
 from greyml.gap._effects import first_order_lag
 
 NOISE = 0.1
@@ -210,7 +211,7 @@ def test_what_was_not_tried_is_said_with_the_columns_it_needs():
 
 
 def test_swapped_sensors_are_reported_before_the_search():
-    from greyml.gap_validation import withheld_case
+    from gap_harness import withheld_case
 
     case = withheld_case((), 0, 0)  # nothing withheld: the simulation is right
     real, sensors = case.real.copy(), case.roles["sensors"]

@@ -1,20 +1,16 @@
-"""greyml.gap on withheld effects: the validation harness and the recalibration by sensitivities."""
+"""greyml.gap on withheld effects: the validation harness (``benchmarks/gap_harness``) and the
+recalibration by sensitivities."""
 
 import warnings
 
 import numpy as np
 import pandas as pd
 import pytest
+from gap_harness import random_tests, validate_withheld, withheld_case
 
 from greyml.datasets import make_tests
-from greyml.gap import GapWarning, diagnose_gap
-from greyml.gap_validation import (
-    perturb_parameters,
-    random_tests,
-    simulator_sensitivities,
-    validate_withheld,
-    withheld_case,
-)
+from greyml.exceptions import GapWarning
+from greyml.gap import diagnose_gap, perturb_parameters, simulator_sensitivities
 from greyml.simulation import Effects, Programme, vmc
 
 
@@ -139,7 +135,7 @@ def test_validate_withheld_small_run():
 
 
 def test_pairs_summarise_both_named_by_parameter_error():
-    from greyml.gap_validation import WithheldValidation
+    from gap_harness import WithheldValidation
 
     cases = pd.DataFrame(
         {

@@ -8,7 +8,8 @@ import pandas as pd
 
 from greyml import make_test_index
 from greyml._caller import user_stacklevel, warn_user
-from greyml.gap import GapWarning, diagnose_gap
+from greyml.exceptions import GapWarning
+from greyml.gap import diagnose_gap
 from greyml.gap._effects import first_order_lag
 
 

@@ -104,7 +104,8 @@ from threadpoolctl import threadpool_limits
 
 from greyml import ThermalTransferFunction
 from greyml.datasets import load_caiviac
-from greyml.gap import GapWarning, diagnose_gap
+from greyml.exceptions import GapWarning
+from greyml.gap import diagnose_gap
 
 TARGET = "ch3_um"
 DRIVER = "spindle_rpm"

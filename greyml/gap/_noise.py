@@ -43,7 +43,7 @@ with q the step of the readings (given, or detected: :func:`detect_quantum`).
 For a probe whose reading stands still, s = 1 and the floor is
 √(σ² + q²/12); for readings that dither, s ≈ 0 and it is the white part.
 On quantised readings of a displacement that crosses several steps (the
-null cases of :mod:`greyml.gap_validation._measured`: VMC probe noise
+null cases of ``benchmarks/bench_gap_measured.py``: VMC probe noise
 0.1 µm, steps of 0.25 and 1 µm, rows every 15 s to 5 min) the floor came out
 between 5 % below and 25 % above the root mean square of the true
 measurement error. Where the displacement stands still on one step for a

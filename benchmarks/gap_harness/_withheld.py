@@ -20,14 +20,14 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from greyml.exceptions import GapWarning
-from greyml.gap import EFFECTS, diagnose_gap
-from greyml.gap_validation._cases import (
+from gap_harness._cases import (
     _EXTRA,
     CUSTOM_NAME,
     FOREIGN_NAME,
     withheld_case,
 )
+from greyml.exceptions import GapWarning
+from greyml.gap import EFFECTS, diagnose_gap
 
 __all__ = ["WithheldValidation", "validate_withheld"]
 

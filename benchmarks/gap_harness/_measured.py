@@ -1,6 +1,6 @@
 """Cases built like real measurements: quantised probes, and one case at three row rates.
 
-The withheld-effect cases (:mod:`greyml.gap_validation._cases`) read the probe with
+The withheld-effect cases (:mod:`gap_harness._cases`) read the probe with
 white noise at the simulator's row rate. Real recordings differ in two ways
 that the diagnosis must survive:
 
@@ -45,10 +45,10 @@ from dataclasses import dataclass, fields, replace
 import numpy as np
 import pandas as pd
 
+from gap_harness._cases import WithheldCase, _case, _simulated, random_tests
 from greyml.datasets import make_tests
 from greyml.datasets._simulated import _machine, main_target
-from greyml.gap._report import GapWarning
-from greyml.gap_validation._cases import WithheldCase, _case, _simulated, random_tests
+from greyml.exceptions import GapWarning
 from greyml.simulation import door_openings
 
 __all__ = [
@@ -82,7 +82,7 @@ SLOW_NOISE_S = 60.0
 
 @dataclass
 class MeasuredCase(WithheldCase):
-    """A :class:`~greyml.gap.WithheldCase` built like a real measurement.
+    """A :class:`~gap_harness.WithheldCase` built like a real measurement.
 
     Besides the withheld case's data and truth: the ``family``, the row rate
     ``sample_s``, the ``quantum`` of the readings (0: continuous), the

@@ -5,8 +5,9 @@ greyml's simulator plays the real machine: random heating tests, the
 "simulation" with effects withheld (and its own parameters a few percent
 off, with their sensitivities as a user could compute for theirs), and the
 cases outside the library (a located event, a custom heat input, a heater
-the library lacks). :mod:`greyml.gap_validation._withheld` runs the
-diagnosis on them.
+the library lacks). :mod:`gap_harness._withheld` runs the diagnosis on
+them. The simulation's parameter error and sensitivities are greyml's own
+(:func:`greyml.gap.perturb_parameters`, :func:`greyml.gap.simulator_sensitivities`).
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ import pandas as pd
 
 from greyml.datasets import make_tests
 from greyml.datasets._simulated import _machine, main_target
+from greyml.gap import perturb_parameters, simulator_sensitivities
 from greyml.simulation import Effects, HeatingTest, Programme, diurnal
 
 __all__ = [
@@ -27,9 +29,7 @@ __all__ = [
     "FOREIGN_NAME",
     "WITHHELD",
     "WithheldCase",
-    "perturb_parameters",
     "random_tests",
-    "simulator_sensitivities",
     "withheld_case",
 ]
 
@@ -86,111 +86,6 @@ def random_tests(machine, rng, n_tests=6, hours=5.5):
             history = Programme().run(int(rng.integers(30, 120)), **{first: level})
         out.append(HeatingTest(f"T{k + 1}", programme, air, history))
     return out
-
-
-def perturb_parameters(machine, error, rng, *, kind="class"):
-    """The machine with its parameters off by up to ±``error`` (relative, uniform).
-
-    ``kind="class"``: one factor per physical parameter shared by all
-    elements (heat capacity, conductance, convection, expansion) and one per
-    heat source's power, as a material constant or a loss estimate is off.
-    ``kind="element"``: every capacity, link, convection coefficient, power
-    and displacement weight off independently (a harder case).
-
-    Examples
-    --------
-    >>> import numpy as np
-    >>> from greyml.simulation import vmc
-    >>> m = vmc()
-    >>> off = perturb_parameters(m, 0.05, np.random.default_rng(0))
-    >>> [round(a / b, 4) for a, b in zip(off.capacity[:2], m.capacity[:2])]
-    [1.0137, 1.0137]
-    """
-    m = _machine(machine)
-    if kind not in ("class", "element"):
-        raise ValueError(f"kind must be 'class' or 'element'; got {kind!r}.")
-
-    def draw():
-        return 1.0 + error * rng.uniform(-1.0, 1.0)
-
-    classes = ("capacity", "conductance", "convection", "expansion")
-    shared = {name: draw() for name in classes} if kind == "class" else {}
-
-    def factor(name):
-        return shared[name] if shared else draw()
-
-    return replace(
-        m,
-        capacity=tuple(c * factor("capacity") for c in m.capacity),
-        links=tuple((a, b, g * factor("conductance")) for a, b, g in m.links),
-        convection={k: v * factor("convection") for k, v in m.convection.items()},
-        sources=tuple(replace(s, power_W=s.power_W * draw()) for s in m.sources),
-        displacement={
-            t: {k: v * factor("expansion") for k, v in w.items()} for t, w in m.displacement.items()
-        },
-    )
-
-
-def _scaled(m, parameter, factor):
-    if parameter == "capacity":
-        return replace(m, capacity=tuple(c * factor for c in m.capacity))
-    if parameter == "conductance":
-        return replace(m, links=tuple((a, b, g * factor) for a, b, g in m.links))
-    if parameter == "convection":
-        return replace(m, convection={k: v * factor for k, v in m.convection.items()})
-    if parameter == "expansion":
-        return replace(
-            m,
-            displacement={
-                t: {k: v * factor for k, v in w.items()} for t, w in m.displacement.items()
-            },
-        )
-    index = int(parameter)
-    return replace(
-        m,
-        sources=tuple(
-            replace(s, power_W=s.power_W * factor) if i == index else s
-            for i, s in enumerate(m.sources)
-        ),
-    )
-
-
-def simulator_sensitivities(machine, tests, target, *, effects=None, step=0.01):
-    """Sensitivities of a simulated target to the machine's physical parameters.
-
-    One column per parameter: heat capacity, conductance, convection,
-    expansion (every displacement weight) and the power of each heat source,
-    each the change of ``target`` for a relative change of 1 (a forward
-    difference at ``step``), on the rows :func:`greyml.datasets.make_tests`
-    gives. Columns that are zero everywhere (a source switched off) are
-    dropped. Pass the result as ``diagnose_gap(..., sensitivities=)``.
-
-    Returns
-    -------
-    DataFrame indexed by (test, time_s)
-
-    Examples
-    --------
-    >>> from greyml.simulation import Effects, Programme
-    >>> tests = {"A": Programme().run(60, spindle_rpm=8000).dwell(60)}
-    >>> S = simulator_sensitivities("vmc", tests, "dy_um", effects=Effects().without("probe_drift"))
-    >>> list(S.columns)  # the feed-driven sources are off in this test: dropped
-    ['capacity', 'conductance', 'convection', 'expansion',
-     'power: spindle bearings', 'power: spindle motor']
-    """
-    m = _machine(machine)
-    effects = (Effects() if effects is None else effects).without("noise")
-    base = make_tests(m, tests, effects=effects).frame[target]
-    columns = {}
-    names = ["capacity", "conductance", "convection", "expansion"]
-    names += [str(i) for i in range(len(m.sources))]
-    for name in names:
-        moved = make_tests(_scaled(m, name, 1.0 + step), tests, effects=effects).frame[target]
-        column = ((moved - base) / step).to_numpy()
-        if np.any(column != 0.0):
-            label = name if not name.isdigit() else f"power: {m.sources[int(name)].name}"
-            columns[label] = column
-    return pd.DataFrame(columns, index=base.index)
 
 
 @dataclass
