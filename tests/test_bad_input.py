@@ -36,12 +36,13 @@ from greyml import (
 class Entry:
     """How to drive one public entry point through fit and predict."""
 
-    def __init__(self, name, make, has, step=None, cases=None):
+    def __init__(self, name, make, has, step=None, cases=None, stages=("fit", "predict")):
         self.name = name
         self.make = make
         self.has = frozenset(has)
         self.step = step
         self.cases = cases
+        self.stages = stages
 
     def fit(self, X, y):
         est = self.make()
@@ -74,12 +75,15 @@ class SplitEntry(Entry):
 
 
 def _from_table(entry):
-    """One Entry per step after fit ("AGO", "AGO.inverse_transform")."""
+    """One Entry per step after fit ("AGO", "AGO.inverse_transform"); a later step
+    meets the predict-stage cases only (its fit is the first step's, which meets
+    the fit-stage cases)."""
     out = []
     for k, step in enumerate(entry.steps):
         name = entry.name if k == 0 else f"{entry.name}.{step}"
         make = lambda e=entry: clone(e.estimator)  # noqa: E731
-        out.append(Entry(name, make, entry.needs, step=step, cases=entry.cases))
+        stages = ("fit", "predict") if k == 0 else ("predict",)
+        out.append(Entry(name, make, entry.needs, step=step, cases=entry.cases, stages=stages))
     return out
 
 
@@ -101,6 +105,8 @@ ENTRIES = [
 
 def _applies(case, entry):
     if entry.cases is not None and case.name not in entry.cases:
+        return False
+    if case.stage not in entry.stages:
         return False
     if "labels_only" in entry.has:
         return "index" in case.needs and not case.needs & {"y", "fitted"}
