@@ -6,7 +6,7 @@ import pytest
 from sklearn.base import BaseEstimator, RegressorMixin, TransformerMixin
 
 import greyml
-from greyml.dynamic import Compensator, LagFeatures, ThermalTransferFunction
+from greyml import Compensator, LagFeatures, ThermalTransferFunction
 from greyml.utils.discovery import all_estimators
 
 
