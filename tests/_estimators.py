@@ -14,7 +14,9 @@ iterations, one or two lags), used as it is by every suite it names:
     ``"checks"``: scikit-learn's estimator checks. They give plain arrays of
     10-30 rows without greyml's ``time_s`` level, so a sequence model there
     has a ``sample_interval`` (where a ``time_s`` level is present, it wins)
-    and names no column. ``"bad_input"``: the bad-input matrix of
+    and names no column; the checks of the class alone (constructor,
+    parameters, validation of bad input) run on a class's first entry, the
+    checks that fit and predict on every entry. ``"bad_input"``: the bad-input matrix of
     :mod:`bad_inputs`, on two test-indexed heating tests (``make_test_index``,
     levels ``TEST_LEVEL`` and ``TIME_LEVEL``) of three sensors ``T1_C`` to
     ``T3_C``. ``"roundtrip"``: greyml's model files, pickle and joblib, fitted
