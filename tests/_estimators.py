@@ -125,8 +125,8 @@ TABLE = [
         cases=SOLVER_CASES,
     ),
     Entry("GNNMCI", GNNMCI(n_population=6, max_iter=3, random_state=0), needs=MODEL),
-    Entry("ANFISGrid", ANFISGrid(max_iter=10, random_state=0), needs=MODEL),
-    Entry("ANFISFCM", ANFISFCM(random_state=0), needs=MODEL),
+    Entry("ANFISGrid", ANFISGrid(max_iter=3, random_state=0), needs=MODEL),
+    Entry("ANFISFCM", ANFISFCM(n_clusters=2, max_iter=3, random_state=0), needs=MODEL),
     # the defaults: scikit-learn's checks fit as few as 20 rows of 3 columns,
     # fewer than the 51 weights of a 3-10-1 network, which trains (damped
     # Levenberg-Marquardt) and warns (UnderdeterminedWarning, test_mlp.py)
