@@ -238,16 +238,6 @@ TABLE = [
         needs=MODEL,
     ),
     Entry(
-        "selector-GMC-cs",
-        Pipeline(
-            [
-                ("select", GreyInfluenceSelector(n_clusters=2, random_state=0)),
-                ("model", GMC(solver="cs", n_population=6, max_iter=3, random_state=0)),
-            ]
-        ),
-        ROUNDTRIP,
-    ),
-    Entry(
         "AGO-AccumulatedTargetRegressor",
         Pipeline([("ago", AGO()), ("model", AccumulatedTargetRegressor(Ridge(alpha=0.1)))]),
         ROUNDTRIP,

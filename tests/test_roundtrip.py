@@ -167,8 +167,9 @@ def test_fitted_round_trip_is_identical_on_new_tests(name, how, split, tmp_path)
     for key, value in _outputs(refit, X_new).items():
         np.testing.assert_array_equal(np.asarray(value), np.asarray(before[key]), key)
     # and on the tests it was fitted on
+    fitted_on = _outputs(model, X)
     for key, value in _outputs(loaded, X).items():
-        np.testing.assert_array_equal(np.asarray(value), np.asarray(_outputs(model, X)[key]), key)
+        np.testing.assert_array_equal(np.asarray(value), np.asarray(fitted_on[key]), key)
 
 
 def _rows(X):
