@@ -80,6 +80,17 @@ UNTYPED = {"numbers_as_text", "text_column_at_predict", "categorical_column"}
 NAMED_ANYHOW = {"mixed_column_name_types"}
 #: The target is a column of the same table, not a second argument.
 Y_APART = {"target_length", "target_two_columns", "x_and_y_tests_disagree"}
+#: Cases every metric refuses in its one input check (``_check_pair`` of
+#: greyml.metrics), in the same words: rmse meets them in the matrix, the other
+#: metrics in test_the_metrics_refuse_bad_pairs_in_one_voice.
+PAIR_CHECKED = {
+    "empty",
+    "nan_in_target",
+    "inf_in_target",
+    "target_length",
+    "target_two_columns",
+    "target_text",
+}
 
 
 class Entry:
@@ -316,6 +327,7 @@ ENTRIES = [
         _metric(residual_band),
         ("y",),
         accepts={"x_and_y_tests_disagree"},
+        skip=PAIR_CHECKED,
         touches_y=True,
     ),
     Entry(
@@ -323,6 +335,7 @@ ENTRIES = [
         _metric(improvement),
         ("y",),
         accepts={"x_and_y_tests_disagree"},
+        skip=PAIR_CHECKED,
         touches_y=True,
     ),
     Entry(
@@ -331,6 +344,7 @@ ENTRIES = [
         ("y", "model"),
         # overflow-free arithmetic: a metric of any finite numbers is a number
         accepts={"x_and_y_tests_disagree", "huge_in_target"},
+        skip=PAIR_CHECKED,
         touches_y=True,
     ),
     Entry(
@@ -339,6 +353,7 @@ ENTRIES = [
         ("y", "model"),
         # overflow-free arithmetic: a metric of any finite numbers is a number
         accepts={"x_and_y_tests_disagree", "huge_in_target"},
+        skip=PAIR_CHECKED,
         touches_y=True,
     ),
     Entry(
@@ -448,10 +463,36 @@ def test_bad_input(entry, case, tmp_path, capsys, request):
     assert X.equals(X0) and y.equals(y0)
 
 
+METRICS = {"rmse": rmse, "residual_band": residual_band, "improvement": improvement}
+METRICS |= {"correlation": correlation, "nash_sutcliffe": nash_sutcliffe}
+
+
+def test_the_metrics_refuse_bad_pairs_in_one_voice():
+    """Each metric refuses the cases of its one input check in rmse's words (which
+    the matrix checks name what was wrong)."""
+    X, y = valid_data()
+    X0, y0 = X.copy(), y.copy()
+    ctx = {"pred": _pred(y)}
+    for case in CASES:
+        if case.name not in PAIR_CHECKED:
+            continue
+        Xb, yb = case.corrupt(X, y)
+        messages = {}
+        for name, function in METRICS.items():
+            with pytest.raises((ValueError, TypeError)) as err:
+                _metric(function)(Xb, yb, case, ctx)
+            messages[name] = (type(err.value), str(err.value))
+        assert len(set(messages.values())) == 1, (case.name, messages)
+    # nothing the user gave is modified
+    assert X.equals(X0) and y.equals(y0)
+
+
 def test_matrix_size():
     """At least 30 cases run; every entry point meets a good share of them."""
     assert len(CASES) >= 30
     per_entry = {e.name: sum(_applies(c, e) for c in CASES) for e in ENTRIES}
+    # (with the cases of their one input check, met in rmse's words above)
+    per_entry |= {name: per_entry[name] + len(PAIR_CHECKED) for name in METRICS if name != "rmse"}
     assert min(per_entry.values()) >= 8, per_entry
     assert len(PAIRS) >= 250, len(PAIRS)
     assert len(PAIRS) + len(PARAM_CASES) + len(CLI_CASES) >= 450

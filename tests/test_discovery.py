@@ -6,8 +6,7 @@ import pytest
 from sklearn.base import BaseEstimator, RegressorMixin, TransformerMixin
 
 import greyml
-from greyml.controller import Compensator
-from greyml.dynamic import LagFeatures, ThermalTransferFunction
+from greyml import Compensator, LagFeatures, ThermalTransferFunction
 from greyml.utils.discovery import all_estimators
 
 

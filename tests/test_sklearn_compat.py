@@ -1,20 +1,18 @@
 """scikit-learn's estimator checks for every greyml estimator."""
 
+from functools import partial
+
 import pytest
-from sklearn.linear_model import Ridge
+from _estimators import entries
+from sklearn.base import BaseEstimator
 from sklearn.utils.estimator_checks import parametrize_with_checks
 
 from greyml import (
-    AGO,
     ANFISFCM,
-    GMC,
-    GNNMCI,
-    AccumulatedTargetRegressor,
     ANFISGrid,
     GreyInfluenceSelector,
     LagFeatures,
     MLPBaseline,
-    RelativeToStart,
     ThermalTransferFunction,
 )
 from greyml.utils.discovery import all_estimators
@@ -32,57 +30,15 @@ SEQUENCE_CHECKS = {
     "check_methods_sample_order_invariance": SEQUENCE_REASON,
 }
 
-ESTIMATORS = [
-    AGO(),
-    GMC(solver="ls"),
-    # the swarms and nests are cut for time (the cuckoo search's 25 × 100 cost
-    # the most of any estimator over these checks, Abdulshahed et al.'s (2016) 90 × 100 swarm
-    # ~40 s), as scikit-learn does for its own iterative estimators; the
-    # default budgets are exercised in tests/test_gmc.py and tests/test_gnnmci.py
-    GMC(solver="pso", n_population=10, max_iter=20),
-    GMC(solver="cs", n_population=10, max_iter=20),
-    GNNMCI(n_population=20, max_iter=20),
-    ANFISGrid(),
-    ANFISFCM(),
-    # the defaults: scikit-learn's checks fit as few as 20 rows of 3 columns,
-    # fewer than the 51 weights of a 3-10-1 network, which trains (damped
-    # Levenberg-Marquardt) and warns (UnderdeterminedWarning, see below)
-    MLPBaseline(),
-    GreyInfluenceSelector(n_clusters=2, random_state=0),
-    AccumulatedTargetRegressor(),
-    AccumulatedTargetRegressor(Ridge(alpha=1.0)),
-    # scikit-learn's checks give plain arrays, without greyml's time_s index:
-    # evenly spaced rows sample_interval seconds apart
-    LagFeatures([2.0, 10.0], sample_interval=1.0),
-    LagFeatures([5.0], state="carry", powers=(1, 2), include_input=False, sample_interval=1.0),
-    # issue 30's instance: a machine's bank, rows 15 s apart
-    LagFeatures(time_constants=(300.0, 2700.0), sample_interval=15.0),
-    # scikit-learn's checks fit as few as 10 rows of up to 4 columns: fewer than
-    # the 4 x 5 gains of the default bank of four lags, which the model refuses;
-    # one lag (2 gains per column; the checks' arrays have no time_s level, so
-    # the rows are said to be 1 s apart) fits them
-    ThermalTransferFunction(time_constants=[30.0], sample_interval=1.0),
-    ThermalTransferFunction(
-        time_constants=[30.0], max_sensors=1, reference="recording", sample_interval=1.0
-    ),
-    ThermalTransferFunction(
-        time_constants=[30.0], reference="start", state="restart", sample_interval=1.0
-    ),
-    # issue 30's instance: the default bank of four lags, rows 15 s apart; the
-    # checks' 10-20 rows are fewer than its 11 gains, which the ridge penalty
-    # fits (UnderdeterminedWarning, see below)
-    ThermalTransferFunction(max_sensors=2, sample_interval=15.0),
-    # each row minus its test's first row: a subset that drops the first row changes
-    # every other row (a sequence transformation, though it learns nothing)
-    RelativeToStart(),
-    RelativeToStart(columns=[0]),
-]
+# the instances of tests/_estimators.py's table that name the checks among their
+# suites (their sizes and the reasons for them are given there)
+ESTIMATORS = [entry.estimator for entry in entries("checks")]
 
-# Estimators that greyml.utils.discovery finds but the checks are not run on,
-# each with its reason; every other one has at least one instance above.
-# (none: the Compensator, a controller's running correction with nothing to fit,
-# is not an estimator; its update is tested in test_dynamic_compensator.py)
-NOT_CHECKED = {}
+# Estimators that greyml.utils.discovery finds but a suite of the table does not
+# meet, each with its reason; every other one has at least one entry there.
+# (The Compensator, a controller's running correction with nothing to fit, is
+# not an estimator: it is in the round trip only, built from a fitted model.)
+NOT_IN = {"checks": {}, "bad_input": {}, "roundtrip": {}}
 
 # ANFIS and the MLP map each row to its output on its own (a static model), and
 # the selector's transform keeps columns row by row: they must pass every
@@ -116,6 +72,61 @@ def _expected_failures(estimator):
     return out
 
 
+# Checks that read only the class's code, the same for every instance: its
+# constructor and parameters (defaults, get/set_params, clone, repr, tags, the
+# order of its bases), and the validation that refuses the checks' bad input
+# (1-D, complex, object, sparse, empty, NaN/inf data, a missing y, predict
+# before fit) before any configuration-dependent code runs. They run on a
+# class's first instance; its other instances (another solver, reference or lag
+# state) meet every check that fits or predicts. The bad-input matrix shows that
+# the GMC solvers refuse bad input in GMC-ls's words
+# (test_bad_input.py::test_a_solver_is_refused_in_its_class_words).
+CLASS_CHECKS = {
+    "check_parameters_default_constructible",
+    "check_do_not_raise_errors_in_init_or_set_params",
+    "check_no_attributes_set_in_init",
+    "check_get_params_invariance",
+    "check_set_params",
+    "check_estimator_cloneable",
+    "check_estimator_repr",
+    "check_estimator_tags_renamed",
+    "check_mixin_order",
+    "check_estimators_unfitted",
+    "check_estimators_empty_data_messages",
+    "check_fit1d",
+    "check_fit2d_predict1d",
+    "check_complex_data",
+    "check_dtype_object",
+    "check_estimator_sparse_array",
+    "check_estimator_sparse_matrix",
+    "check_estimators_nan_inf",
+    "check_supervised_y_no_nan",
+    "check_requires_y_none",
+}
+
+
+def _check_name(check):
+    while isinstance(check, partial):
+        check = check.func
+    return check.__name__
+
+
+def _sized_to_what_they_check(estimators):
+    """scikit-learn's parametrisation, the class checks on each class's first instance."""
+    seen, kept = set(), []
+    for estimator in estimators:
+        mark = parametrize_with_checks([estimator], expected_failed_checks=_expected_failures).mark
+        # a meta-estimator's input is read by the estimator it wraps: all checks
+        wraps = any(isinstance(v, BaseEstimator) for v in estimator.get_params().values())
+        first = type(estimator) not in seen or wraps
+        seen.add(type(estimator))
+        for param in mark.args[1]:
+            _, check = param.values if hasattr(param, "values") else param
+            if first or _check_name(check) not in CLASS_CHECKS:
+                kept.append(param)
+    return pytest.mark.parametrize(mark.args[0], kept, **mark.kwargs)
+
+
 # scikit-learn's checks fit random numbers, not heating tests: a grey model
 # calibrated on them is often unstable (b1 < 0), which is not what they check
 @pytest.mark.filterwarnings("ignore::greyml.exceptions.GreyStabilityWarning")
@@ -126,16 +137,26 @@ def _expected_failures(estimator):
 # ... and they predict on rows drawn from their data, whose first row is not
 # where the training rows started (tested in test_gmc.py)
 @pytest.mark.filterwarnings("ignore::greyml.exceptions.GreyWarmStartWarning")
-@parametrize_with_checks(ESTIMATORS, expected_failed_checks=_expected_failures)
+@_sized_to_what_they_check(ESTIMATORS)
 def test_sklearn_compatible(estimator, check):
     check(estimator)
 
 
-def test_the_checks_cover_every_estimator():
-    checked = {type(estimator) for estimator in ESTIMATORS}
+def _classes_in(estimator):
+    """The estimator's class and those of the estimators it holds as parameters."""
+    held = estimator.get_params(deep=True).values()
+    return {type(estimator)} | {type(v) for v in held if isinstance(v, BaseEstimator)}
+
+
+@pytest.mark.parametrize("suite", ["checks", "bad_input", "roundtrip"])
+def test_the_table_covers_every_estimator(suite):
+    """Every estimator greyml.utils.discovery finds is in each suite of the table."""
+    covered = set().union(*(_classes_in(entry.estimator) for entry in entries(suite)))
+    if suite == "checks":  # the checks run on the estimator itself, not inside a pipeline
+        covered = {type(entry.estimator) for entry in entries(suite)}
     discovered = dict(all_estimators())
-    missing = sorted(name for name, cls in discovered.items() if cls not in checked)
-    assert missing == sorted(NOT_CHECKED), f"no instance in ESTIMATORS: {missing}"
+    missing = sorted(name for name, cls in discovered.items() if cls not in covered)
+    assert missing == sorted(NOT_IN[suite]), f"no entry of the {suite} suite: {missing}"
 
 
 def test_the_dynamic_models_document_the_checks_they_are_expected_to_fail():
