@@ -284,7 +284,6 @@ def _check_writable(out):
             )
 
 
-
 def read_tests_csv(
     path, *, time_unit="s", sep=None, decimal=None, max_line_bytes=None, test_column=None
 ):

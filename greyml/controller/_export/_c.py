@@ -14,8 +14,8 @@ import math
 import textwrap
 from string import Template
 
-from greyml.controller._output import QUANTA_MAX, QUANTUM_TOLERANCE
 from greyml.controller._export._program import STATUS_CODES
+from greyml.controller._output import QUANTA_MAX, QUANTUM_TOLERANCE
 
 __all__ = ["write_c"]
 

@@ -15,9 +15,9 @@ from __future__ import annotations
 import math
 from string import Template
 
-from greyml.controller._output import QUANTA_MAX, QUANTUM_TOLERANCE
 from greyml.controller._export._c import header_lines, wrap
 from greyml.controller._export._program import STATUS_CODES
+from greyml.controller._output import QUANTA_MAX, QUANTUM_TOLERANCE
 
 __all__ = ["write_st"]
 
