@@ -26,6 +26,8 @@ from greyml import (
     GreyInfluenceSelector,
     groups_of,
 )
+from greyml.controller import Uncertainty
+from greyml.dynamic import IntervalCalibration
 from greyml.exceptions import UnsafeModelError
 from greyml.optimize import CuckooSearch
 from greyml.persist import ALLOWED_CLASSES, describe_model, load_model, save_model
@@ -144,6 +146,10 @@ def test_the_allowlist_holds_every_estimator_by_its_top_level_name():
     others.add("greyml.selection.TrainOnOneTest")
     others.add("greyml.Compensator")  # the runtime object, saved with its state
     assert greyml.Compensator is ALLOWED_CLASSES["greyml.Compensator"]
+    # the records a fitted model and a compensator hold, by their public names
+    others |= {"greyml.dynamic.IntervalCalibration", "greyml.controller.Uncertainty"}
+    assert ALLOWED_CLASSES["greyml.dynamic.IntervalCalibration"] is IntervalCalibration
+    assert ALLOWED_CLASSES["greyml.controller.Uncertainty"] is Uncertainty
     assert greyml_classes == {f"greyml.{name}" for name, _ in estimators} | others
 
 

@@ -12,6 +12,7 @@ optimiser objects). The second half checks that tampered model files the other
 file does not cover fail with a clear greyml error and execute nothing.
 """
 
+import dataclasses
 import io
 import json
 import pickle
@@ -117,6 +118,11 @@ def _assert_same_value(a, b, where):
         assert np.isnan(b), where
     elif isinstance(a, TrainOnOneTest):
         assert vars(a) == vars(b), where
+    elif dataclasses.is_dataclass(a) and not isinstance(a, type):  # a record: field by field
+        assert type(a) is type(b), where
+        for field in dataclasses.fields(a):
+            name = field.name
+            _assert_same_value(getattr(a, name), getattr(b, name), f"{where}.{name}")
     else:
         assert a == b, where
 
