@@ -459,9 +459,10 @@ class Compensator:
     s_k = a_k s_{k−1} + (1 − a_k) x_k, a_k = exp(−Δt_k/τ), Δt_k from the
     rows' ``time_s``. Each :meth:`update` costs a few small array operations
     over the terms, whatever the length of the recording. Build one by hand,
-    or from a fitted ``Pipeline(LagFeatures, [StandardScaler], linear model)``
-    with :meth:`from_pipeline`: streaming a test row by row then gives the
-    pipeline's ``predict`` on that test.
+    from a fitted :class:`greyml.ThermalTransferFunction` with
+    :meth:`from_model`, or from a fitted ``Pipeline(LagFeatures,
+    [StandardScaler], linear model)`` with :meth:`from_pipeline`: streaming a
+    test row by row then gives the model's ``predict`` on that test.
 
     Read more in the :ref:`User Guide <ug-compensator>`.
 
@@ -531,7 +532,7 @@ class Compensator:
     See Also
     --------
     greyml.LagFeatures : the same lags, computed for whole tests.
-    greyml.ThermalTransferFunction : a model whose ``compensator()`` gives one.
+    greyml.ThermalTransferFunction : a model :meth:`from_model` runs.
 
     Notes
     -----

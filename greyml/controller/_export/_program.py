@@ -165,7 +165,7 @@ class StateVar:
 
 @dataclass(frozen=True)
 class Trust:
-    """The probe filter's calibration and constants (:mod:`_compensator_trust`)."""
+    """The probe filter's calibration and constants (:class:`greyml.controller.Uncertainty` and the filter's own)."""
 
     offset_var: float
     growth_var_per_h: float
