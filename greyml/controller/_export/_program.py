@@ -165,7 +165,7 @@ class StateVar:
 
 @dataclass(frozen=True)
 class Trust:
-    """The probe filter's calibration and constants (:class:`greyml.controller.Uncertainty` and the filter's own)."""
+    """The probe filter's calibration (an :class:`~greyml.controller.Uncertainty`) and constants."""
 
     offset_var: float
     growth_var_per_h: float
