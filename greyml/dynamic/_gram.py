@@ -20,6 +20,7 @@ __all__ = [
     "GramBlocks",
     "design",
     "held_out_errors",
+    "held_out_rmse",
     "held_out_scores",
     "held_out_spread",
     "select_sensors",
@@ -189,6 +190,12 @@ def held_out_errors(grams, cols, alphas, pen, folds):
         sse = yy[h] - 2.0 * (bs[h] @ coefs) + np.einsum("ia,ij,ja->a", coefs, Gs[h], coefs)
         out[i] = np.sqrt(np.maximum(sse, 0.0) / sw[h])
     return out
+
+
+def held_out_rmse(grams, k, coef):
+    """The RMSE of test ``k`` predicted by ``coef`` (every column), from its own Gram."""
+    sse = grams.yy[k] - 2.0 * (grams.b[k] @ coef) + coef @ grams.G[k] @ coef
+    return float(np.sqrt(max(sse, 0.0) / grams.sw[k]))
 
 
 def held_out_scores(grams, cols, alphas, pen, folds):

@@ -28,7 +28,6 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import nnls
 
-from greyml.dynamic._gram import solve_all
 
 __all__ = [
     "IntervalCalibration",
@@ -49,26 +48,16 @@ def held_out_predictions(A, grams, folds, bounds, choose):
 
     ``A`` is the design (n, p) in the columns of ``grams`` (per-test raw
     :class:`~greyml.dynamic._gram.GramBlocks`). For each fold ``k``,
-    ``choose(grams_without_k, other_folds)``
-    returns ``(cols, alpha, pen)``: the columns and penalty chosen without
-    test ``k`` (the sensor selection is redone, so the residuals carry its
-    own error, as a refit on the other tests would). The ridge is then solved
-    without test ``k``'s Gram and predicts its rows. Returns {k: ndarray}.
+    ``choose(k, grams_without_k, other_folds)`` returns the coefficients
+    (p,) chosen and solved without test ``k`` (the sensor selection redone,
+    so the residuals carry its own error, as a refit on the other tests
+    would), which predict its rows. Returns {k: ndarray}.
     """
     out = {}
     for k in folds:
-        without = grams.without(k)
-        cols, alpha, pen = choose(without, [f for f in folds if f != k])
-        ix = np.ix_(cols, cols)
-        coef = solve_all(
-            without.G[:, ix[0], ix[1]].sum(axis=0),
-            without.b[:, cols].sum(axis=0),
-            without.sw.sum(),
-            [alpha],
-            pen[cols],
-        )[:, 0]
+        coef = choose(k, grams.without(k), [f for f in folds if f != k])
         start, stop = bounds[k]
-        out[k] = A[start:stop][:, cols] @ coef
+        out[k] = A[start:stop] @ coef
     return out
 
 

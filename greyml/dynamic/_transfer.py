@@ -36,6 +36,7 @@ import numbers
 import warnings
 from collections.abc import Mapping
 from dataclasses import dataclass, replace
+from functools import partial
 
 import numpy as np
 import pandas as pd
@@ -58,12 +59,15 @@ from greyml._validation import (
 from greyml.dynamic._gram import (
     GramBlocks,
     _cols_all,
+    _score,
     design,
     grams_by_test,
+    held_out_rmse,
     held_out_scores,
     select_sensors,
     solve_all,
 )
+from greyml.dynamic._sparse import RIDGE, group_lasso_at, group_lasso_select
 from greyml.dynamic._intervals import (
     IntervalCalibration,
     held_out_predictions,
@@ -132,6 +136,22 @@ class Bank:
     alpha: float
     score: float
     path: list
+    #: "group" (group lasso), "forward", "stable" or "all" (every sensor, ridge)
+    method: str = "all"
+    #: the group lasso's coefficients on all tests and its penalty (None for a ridge)
+    coef: np.ndarray | None = None
+    lam: float | None = None
+    #: the group lasso's coefficients without each scored test (None for a ridge)
+    without: dict | None = None
+
+
+def _comparison_score(bank):
+    """A candidate's mean held-out RMSE on tests none of its choices saw but the penalty:
+    the sensors chosen again without each test where they were chosen by a search."""
+    if bank.without is None or bank.method == "group":
+        return bank.score
+    errors = [held_out_rmse(bank.grams, k, coef) for k, coef in bank.without.items()]
+    return float(np.mean(errors))
 
 
 def span(data):
@@ -466,7 +486,7 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
         "driver_time_constants": ["array-like", None],
         "reference": [StrOptions(set(REFERENCES))],
         "alphas": ["array-like", None],
-        "selection": [StrOptions({"forward", "stable"})],
+        "selection": [StrOptions({"auto", "group", "forward", "stable"})],
         "sample_interval": [Interval(Real, 0, None, closed="neither"), None],
     }
 
@@ -482,7 +502,7 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
         driver_time_constants=None,
         reference="auto",
         alphas=None,
-        selection="forward",
+        selection="auto",
         sample_interval=None,
     ):
         self.drivers = drivers
@@ -680,7 +700,9 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
             # the sensors chosen on the bank, then the bank made longer for them
             fits += [
                 replace(
-                    self._fit_bank(data, settings, y_fit, folds, reference, *b, chosen=base.chosen),
+                    self._fit_bank(
+                        data, settings, y_fit, folds, reference, *b, base.chosen, base.method
+                    ),
                     path=base.path,
                 )
                 for b in longer_banks(settings.taus, settings.driver_taus, span(data))
@@ -692,15 +714,18 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
                 data, chosen_names, settings, y_fit, folds, reference
             )
             bank = self._fit_bank(
-                data, settings, y_fit, folds, reference, taus, driver_taus, chosen=bank.chosen
+                data, settings, y_fit, folds, reference, taus, driver_taus, bank.chosen, bank.method
             )
         cols = _cols_all(bank.col_group, bank.chosen, bank.grams.n_columns)
         G, b = bank.grams.G.sum(axis=0), bank.grams.b.sum(axis=0)
         G, b, sw = G[np.ix_(cols, cols)], b[cols], bank.grams.sw.sum()
-        coef = np.zeros(bank.grams.n_columns)
-        coef[cols] = solve_all(G, b, sw, [bank.alpha], bank.pen[cols])[:, 0]
+        if bank.coef is not None:
+            coef = bank.coef
+        else:
+            coef = np.zeros(bank.grams.n_columns)
+            coef[cols] = solve_all(G, b, sw, [bank.alpha], bank.pen[cols])[:, 0]
         self._store(data, reference, bank, coef)
-        self._keep_normal_equations(G, b, sw, cols, bank.pen[cols])
+        self._keep_normal_equations(G, b, sw, cols, bank.pen[cols], bank.lam)
         self.bank_scores_ = {len(f.taus): f.score for f in fits} if len(fits) > 1 else {}
         self.selected_sensors_ = [data.sensors[k] for k in bank.chosen]
         self.time_constants_ = np.asarray(bank.taus, dtype=float)
@@ -711,10 +736,13 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
         )
         return self
 
-    def _fit_bank(self, data, settings, y, folds, reference, taus, driver_taus, chosen=None):
+    def _fit_bank(
+        self, data, settings, y, folds, reference, taus, driver_taus, chosen=None, method=None
+    ):
         """Lag features on one bank, the sensors and penalty chosen on held-out tests.
 
-        With ``chosen`` the sensors are kept and only the penalty is chosen.
+        With ``chosen`` (and the ``method`` that chose them) the sensors are
+        kept and only the penalty is chosen.
         """
         spec, groups, labels = self._spec(
             data.drivers, data.sensors, data.names, settings.powers, taus, driver_taus
@@ -722,8 +750,27 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
         col_group = np.repeat(groups, [1 + len(b[2]) for b in spec])
         F = self._design(data.X, data.steps, data.bounds, spec, groups, reference)
         grams, pen = self._grams(F, y, data.w, data.bounds, reference)
-        if chosen is None:
-            chosen, alpha, score, path = select_sensors(
+        bank = partial(
+            Bank, np.asarray(taus, dtype=float), np.asarray(driver_taus, dtype=float), spec
+        )
+        bank = partial(bank, groups, labels, col_group, grams, pen)
+        if chosen is not None:
+            if method == "group":
+                return bank(*self._group_lasso_on(grams, pen, col_group, chosen, folds))
+            cols = _cols_all(col_group, chosen, grams.n_columns)
+            sc = held_out_scores(grams, cols, settings.alphas, pen, folds)
+            alpha, score = float(settings.alphas[np.argmin(sc)]), float(sc.min())
+            return bank(list(chosen), alpha, score, [], method=method)
+        candidates = []
+        group_lasso = self.selection in ("auto", "group") and folds is not None
+        if group_lasso and data.sensors:
+            coef, picked, lam, score, path, without = group_lasso_select(
+                grams, pen, col_group, folds, self.max_sensors
+            )
+            candidates.append(bank(picked, RIDGE, score, path, "group", coef, lam, without))
+        if self.selection != "group" or not candidates:
+            forward = "forward" if self.selection == "auto" else self.selection
+            picked, alpha, score, path = select_sensors(
                 grams,
                 pen,
                 col_group,
@@ -731,26 +778,72 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
                 settings.alphas,
                 folds,
                 self.max_sensors,
-                self.selection,
+                forward,
             )
-        else:
-            cols = _cols_all(col_group, chosen, grams.n_columns)
-            sc = held_out_scores(grams, cols, settings.alphas, pen, folds)
-            alpha, score, path = float(settings.alphas[np.argmin(sc)]), float(sc.min()), []
-        return Bank(
-            np.asarray(taus, dtype=float),
-            np.asarray(driver_taus, dtype=float),
-            spec,
-            groups,
-            labels,
-            col_group,
-            grams,
-            pen,
-            list(chosen),
-            float(alpha),
-            float(score),
-            path,
+            if self.max_sensors is None:
+                forward = "all"
+            elif forward == "stable" and not (path and len(path[0]) == 2):
+                forward = "forward"  # fewer than four tests: stable is forward
+            chosen_bank = bank(list(picked), float(alpha), float(score), path, forward)
+            if candidates and forward != "all":
+                # sensors chosen on the same held-out tests that score them: compared
+                # with the group lasso on tests the selection never saw
+                without = {
+                    k: self._selection_without(chosen_bank, data.sensors, settings.alphas, k, folds)
+                    for k in folds
+                }
+                chosen_bank = replace(chosen_bank, without=without)
+            candidates.append(chosen_bank)
+        # the lowest held-out RMSE; the group lasso first among equals
+        return min(candidates, key=_comparison_score)
+
+    def _selection_without(self, bank, sensors, alphas, k, folds):
+        """Coefficients with the sensors and penalty chosen again without test ``k``."""
+        grams, n_total = bank.grams.without(k), bank.grams.n_columns
+        other = [f for f in folds if f != k]
+        inner = other if len(other) >= 2 else None
+        chosen = bank.chosen
+        if bank.method != "all":
+            chosen, _, _, _ = select_sensors(
+                grams,
+                bank.pen,
+                bank.col_group,
+                sensors,
+                alphas,
+                inner,
+                self.max_sensors,
+                bank.method,
+            )
+        cols = _cols_all(bank.col_group, chosen, n_total)
+        alpha = float(alphas[np.argmin(_score(grams, cols, alphas, bank.pen, inner))])
+        coef = np.zeros(n_total)
+        coef[cols] = solve_all(
+            grams.G[:, cols][:, :, cols].sum(axis=0),
+            grams.b[:, cols].sum(axis=0),
+            grams.sw.sum(),
+            [alpha],
+            bank.pen[cols],
+        )[:, 0]
+        return coef
+
+    @staticmethod
+    def _group_lasso_on(grams, pen, col_group, chosen, folds):
+        """The group lasso again on the columns of ``chosen`` sensors (another bank)."""
+        n = grams.n_columns
+        cols = _cols_all(col_group, chosen, n)
+        sub = GramBlocks(grams.G[:, cols][:, :, cols], grams.b[:, cols], grams.yy, grams.sw)
+        inside = cols[cols < len(col_group)]
+        coef, _, lam, score, path, without = group_lasso_select(
+            sub, pen[cols], col_group[inside], folds, None
         )
+
+        def full(c):
+            out = np.zeros(n)
+            out[cols] = c
+            return out
+
+        without = {k: full(c) for k, c in without.items()}
+        return list(chosen), RIDGE, score, path, "group", full(coef), lam, without
 
     def _store(self, data, reference, bank, coef):
         """The fitted attributes of one solution."""
@@ -765,13 +858,15 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
         self.nominal_step_s_ = data.steps.nominal_step_s
         self.alpha_ = float(alpha)
         self.cv_score_ = float(score)
-        stable = bool(path) and len(path[0]) == 2
+        self.selection_method_ = bank.method
+        self.group_penalty_ = None if bank.lam is None else float(bank.lam)
         # kept as plain lists (a saved model holds no DataFrame); selection_ and
         # gains_ are tables built from them on access
         self._selection_path_ = [list(step) for step in path]
-        self._selection_columns_ = (
-            ["sensor", "share_of_runs"] if stable else ["sensor", "held_out_rmse", "alpha"]
-        )
+        self._selection_columns_ = {
+            "group": ["penalty", "n_sensors", "held_out_rmse"],
+            "stable": ["sensor", "share_of_runs"],
+        }.get(bank.method, ["sensor", "held_out_rmse", "alpha"])
         self._spec_ = spec
         self._groups_ = list(groups)
         self._labels_ = labels
@@ -1133,18 +1228,10 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
         # of a choice that saw the test would be too small)
         grid = np.asarray(alphas, dtype=float)[::2]
 
-        def choose(grams, other_folds):
-            chosen, alpha, _, _ = select_sensors(
-                grams,
-                bank.pen,
-                bank.col_group,
-                data.sensors,
-                grid,
-                other_folds if len(other_folds) >= 2 else None,
-                self.max_sensors,
-                self.selection,
-            )
-            return _cols_all(bank.col_group, chosen, n_total), alpha, bank.pen
+        def choose(k, grams, other_folds):
+            if bank.without is not None:  # computed when the candidates were compared
+                return bank.without[k]
+            return self._selection_without(bank, data.sensors, grid, k, folds)
 
         preds = held_out_predictions(A, bank.grams, folds, data.bounds, choose)
         hours_all = elapsed_hours(data.steps.dt, data.bounds)
@@ -1241,13 +1328,15 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
 
     # -- partial_fit -------------------------------------------------------------
 
-    def _keep_normal_equations(self, G, b, sw, cols, pen):
-        """What ``partial_fit`` adds to: the chosen columns' raw Gram, its rhs, the weight."""
+    def _keep_normal_equations(self, G, b, sw, cols, pen, lam=None):
+        """What ``partial_fit`` adds to: the chosen columns' raw Gram, its rhs, the weight
+        (and the group lasso's penalty, None for a ridge)."""
         self.normal_gram_ = np.asarray(G, dtype=float)
         self.normal_rhs_ = np.asarray(b, dtype=float)
         self.normal_weight_ = float(sw)
         self._normal_cols_ = np.asarray(cols, dtype=int)
         self._normal_pen_ = np.asarray(pen, dtype=float)
+        self._normal_lambda_ = None if lam is None else float(lam)
 
     def partial_fit(self, X, y, sample_weight=None, *, forgetting=1.0):
         """Update the gains with new tests; the fitted model is the prior.
@@ -1313,12 +1402,19 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
         b = forgetting * self.normal_rhs_ + new.b.sum(axis=0)[cols]
         weight = forgetting * self.normal_weight_ + float(new.sw.sum())
         coef = np.zeros(F.shape[1] + (0 if self.reference_ == "start" else 1))
-        coef[cols] = solve_all(G, b, weight, [self.alpha_], self._normal_pen_)[:, 0]
+        lam = vars(self).get("_normal_lambda_")
+        if lam is None:
+            coef[cols] = solve_all(G, b, weight, [self.alpha_], self._normal_pen_)[:, 0]
+        else:  # the group lasso again, at its penalty, on the sensors it kept
+            inside = cols[cols < len(self._col_group_)]
+            coef[cols] = group_lasso_at(
+                G, b, weight, self._normal_pen_, self._col_group_[inside], lam
+            )
         n_cols = F.shape[1]
         self.feature_coef_ = coef[:n_cols]
         self.intercept_ = 0.0 if self.reference_ == "start" else float(coef[n_cols])
         self.terms_ = self._terms()
-        self._keep_normal_equations(G, b, weight, cols, self._normal_pen_)
+        self._keep_normal_equations(G, b, weight, cols, self._normal_pen_, lam)
         return self
 
     # -- what a fitted model says -------------------------------------------------
