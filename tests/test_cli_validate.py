@@ -1,6 +1,7 @@
 """greyml validate: leave one test out, a table test by test, the same numbers as by hand."""
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -12,6 +13,7 @@ from greyml.cli import main
 from greyml.io import read_tests_csv, write_tests_csv
 
 STEP = 60.0
+ROOT = Path(__file__).resolve().parent.parent
 
 
 def _recording(seed=0):
@@ -109,7 +111,15 @@ def test_validate_on_caiviac_equals_the_python_leave_one_cycle_out(tmp_path, cap
     out_json = tmp_path / "ch1.json"
     argv = ["validate", str(path), "--test-column", "cycle", "--target", "ch1_um"]
     assert main([*argv, "--json", str(out_json), "--quiet"]) == 0
+    printed = [line.strip() for line in capsys.readouterr().out.splitlines()]
     record = json.loads(out_json.read_text())
+    # the table docs/command_line.rst shows is the one the command prints
+    page = (ROOT / "docs" / "command_line.rst").read_text(encoding="utf-8")
+    section = page.split("Validating: each test held out once", 1)[1].split("``--json FILE``")[0]
+    table = section.split(".. code-block:: text", 1)[1].strip().splitlines()
+    assert len(table) == 9
+    for line in table:
+        assert line.strip() in printed
     frame = read_tests_csv(path, test_column="cycle")
     sensors = [f"t{k}_C" for k in range(1, 17)]  # the candidates: not the speed, not a probe
     expected = _by_hand(frame, "ch1_um", sensors, ThermalTransferFunction(random_state=0))
