@@ -177,7 +177,7 @@ def run_validate(
     weighted = _weighted(built.estimator)
     predicted = np.empty(len(frame))
     half = np.full(len(frame), np.nan)
-    model_reference_ = set()
+    references = set()
     messages = []
     seconds = 0.0
     start = time.perf_counter()
@@ -199,12 +199,17 @@ def run_validate(
             messages += caught + more
             final = _final_step(estimator)
             predicted[held] = pred[held] if weighted else pred
-            model_reference_.add(_reference(estimator))
+            references.add(_reference(estimator))
             if getattr(final, "interval_calibration_", None) is not None:
                 width = trust.batch_half_width(estimator, rows, COVERAGE, {})
                 half[held] = width[held] if weighted else width
     elapsed = time.perf_counter() - start
-    (predicts_in,) = model_reference_ if len(model_reference_) == 1 else ("mixed",)
+    if len(references) > 1:
+        raise ValueError(
+            "the model predicted in different references in different folds "
+            f"({', '.join(sorted(references))}); choose one with --model-reference."
+        )
+    (predicts_in,) = references
     if reference == "recording" and predicts_in != "recording" and predicts_in != "target":
         raise ValueError(
             "--reference recording: the model predicts the change since each test's first "
