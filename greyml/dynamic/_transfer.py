@@ -864,20 +864,22 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
             return X
         given = set(map(str, X.columns))
         missing = [str(c) for c in fitted if str(c) not in given]
-        if not missing:
-            return X
+        if not missing or not given <= set(map(str, fitted)):
+            return X  # all there, or columns never seen: scikit-learn's checks say which
         used = [*map(str, getattr(self, "drivers_", ())), *map(str, self.selected_sensors_)]
         lacking = [c for c in used if c in missing]
         if lacking:
+            # scikit-learn's wording first, so its estimator checks recognise it
             raise ValueError(
-                f"{type(self).__name__}.predict: X lacks the column(s) "
+                "Feature names seen at fit time, yet now missing:\n"
+                + "".join(f"- {c}\n" for c in sorted(lacking))
+                + f"{type(self).__name__}.predict: X lacks the column(s) "
                 f"{', '.join(map(repr, lacking))}, which the model uses (its drivers and "
-                f"selected sensors: {', '.join(used) or 'none'})."
+                f"selected sensors: {', '.join(used) or 'none'}); the others may be left out."
             )
         by_name = {str(c): c for c in X.columns}
         columns = {str(c): X[by_name[str(c)]] if str(c) in by_name else 0.0 for c in fitted}
-        extra = {c: X[c] for c in X.columns if str(c) not in columns}  # refused as unseen
-        return pd.DataFrame({**columns, **extra}, index=X.index)
+        return pd.DataFrame(columns, index=X.index)
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()
