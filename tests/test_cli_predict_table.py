@@ -63,3 +63,25 @@ def test_a_file_with_only_the_used_columns_predicts_the_same(fitted, capsys):
     assert main(argv) == 2
     err = capsys.readouterr().err
     assert f"needs the sensor column(s) {model.selected_sensors_[0]}" in err
+
+
+def test_the_caiviac_table_of_the_command_line_page(tmp_path, capsys):
+    """The table docs/command_line.rst shows is what greyml predict prints on CAIVIAC."""
+    from conftest import caiviac_csv_or_skip
+    from test_cli_validate import ROOT
+
+    path = str(caiviac_csv_or_skip())
+    model = str(tmp_path / "ch1.greyml")
+    fit = ["fit", path, "--test-column", "cycle", "--target", "ch1_um"]
+    fit += ["--model", "transfer-function", "--drivers", "spindle_rpm", "--max-sensors", "5"]
+    assert main([*fit, "--train-tests", "1,2,3,4", "--out", model, "--quiet"]) == 0
+    predict = ["predict", model, path, "--test-column", "cycle", "--interval", "0.9"]
+    capsys.readouterr()
+    assert main([*predict, "--out", str(tmp_path / "p.csv"), "--quiet"]) == 0
+    printed = [line.strip() for line in capsys.readouterr().out.splitlines()]
+    page = (ROOT / "docs" / "command_line.rst").read_text(encoding="utf-8")
+    block = page.split("fitted on cycles 1 to 4 as above", 1)[1].split(".. code-block:: text")[1]
+    table = block.strip().split("\n\n")[0].splitlines()[1:]  # after the line naming the file
+    assert len(table) == 9
+    for line in table:
+        assert line.strip() in printed
