@@ -17,6 +17,8 @@ Usage
     greyml fit DATA.csv --target COL --model {gmc,gnnmci,anfis-grid,anfis-fcm,mlp}
                --out MODEL.file [--n-sensors N] [--cluster-on ...] [--sensors A,B]
                [--train-tests A,B] [--random-state N] [--force]
+    greyml validate DATA.csv --target COL [--reference start|recording] [--json FILE]
+                    [the model flags of greyml fit; --model-reference for its --reference]
     greyml predict MODEL.file DATA.csv --out PRED.csv [--force] [--initial-displacement V]
     greyml export MODEL.file --language {c,st,json} --out FILE [--name NAME]
                   [--rate-limit UM_S] [--quantum UM] [--clamp UM] [--on-missing hold|raise]
@@ -25,7 +27,7 @@ Usage
 
 Every command takes ``--quiet`` (no progress on standard error; progress is
 shown only when standard error is a terminal). Every command that reads a CSV
-file (``select``, ``fit``, ``predict``, ``gap``) takes ``--time-unit s|min|h``
+file (``select``, ``fit``, ``validate``, ``predict``, ``gap``) takes ``--time-unit s|min|h``
 (the unit of the file's ``time_s`` column), ``--sep`` and ``--decimal`` (see
 :func:`greyml.io.read_tests_csv`). Options renamed in this release still
 work under their old spellings, which ``--help`` no longer shows, with a

@@ -571,8 +571,12 @@ def test_fit_transfer_function_with_drivers_and_a_sensor_budget(capsys, tmp_path
     assert loaded.selected_sensors_ == ["T1_C"] and loaded.drivers_ == ["spindle_rpm"]
     pred = tmp_path / "pred.csv"
     assert main(["predict", str(model), str(data), "--out", str(pred)]) == 0
-    rmse = float(capsys.readouterr().out.split("RMSE ")[1].split(",")[0])
-    assert rmse < 0.05  # the noise is 0.01 µm; the peak is about 6 µm
+    out = capsys.readouterr().out
+    # a table test by test, each test marked as fitted on
+    rows = [line.split() for line in out.splitlines() if line.split()[1:2] == ["*"]]
+    assert [r[0] for r in rows] == ["a", "b", "c"]
+    assert all(float(r[3]) < 0.05 for r in rows)  # the noise is 0.01 µm; the peak about 6 µm
+    assert "* fitted on this test" in out and "none, every test was fitted on" in out
 
 
 @pytest.mark.parametrize(

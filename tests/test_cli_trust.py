@@ -151,8 +151,16 @@ def test_interval_writes_the_models_bounds_next_to_the_prediction(capsys, separa
     expected = separate["model"].predict_interval(_inputs(separate["new"]), coverage=0.8)
     np.testing.assert_allclose(written.to_numpy()[:, :3], expected, rtol=0, atol=1e-12)
     assert f"lower_{name} and upper_{name} (its 0.8 interval)" in out
-    held = "the interval holds "
-    assert held in out  # the data file holds the measured target: its coverage is printed
+    # the data file holds the measured target: each test's coverage is printed
+    assert "80 % interval" in out
+    new = separate["new"]
+    for test, rows in new.groupby(level="test", sort=False):
+        at = np.asarray(new.index.get_level_values("test") == test)
+        pred, low = expected[at, 0], expected[at, 1]
+        measured = rows[TARGET].to_numpy() - rows[TARGET].iloc[0]  # since each test's start
+        inside = np.mean(np.abs(measured - pred) <= pred - low)
+        line = next(s for s in out.splitlines() if s.split()[:1] == [test])
+        assert line.split()[-2:] == [f"{100 * inside:.1f}", "%"]
     # a measured start for every test: the file's own reference, no suffix
     _run(capsys, [*argv, "--interval", "0.8", "--initial-displacement", "2.5", "--force"])
     written = read_tests_csv(out_csv)

@@ -113,13 +113,15 @@ def _caiviac_or_skip():
 def test_caiviac_layout():
     data = _caiviac_or_skip()
     frame = data.frame
-    assert data.tests == [f"cycle{k}" for k in range(1, 6)]
+    assert data.tests == [str(k) for k in range(1, 6)]
     assert frame.shape == (9631, 22)
     assert len(data.sensors) == 16 and data.targets == [f"ch{k}_um" for k in range(1, 6)]
-    for seg in segments_by_test(frame):
-        part = frame.iloc[seg.slice]
-        assert part.index[0][1] == 0.0
-        np.testing.assert_array_equal(part[data.targets].iloc[0].to_numpy(), 0.0)
+    # one clock: each cycle starts 15 s after the last row of the one before
+    segments = segments_by_test(frame)
+    times = frame.index.get_level_values("time_s").to_numpy()
+    assert times[0] == 0.0
+    for before, seg in zip(segments, segments[1:]):
+        assert times[seg.start] - times[before.stop - 1] == 15.0
     speeds = frame.groupby(level="test", sort=False)["spindle_rpm"].max().tolist()
     assert speeds == [1250, 2500, 3750, 5000, 3500]
     assert "MIT" in data.license
@@ -127,12 +129,25 @@ def test_caiviac_layout():
     assert data.sensors == [f"t{k}_C" for k in range(1, 17)]
 
 
+def test_caiviac_one_loader():
+    """load_caiviac and read_tests_csv give the same frame from the same file, so the same
+    model: the same labels, clock, reference, columns and dtypes."""
+    from greyml.io import read_tests_csv
+
+    path = caiviac_csv_or_skip()
+    read = read_tests_csv(path, test_column="cycle")
+    pd.testing.assert_frame_equal(load_caiviac(path).frame, read)
+    raw = pd.read_csv(path)  # as recorded, from the recording's zero
+    np.testing.assert_array_equal(read["ch3_um"].to_numpy(), raw["ch3_um"].to_numpy())
+    np.testing.assert_array_equal(read["t5_C"].to_numpy(), raw["t5_C"].to_numpy())
+
+
 def test_caiviac_model_takes_rows_read_from_the_file():
     from greyml import ThermalTransferFunction
     from greyml.io import read_tests_csv
 
     data = _caiviac_or_skip()
-    frame = data.frame.loc[["cycle1", "cycle2"]]
+    frame = data.frame.loc[["1", "2"]]
     model = ThermalTransferFunction(drivers=["spindle_rpm"], max_sensors=2, time_constants=[900.0])
     model.fit(frame[["spindle_rpm", *data.sensors]], frame["ch1_um"])
     comp = Compensator.from_model(model, nominal_step_s=15.0)
@@ -142,12 +157,28 @@ def test_caiviac_model_takes_rows_read_from_the_file():
     assert np.isfinite(correction)
 
 
-def test_caiviac_reference_recording():
+def test_caiviac_reference_cycle():
     path = caiviac_csv_or_skip()
-    rec = load_caiviac(path, reference="recording").frame
-    raw = pd.read_csv(path)
-    np.testing.assert_array_equal(rec["ch3_um"].to_numpy(), raw["ch3_um"].to_numpy())
-    np.testing.assert_array_equal(rec["t5_C"].to_numpy(), raw["t5_C"].to_numpy())
+    rec, cyc = load_caiviac(path).frame, load_caiviac(path, reference="cycle").frame
+    probes = [f"ch{k}_um" for k in range(1, 6)]
+    for seg in segments_by_test(cyc):
+        part = cyc.iloc[seg.slice]
+        np.testing.assert_array_equal(part[probes].iloc[0].to_numpy(), 0.0)
+        shift = rec.iloc[seg.start][probes].to_numpy()
+        np.testing.assert_allclose(part[probes], rec.iloc[seg.slice][probes] - shift, atol=0)
+    pd.testing.assert_frame_equal(cyc.drop(columns=probes), rec.drop(columns=probes))
+
+
+def test_caiviac_one_loader_on_a_small_file(tmp_path):
+    from test_bad_input_io import _caiviac_file
+
+    from greyml.io import read_tests_csv
+
+    path = _caiviac_file(tmp_path)
+    data = load_caiviac(path)
+    pd.testing.assert_frame_equal(data.frame, read_tests_csv(path, test_column="cycle"))
+    assert data.tests == ["1", "2"]
+    assert data.frame.index.get_level_values("time_s").tolist() == [0, 15, 30, 45, 60, 75]
 
 
 def test_caiviac_missing_gives_clear_error(tmp_path, monkeypatch):
@@ -167,7 +198,7 @@ def test_caiviac_missing_gives_clear_error(tmp_path, monkeypatch):
 
 def test_caiviac_wrong_file(tmp_path):
     bad = tmp_path / "cycles.csv"
-    bad.write_text("time_s,cycle\n0,1\n")
+    bad.write_text("time_s,cycle,spindle_rpm\n0,1,0\n")
     with pytest.raises(ValueError, match="lacks the column"):
         load_caiviac(tmp_path)
 
@@ -181,4 +212,4 @@ def test_caiviac_without_a_path_reads_fetch_caiviacs_cache(tmp_path, monkeypatch
     monkeypatch.setenv("SCIKIT_LEARN_DATA", str(tmp_path / "home"))
     cached = load_caiviac()
     pd.testing.assert_frame_equal(cached.frame, given.frame)
-    assert cached.tests == ["cycle1", "cycle2"]
+    assert cached.tests == ["1", "2"]

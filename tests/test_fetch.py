@@ -13,7 +13,8 @@ import pandas as pd
 import pytest
 from conftest import caiviac_csv_or_skip
 
-from greyml.datasets import _fetch, fetch_caiviac
+from greyml.datasets import _fetch, fetch_caiviac, load_caiviac
+from greyml.io import read_tests_csv
 
 pytest.importorskip("openpyxl")
 
@@ -65,14 +66,19 @@ def _no_network(monkeypatch):
 def test_downloaded_once_then_read_offline(served, tmp_path, monkeypatch):
     home = tmp_path / "home"
     data = fetch_caiviac(data_home=home)
-    assert data.tests == ["cycle1", "cycle2", "cycle3"]
+    assert data.tests == ["1", "2", "3"]
     speeds = data.frame.groupby(level="test", sort=False)["spindle_rpm"].max().tolist()
     assert speeds == [1000.0, 2000.0, 3000.0]
     assert data.sensors == [f"t{k}_C" for k in range(1, 17)]
     assert "3 cycles" in data.description and "MIT" in data.license
     _no_network(monkeypatch)
-    again = fetch_caiviac(data_home=home, reference="recording")
+    again = fetch_caiviac(data_home=home, reference="cycle")
     assert len(again.frame) == len(data.frame)
+    # one loader: the cached file gives the frame read_tests_csv gives from it
+    cached = home / "greyml" / "caiviac" / "cycles.csv"
+    read = read_tests_csv(cached, test_column="cycle")
+    pd.testing.assert_frame_equal(fetch_caiviac(data_home=home).frame, read)
+    pd.testing.assert_frame_equal(load_caiviac(cached).frame, read)
     assert sorted(p.name for p in (home / "greyml" / "caiviac").iterdir()) == [
         "LICENSE.txt",
         "cycles.csv",
@@ -101,7 +107,7 @@ def test_a_tampered_cache_is_fetched_again(served, tmp_path):
     folder = home / "greyml" / "caiviac"
     folder.mkdir(parents=True)
     (folder / "data.xlsx").write_bytes(b"not the recording")
-    assert fetch_caiviac(data_home=home).tests == ["cycle1", "cycle2", "cycle3"]
+    assert fetch_caiviac(data_home=home).tests == ["1", "2", "3"]
 
 
 def test_offline_without_a_cache(tmp_path, monkeypatch):

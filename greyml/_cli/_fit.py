@@ -6,13 +6,7 @@ import io
 import os
 
 from greyml._cli import _flags as flags
-from greyml._cli._files import (
-    _check_output_file,
-    _load_training,
-    _require_columns,
-    _require_values,
-    _test_labels,
-)
+from greyml._cli._files import _check_output_file, _load_training, _test_labels
 from greyml._cli._fitting import (
     _REFERENCE_WORDS,
     _final_step,
@@ -20,8 +14,8 @@ from greyml._cli._fitting import (
     _measured,
     _predict_quietly,
     _reference,
-    _selector,
 )
+from greyml._cli._model import add_model_flags, build, model_choice
 from greyml._cli._printing import _progress, _tests_words, _warn, printable
 from greyml._command_names import MODEL_NAMES
 from greyml._docstrings import shared_doc
@@ -74,78 +68,9 @@ def _add_fit_parser(subparsers):
     parser = flags._subparser(subparsers, "fit", _FIT_EPILOG)
     parser.add_argument("data", metavar="DATA.csv", help="training tests (CSV)")
     flags._add_target(parser)
-    parser.add_argument("--model", required=True, choices=list(MODEL_NAMES), help="the model")
     parser.add_argument("--out", required=True, metavar="MODEL.file", help="model file to write")
-    parser.add_argument(
-        "--n-sensors",
-        type=flags._count,
-        metavar="N",
-        dest="select",
-        help="keep N sensors with GreyInfluenceSelector before the model",
-    )
-    parser.add_argument(
-        "--cluster-on",
-        choices=("series", "influence"),
-        help="the selector's grouping, with --n-sensors: " + flags._CLUSTER_HELP.split(": ", 1)[1],
-    )
-    flags._add_names(
-        parser,
-        "--drivers",
-        "--model transfer-function: columns the controller knows (spindle speed, "
-        "feed), always inputs and not counted as sensors",
-    )
-    parser.add_argument(
-        "--max-sensors",
-        type=flags._count,
-        metavar="N",
-        help="--model transfer-function: at most N temperature sensors, chosen inside the "
-        "fit on held-out whole tests",
-    )
-    dynamic = parser.add_argument_group("--model transfer-function")
-    dynamic.add_argument(
-        "--state",
-        choices=("auto", "carry", "restart"),
-        help="lags at a test's start: auto (default) carries them from the test before on "
-        "the same clock, carry from every test before, restart starts each test anew",
-    )
-    dynamic.add_argument(
-        "--reference",
-        choices=("auto", "start", "recording"),
-        help="displacement from each test's start or from the recording's zero; auto "
-        "(default): the recording's when the tests are one recording",
-    )
-    dynamic.add_argument(
-        "--selection",
-        choices=("forward", "stable"),
-        help="how --max-sensors sensors are chosen (default: forward)",
-    )
-    for flag, metavar, help_text in (
-        (
-            "--time-constants",
-            "S,S|fit",
-            "the sensors' lags in seconds (default: 300,900,2700,8100), or fit",
-        ),
-        (
-            "--driver-time-constants",
-            "S,S",
-            "the drivers' lags in seconds (default: the sensors' and one 3 times slower)",
-        ),
-    ):
-        dynamic.add_argument(flag, type=flags._seconds_list, metavar=metavar, help=help_text)
-    flags._add_names(
-        parser,
-        "--sensors",
-        "the model's inputs, or the selector's candidates with --n-sensors, "
-        + flags._SENSORS_HELP.split("candidate sensor columns, ", 1)[1],
-    )
-    parser.add_argument(
-        "--rises",
-        action="store_true",
-        help="inputs as rises from each test's first row (RelativeToStart, saved with the "
-        "model); --drivers stay as they are",
-    )
+    add_model_flags(parser)
     flags._add_names(parser, "--train-tests", "train on these tests only (default: all tests)")
-    flags._add_random_state(parser, "seed of the model's random choices (default: 0)")
     parser.add_argument("--force", action="store_true", help="replace MODEL.file if it exists")
     flags._end_options(parser, flags._calls(run_fit))
 
@@ -217,75 +142,38 @@ def run_fit(
     int
         0.
     """
-    from sklearn.pipeline import Pipeline
-
-    from greyml._seeds import make_model, scores
+    from greyml._seeds import scores
     from greyml.persist import save_model
-    from greyml.preprocessing import RelativeToStart
 
-    if model not in MODEL_NAMES:
-        raise ValueError(f"unknown model {model!r}; choose one of {', '.join(MODEL_NAMES)}.")
-    dynamic = model == "transfer-function"
-    drivers = list(drivers or [])
-    transfer = {
-        "state": state,
-        "reference": reference,
-        "selection": selection,
-        "time_constants": time_constants,
-        "driver_time_constants": driver_time_constants,
-    }
-    given = [f"--{k.replace('_', '-')}" for k, v in transfer.items() if v is not None]
-    if not dynamic and (drivers or max_sensors is not None or given):
-        flag = ", ".join(given) or "--drivers and --max-sensors"
-        raise ValueError(
-            f"{flag} {'is' if len(given) == 1 else 'are'} for --model transfer-function; "
-            f"{model} takes its inputs from --sensors or --n-sensors."
-        )
-    if dynamic and select is not None:
-        raise ValueError(
-            "--model transfer-function chooses its own sensors: give the budget with "
-            "--max-sensors instead of --n-sensors."
-        )
+    choice = model_choice(
+        model,
+        select=select,
+        cluster_on=cluster_on,
+        sensors=sensors,
+        drivers=drivers,
+        max_sensors=max_sensors,
+        rises=rises,
+        random_state=random_state,
+        state=state,
+        reference=reference,
+        selection=selection,
+        time_constants=time_constants,
+        driver_time_constants=driver_time_constants,
+    )
+    dynamic, drivers = choice.dynamic, choice.drivers
     path = _check_output_file(out, force)
     with _progress(4, quiet) as progress:
         progress.step(f"reading {os.fspath(data)!r}")
         frame, columns = _load_training(
             data, target, sensors, train_tests, "--train-tests", csv_options
         )
-        if dynamic:
-            _require_columns(frame, drivers, data, "--drivers")
-            _require_values(frame, drivers, data, "driver")
-            columns = drivers + [c for c in columns if c not in drivers]
-            if max_sensors is not None and max_sensors > len(columns) - len(drivers):
-                raise ValueError(
-                    f"--max-sensors {max_sensors} is more than the {len(columns) - len(drivers)} "
-                    "sensor column(s) besides the drivers."
-                )
-        estimator, settings = make_model(
-            model,
-            random_state=random_state,
-            drivers=drivers,
-            max_sensors=max_sensors,
-            **(transfer if dynamic else {}),
+        built = build(choice, frame, columns, data)
+        estimator, settings, columns, steps = (
+            built.estimator,
+            built.settings,
+            built.columns,
+            built.steps,
         )
-        n_inputs = select if select is not None else len(columns)
-        if select is not None and select > len(columns):
-            raise ValueError(
-                f"--n-sensors {select} asks for more sensors than the {len(columns)} candidate(s)."
-            )
-        if model == "anfis-grid" and n_inputs > 6:
-            raise ValueError(
-                f"anfis-grid on {n_inputs} inputs would need {estimator.n_mfs}^{n_inputs} "
-                "rules; keep a few sensors with --n-sensors 5 or --sensors, or use anfis-fcm."
-            )
-        steps = []
-        if rises:
-            rising = [c for c in columns if c not in drivers]
-            steps.append(("rises", RelativeToStart(columns=rising)))
-        if select is not None:
-            steps.append(("select", _selector(select, cluster_on, random_state)))
-        if steps:
-            estimator = Pipeline([*steps, ("model", estimator)])
         X, y = frame[columns], frame[target]
         progress.step(f"fitting {MODEL_NAMES[model]} on {len(frame)} rows")
         seconds, fit_messages = _fit_quietly(estimator, X, y)
@@ -297,6 +185,8 @@ def run_fit(
         final = _final_step(estimator)
         # predict names its columns after the target: remember it in the model
         final.target_name_ = str(target)
+        if not hasattr(final, "fitted_tests_"):  # greyml predict marks the tests fitted on
+            final.fitted_tests_ = [str(t) for t in _test_labels(frame)]
         progress.step(f"saving {os.fspath(path)!r}")
         saved = save_model(estimator, path, overwrite=force)
     _warn("fit", fit_messages)
@@ -348,7 +238,7 @@ def run_fit(
     print(f"  displacement {_REFERENCE_WORDS[reference]}")
     print(
         f"  on the training rows: RMSE {fit_scores['RMSE']:.3g}, ±res {fit_scores['band']:.3g}, "
-        f"R {fit_scores['R']:.3f} (validate on other tests with greyml predict)"
+        f"R {fit_scores['R']:.3f} (score each test held out with greyml validate)"
     )
     print(f"saved to {os.fspath(saved)!r}")
     return 0

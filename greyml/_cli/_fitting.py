@@ -21,8 +21,9 @@ def _distinct_warnings(caught):
     return list(dict.fromkeys(f"{x.category.__name__}: {x.message}" for x in caught))
 
 
-def _fit_quietly(estimator, X, y):
-    """Fit ``estimator``; return the seconds taken and the distinct warnings raised."""
+def _fit_quietly(estimator, X, y, **params):
+    """Fit ``estimator`` (``params``: fit parameters such as ``sample_weight``); return the
+    seconds taken and the distinct warnings raised."""
     from threadpoolctl import threadpool_limits
 
     # one BLAS thread: the products are small, and on a busy machine more
@@ -30,7 +31,7 @@ def _fit_quietly(estimator, X, y):
     with threadpool_limits(limits=1, user_api="blas"), warnings.catch_warnings(record=True) as w:
         warnings.simplefilter("always")
         start = time.perf_counter()
-        estimator.fit(X, y)
+        estimator.fit(X, y, **params)
         seconds = time.perf_counter() - start
     return seconds, _distinct_warnings(w)
 

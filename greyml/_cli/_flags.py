@@ -314,6 +314,12 @@ _COMMANDS = {
         "Train one of greyml's thermal-error models (optionally after sensor "
         "selection) on the tests of a CSV file and save it to a model file.",
     ),
+    "validate": (
+        "score a model on each test held out in turn (leave one test out)",
+        "Leave one test out with the model greyml fit would build from the same "
+        "flags: each test is held out once and scored, and a table gives each "
+        "test's RMSE, worst error and interval coverage in a named reference.",
+    ),
     "predict": (
         "apply a saved model to tests and write the compensation",
         "Apply a model saved by greyml fit to new tests and write the predicted "

@@ -27,6 +27,7 @@ from greyml._cli._predict import _add_predict_parser
 from greyml._cli._printing import printable, terminal_safe
 from greyml._cli._select import _add_select_parser
 from greyml._cli._simulate import _add_simulate_parser
+from greyml._cli._validate import _add_validate_parser
 
 __all__ = ["build_parser", "main"]
 
@@ -80,6 +81,7 @@ def build_parser():
     _add_simulate_parser(subparsers)
     _add_select_parser(subparsers)
     _add_fit_parser(subparsers)
+    _add_validate_parser(subparsers)
     _add_predict_parser(subparsers)
     _add_export_parser(subparsers)
     _add_gap_parser(subparsers)

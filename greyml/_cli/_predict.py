@@ -22,20 +22,25 @@ from greyml._cli._fitting import (
     _reference,
 )
 from greyml._cli._printing import _progress, _warn, printable
+from greyml._cli._scores import REFERENCE_NAMES, print_table, score_tests
 from greyml._docstrings import shared_doc
 
 _PREDICT_EPILOG = """\
-DATA.csv needs the sensor columns the model reads (a model fitted with
---n-sensors reads only the sensors it kept). PRED.csv has the columns test, time_s,
+DATA.csv needs the columns the model reads (a model fitted with --n-sensors
+reads only the sensors it kept; a transfer function its drivers and the sensors
+it selected). PRED.csv has the columns test, time_s,
 predicted_<target> (the thermal error the model predicts, in the target's
 unit) and compensation_<target> = -predicted_<target> (the correction to add to
 the axis); a model that predicts the change since each test's first row names
 them predicted_<target>_since_start and compensation_<target>_since_start. When
-DATA.csv also holds the measured target, the accuracy is printed, measured in
-the same reference (a line names it). Grey models and transfer functions fitted
-on separate tests predict the change since each test's first row; a transfer
-function fitted on one recording predicts from the recording's zero, and carries
-its lags along the file's clock. For a test that starts mid-run without the rows
+DATA.csv also holds the measured target, a table scores each test (RMSE,
+worst |error| and, with --interval, the share of rows inside the interval) in
+the same reference (the line above it names it); the tests the model was
+fitted on are marked *, and the median and worst are over the others only.
+Grey models and transfer functions fitted on separate tests predict the change
+since each test's first row; a transfer function fitted on one recording
+predicts from the recording's zero, and carries its lags along the file's
+clock. For a test that starts mid-run without the rows
 before it, give the measured target at its first row with
 --initial-displacement (a warning names such a test). A model that predicts NaN or an infinite
 value for any row is an error (exit 2), and no PRED.csv is written; the file
@@ -148,6 +153,11 @@ def _model_inputs(estimator, path):
     first = steps[0][1] if steps else None
     if first is not None and hasattr(first, "get_support") and len(steps) > 1:
         return inputs, [c for c, kept in zip(inputs, first.get_support()) if kept]
+    final = _final_step(estimator)
+    if hasattr(final, "selected_sensors_") and hasattr(final, "drivers_"):
+        # a transfer function reads its drivers and the sensors it selected only
+        read = {*map(str, final.drivers_), *map(str, final.selected_sensors_)}
+        return inputs, [c for c in inputs if c in read]
     return inputs, inputs
 
 
@@ -305,7 +315,6 @@ def run_predict(
     import pandas as pd
 
     from greyml._cli import _predict_trust as trust
-    from greyml._seeds import scores
     from greyml.io import write_tests_csv
 
     if tolerance is not None and interval is None:
@@ -406,15 +415,21 @@ def run_predict(
         print(f"  {_detector_words(replayed.changes)}")
     if measured in frame.columns and not frame[measured].isna().any():
         truth = _measured(frame[measured], reference, given)
-        s = scores(truth, pred)
-        held = ""
-        if interval is not None:
-            inside = float(np.mean(np.abs(truth - pred) <= half))
-            held = f"; the interval holds {100 * inside:.1f} % of rows"
+        labels = frame.index.get_level_values("test")
+        fitted = getattr(_final_step(estimator), "fitted_tests_", None)
+        # every test started at a measured value given: the file's own reference
+        named = "target" if reference == "start" and not suffix else reference
         print(
-            f"  against the measured {target} in {os.fspath(data)!r}, in the same reference: "
-            f"RMSE {s['RMSE']:.3g}, ±res {s['band']:.3g}, R {s['R']:.3f}, E {s['E']:.3f}{held}"
+            f"  against the measured {target} in {os.fspath(data)!r}, test by test, in the "
+            f"reference {REFERENCE_NAMES[named]}:"
         )
+        print_table(
+            score_tests(labels, truth, pred, half),
+            coverage=interval,
+            marked=set(fitted or ()),
+        )
+        if fitted is None:
+            print("  (the model does not record the tests it was fitted on)")
     return 0
 
 

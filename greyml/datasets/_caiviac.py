@@ -8,10 +8,8 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from greyml._sequences import make_test_index
 from greyml.datasets._simulated import _X_y, bunch_from_frame
-from greyml.io import check_test_frame
-from greyml.io._csv_numbers import _numeric_column
+from greyml.io import read_tests_csv
 from greyml.io._csv_text import _line
 
 __all__ = ["load_caiviac"]
@@ -48,47 +46,41 @@ def _resolve(path):
 
 
 def _read_checked(file):
-    """cycles.csv as a DataFrame of numbers; a ValueError names the file, column and line."""
+    """cycles.csv as :func:`greyml.io.read_tests_csv` reads it (``test_column="cycle"``),
+    with the recording's columns, a value in every cell and whole cycle numbers checked;
+    a ValueError names the file, column and line."""
     name = os.fspath(file)
     try:
-        raw = pd.read_csv(file)
-    except pd.errors.EmptyDataError:
-        raise ValueError(f"{name!r} is empty; is it the CAIVIAC cycles.csv?") from None
-    except pd.errors.ParserError as exc:
-        raise ValueError(f"{name!r} is not a well-formed CSV file: {exc}") from None
-    expected = ["time_s", "cycle", "spindle_rpm", *_PROBES, *_TEMPS]
-    missing = [c for c in expected if c not in raw.columns]
+        frame = read_tests_csv(file, test_column="cycle")
+    except ValueError as exc:
+        if "header" in str(exc) and os.path.getsize(file) == 0:
+            raise ValueError(f"{name!r} is empty; is it the CAIVIAC cycles.csv?") from None
+        raise
+    expected = ["spindle_rpm", *_PROBES, *_TEMPS]
+    missing = [c for c in expected if c not in frame.columns]
     if missing:
         raise ValueError(f"{name!r} lacks the column(s) {missing}; is it the CAIVIAC cycles.csv?")
-    if raw.empty:
-        raise ValueError(f"{name!r} has a header but no rows.")
+    labels = frame.index.get_level_values("test")
     for col in expected:
-        values = raw[col] = _numeric_column(raw[col], col, name)
-        numbers = values.to_numpy(dtype=float)
-        bad = np.flatnonzero(~np.isfinite(numbers))
-        if bad.size:
-            row = int(bad[0])
-            cyc = raw["cycle"].iloc[row]
-            where = (
-                f"line {_line(row)} (cycle {cyc:g})"
-                if np.isfinite(float(cyc))
-                else f"line {_line(row)}"
+        gaps = np.flatnonzero(frame[col].isna().to_numpy())
+        if gaps.size:
+            row = int(gaps[0])
+            raise ValueError(
+                f"Column {col!r} of {name!r} has no value at line {_line(row)} "
+                f"(cycle {labels[row]})."
             )
-            if np.isnan(numbers[row]):
-                raise ValueError(f"Column {col!r} of {name!r} has no value at {where}.")
-            raise ValueError(f"Column {col!r} of {name!r} holds {numbers[row]!r} (inf) at {where}.")
-    cycle = raw["cycle"].to_numpy(dtype=float)
-    fraction = np.flatnonzero(cycle != np.round(cycle))
-    if fraction.size:
-        row = int(fraction[0])
+    numbers = pd.to_numeric(pd.Series(labels), errors="coerce").to_numpy(dtype=float)
+    whole = np.isfinite(numbers) & (numbers == np.round(numbers))
+    if not whole.all():
+        row = int(np.flatnonzero(~whole)[0])
         raise ValueError(
-            f"Column 'cycle' of {name!r} holds {cycle[row]:g} at line {_line(row)}, which is not "
+            f"Column 'cycle' of {name!r} holds {labels[row]} at line {_line(row)}, which is not "
             "a whole cycle number."
         )
-    return raw
+    return frame
 
 
-def load_caiviac(path=None, *, reference="cycle", return_X_y=False, target="ch1_um"):
+def load_caiviac(path=None, *, reference="recording", return_X_y=False, target="ch1_um"):
     """Read the real CAIVIAC heating/cooling recording into greyml's layout.
 
     Five cycles of 4 h spindle on and 4 h off (1250, 2500, 3750, 5000 and
@@ -98,12 +90,15 @@ def load_caiviac(path=None, *, reference="cycle", return_X_y=False, target="ch1_
     copy of the whole recording that :func:`fetch_caiviac` downloaded and
     cached; it never downloads anything itself.
 
-    Each cycle becomes a test labelled ``"cycle1"`` … ``"cycle5"`` with
-    ``time_s`` from the cycle's first row. Columns: ``spindle_rpm``,
-    ``t1_C`` … ``t16_C`` (the file's names, kept so that a model fitted
-    here takes rows read from the file) and the five displacement
-    probes ``ch1_um`` … ``ch5_um``. The upstream data does not say which
-    probe measures which axis, so they keep their channel names instead of
+    The frame is the one :func:`greyml.io.read_tests_csv` reads from the same
+    file with ``test_column="cycle"`` (one code path, so the same model from
+    either): each cycle is a test labelled by its number (``"1"`` …
+    ``"5"``), ``time_s`` runs on along the recording's clock (so a dynamic
+    model carries its state from one cycle into the next), and the columns
+    are the file's, in its order: ``spindle_rpm``, the five displacement
+    probes ``ch1_um`` … ``ch5_um`` as recorded (from the recording's zero),
+    ``t1_C`` … ``t16_C``. The upstream data does not say which probe
+    measures which axis, so they keep their channel names instead of
     ``dx_um``/``dy_um``/``dz_um``; nor does it say where the temperature
     sensors are or whether any reads the air, so every sensor's group is
     ``"undocumented"``. There is no ``ambient_C`` column.
@@ -115,11 +110,13 @@ def load_caiviac(path=None, *, reference="cycle", return_X_y=False, target="ch1_
         :func:`fetch_caiviac`'s cache (``<data home>/greyml/caiviac``,
         scikit-learn's data home: ``$SCIKIT_LEARN_DATA`` or
         ``~/scikit_learn_data``).
-    reference : {"cycle", "recording"}, default="cycle"
-        ``"cycle"``: probe readings relative to each cycle's first row (like
-        the simulated tests, whose displacement starts at 0). ``"recording"``:
-        as recorded, relative to the start of the whole recording. Each cycle
-        starts in the thermal state the previous one left either way.
+    reference : {"recording", "cycle"}, default="recording"
+        ``"recording"``: the probes as recorded, from the recording's zero
+        (the frame ``read_tests_csv`` gives). ``"cycle"``: each probe minus
+        its reading at its cycle's first row (like the simulated tests,
+        whose displacement starts at 0); nothing else changes. To score a
+        model on each cycle's change, prefer the model's own
+        ``reference="start"`` on the recording's frame.
     return_X_y : bool, default=False
         Return the 16 temperature columns and one probe channel.
     target : str, default="ch1_um"
@@ -144,54 +141,37 @@ def load_caiviac(path=None, *, reference="cycle", return_X_y=False, target="ch1_
     >>> from greyml.datasets import load_caiviac
     >>> data = load_caiviac("shared/realdata/caiviac")  # doctest: +SKIP
     >>> data.tests  # doctest: +SKIP
-    ['cycle1', 'cycle2', 'cycle3', 'cycle4', 'cycle5']
+    ['1', '2', '3', '4', '5']
     """
     if reference not in ("cycle", "recording"):
-        raise ValueError(f"reference must be 'cycle' or 'recording'; got {reference!r}.")
+        raise ValueError(f"reference must be 'recording' or 'cycle'; got {reference!r}.")
     file = _resolve(path)
-    raw = _read_checked(file)
-    cycle = raw["cycle"].to_numpy()
-    time = raw["time_s"].to_numpy(dtype=float)
-    start = pd.Series(time).groupby(cycle).transform("min").to_numpy()
-    frame = pd.DataFrame({"spindle_rpm": raw["spindle_rpm"].to_numpy(dtype=float)})
-    sensors = []
-    for col in _TEMPS:  # the file's own names, so rows read from it fit a model from here
-        frame[col] = raw[col].to_numpy(dtype=float)
-        sensors.append(col)
-    for col in _PROBES:
-        values = raw[col].to_numpy(dtype=float)
-        if reference == "cycle":
-            first = pd.Series(values).groupby(cycle).transform("first").to_numpy()
-            values = values - first
-        frame[col] = values
-    labels = np.array([f"cycle{int(c)}" for c in cycle], dtype=object)
-    frame.index = make_test_index(labels, time - start)
-    try:
-        check_test_frame(frame)
-    except ValueError as exc:
-        raise ValueError(
-            f"{os.fspath(file)!r}: {exc} (data row r is line r + 2 of the file)"
-        ) from None
+    frame = _read_checked(file)
+    if reference == "cycle":
+        frame = frame.copy()
+        first = frame[_PROBES].groupby(level="test", sort=False).transform("first")
+        frame[_PROBES] = frame[_PROBES] - first
     licence = file.with_name("LICENSE.txt")
     speeds = frame.groupby(level="test", sort=False)["spindle_rpm"].max()
+    time = frame.index.get_level_values("time_s")
     hours = (time.max() - time.min()) / 3600.0
     description = (
         "Real heating/cooling recording of a machine tool, CAIVIAC/FL_THERMAL "
         f"(data/data.xlsx, MIT licence), {hours:.1f} h: {len(speeds)} cycles of spindle "
         "on (at " + ", ".join(f"{v:g} rpm" for v in speeds) + ") then off, "
-        "15 s sampling. Probe channels ch1/ch2 and ch3/ch4 move together; their "
-        "axes and the sensor positions are not documented upstream. Displacements "
+        "15 s sampling, on one clock. Probe channels ch1/ch2 and ch3/ch4 move together; "
+        "their axes and the sensor positions are not documented upstream. Displacements "
         + (
             "relative to each cycle's first row."
             if reference == "cycle"
-            else "relative to the start of the recording."
+            else "as recorded, from the recording's zero."
         )
     )
     data = bunch_from_frame(
         frame,
-        sensors=sensors,
+        sensors=list(_TEMPS),
         targets=_PROBES,
-        sensor_groups=dict.fromkeys(sensors, "undocumented"),
+        sensor_groups=dict.fromkeys(_TEMPS, "undocumented"),
         description=description,
         inputs=["spindle_rpm"],
     )

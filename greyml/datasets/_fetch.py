@@ -119,7 +119,7 @@ def fetch_caiviac(
     *,
     data_home=None,
     download_if_missing=True,
-    reference="cycle",
+    reference="recording",
     return_X_y=False,
     target="ch1_um",
 ):
@@ -143,7 +143,9 @@ def fetch_caiviac(
     download_if_missing : bool, default=True
         Without a cached copy: download it (True) or raise OSError (False).
     reference, return_X_y, target
-        As for :func:`load_caiviac`.
+        As for :func:`load_caiviac`, which reads the cached ``cycles.csv``: the
+        frame is the one :func:`greyml.io.read_tests_csv` reads from it with
+        ``test_column="cycle"``.
 
     Returns
     -------
@@ -168,7 +170,7 @@ def fetch_caiviac(
     >>> from greyml.datasets import fetch_caiviac
     >>> data = fetch_caiviac()  # doctest: +SKIP
     >>> data.frame.index.get_level_values("test").unique()[:3]  # doctest: +SKIP
-    Index(['cycle1', 'cycle2', 'cycle3'], dtype='object', name='test')
+    Index(['1', '2', '3'], dtype='object', name='test')
     """
     folder = _folder(data_home)
     xlsx, csv = folder / "data.xlsx", folder / "cycles.csv"

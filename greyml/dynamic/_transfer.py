@@ -371,6 +371,10 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
         Default step of each input for :meth:`step_response` and
         :meth:`describe`: 1 for a sensor, the power of ten below a driver's
         largest training value (1000 for a spindle up to 5000 rpm).
+    fitted_tests_ : list of str
+        The labels of the tests the gains were fitted on (those with a
+        positive ``sample_weight``), in their order; ``""`` for data without
+        test labels. ``greyml predict`` marks these tests in its table.
     n_features_in_ : int
     feature_names_in_ : ndarray of shape (``n_features_in_``,)
         Defined only when ``X`` has string column names.
@@ -734,6 +738,10 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
         self.interval_calibration_ = self._calibrate(
             data, bank, reference, y_fit, folds, settings.alphas
         )
+        # the labels of the tests whose displacement the fit saw (weight > 0)
+        self.fitted_tests_ = [
+            "" if data.segments[i].label is None else str(data.segments[i].label) for i in scored
+        ]
         return self
 
     def _fit_bank(
@@ -908,6 +916,7 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
         y : ndarray of shape (n_samples,)
         """
         check_is_fitted(self)
+        X = self._with_unused_columns(X)
         Xa, _, segments = validate_sequences(self, X, reset=False)
         check_magnitudes(self, Xa, column_names(self, Xa.shape[1]), segments)
         steps = self._timeline(X, segments, self.gap_limit_s_, self.nominal_step_s_)
@@ -936,6 +945,36 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
                     stacklevel=2,
                 )
         return pred
+
+    def _with_unused_columns(self, X):
+        """``X``, or a new frame with the fitted columns it lacks that the model never reads.
+
+        A DataFrame needs only the drivers and the selected sensors: a fitted
+        column it lacks that the model does not use is filled with 0.0 in a new
+        frame (the user's is never modified); its gains are 0, so it is never
+        read. A used column it lacks is one ValueError naming it.
+        """
+        fitted = getattr(self, "feature_names_in_", None)
+        if fitted is None or not isinstance(X, pd.DataFrame):
+            return X
+        given = set(map(str, X.columns))
+        missing = [str(c) for c in fitted if str(c) not in given]
+        if not missing or not given <= set(map(str, fitted)):
+            return X  # all there, or columns never seen: scikit-learn's checks say which
+        used = [*map(str, getattr(self, "drivers_", ())), *map(str, self.selected_sensors_)]
+        lacking = [c for c in used if c in missing]
+        if lacking:
+            # scikit-learn's wording first, so its estimator checks recognise it
+            raise ValueError(
+                "Feature names seen at fit time, yet now missing:\n"
+                + "".join(f"- {c}\n" for c in sorted(lacking))
+                + f"{type(self).__name__}.predict: X lacks the column(s) "
+                f"{', '.join(map(repr, lacking))}, which the model uses (its drivers and "
+                f"selected sensors: {', '.join(used) or 'none'}); the others may be left out."
+            )
+        by_name = {str(c): c for c in X.columns}
+        columns = {str(c): X[by_name[str(c)]] if str(c) in by_name else 0.0 for c in fitted}
+        return pd.DataFrame(columns, index=X.index)
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()
