@@ -133,7 +133,7 @@ def _refit_rmses(X, y):
     rmses = []
     for held in dict.fromkeys(X.index.get_level_values("test")):
         train = X.index.get_level_values("test") != held
-        part = _model(max_sensors=None, alphas=[1e-2]).fit(X[train], y[train])
+        part = _model(max_sensors=None, alphas=[1e-2], selection="forward").fit(X[train], y[train])
         pred = part.predict(X[~train])
         y_held = y[~train].to_numpy()
         rmses.append(np.sqrt(np.mean((pred - (y_held - y_held[0])) ** 2)))
@@ -142,7 +142,7 @@ def _refit_rmses(X, y):
 
 def test_held_out_score_equals_refits_on_whole_tests(data):
     X, y = data
-    model = _model(max_sensors=None, alphas=[1e-2]).fit(X, y)
+    model = _model(max_sensors=None, alphas=[1e-2], selection="forward").fit(X, y)
     rmses = _refit_rmses(X, y)
     assert rmses[0] > 0.01  # the penalty matters here
     assert model.cv_score_ == pytest.approx(np.mean(rmses), rel=1e-6)
@@ -152,10 +152,10 @@ def test_penalty_chosen_on_held_out_tests(data):
     X, y = data
     noisy = y + np.random.default_rng(1).standard_normal(len(y)) * 0.5
     alphas = [1e-8, 1e-4, 1e-1, 10.0]
-    model = _model(alphas=alphas).fit(X, noisy)
+    model = _model(alphas=alphas, selection="forward").fit(X, noisy)
     scores = []
     for a in alphas:
-        scores.append(_model(alphas=[a]).fit(X, noisy).cv_score_)
+        scores.append(_model(alphas=[a], selection="forward").fit(X, noisy).cv_score_)
     assert model.alpha_ == alphas[int(np.argmin(scores))]
     assert model.cv_score_ == pytest.approx(min(scores))
 
@@ -441,7 +441,7 @@ def test_held_out_spread_is_the_standard_error_of_the_refits(data):
 
     X, y = data
     noisy = y + 0.05 * np.sin(np.arange(len(y)))
-    model = _model(max_sensors=None, alphas=[1e-2]).fit(X, noisy)
+    model = _model(max_sensors=None, alphas=[1e-2], selection="forward").fit(X, noisy)
     rmses = _refit_rmses(X, noisy)
     F = model._design(
         X.to_numpy(),

@@ -28,7 +28,6 @@ from dataclasses import dataclass
 import numpy as np
 from scipy.optimize import nnls
 
-
 __all__ = [
     "IntervalCalibration",
     "conformal_quantile",

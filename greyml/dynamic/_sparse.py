@@ -8,8 +8,8 @@ the drivers' terms are never dropped (only a small ridge penalty holds them).
 The path runs from the penalty at which no sensor enters down to a thousandth
 of it, fitted by the alternating direction method of multipliers (Boyd et
 al., 2011) on every training set at once: the Grams of all training sets are
-stacked and each iteration is one batched product. The penalty is chosen on whole held-out tests, like
-everything else in a fit.
+stacked and each iteration is one batched product. The penalty is chosen on
+whole held-out tests, like everything else in a fit.
 
 Pure array functions; no validation, no pandas.
 """

@@ -67,7 +67,6 @@ from greyml.dynamic._gram import (
     select_sensors,
     solve_all,
 )
-from greyml.dynamic._sparse import RIDGE, group_lasso_at, group_lasso_select
 from greyml.dynamic._intervals import (
     IntervalCalibration,
     held_out_predictions,
@@ -75,6 +74,7 @@ from greyml.dynamic._intervals import (
     scale_of,
     variogram_fit,
 )
+from greyml.dynamic._sparse import RIDGE, group_lasso_at, group_lasso_select
 from greyml.dynamic._time import MAX_TERMS, STATES, Timeline, check_time_constants, timeline
 from greyml.exceptions import UnderdeterminedWarning, WarmStartWarning
 
@@ -1260,7 +1260,6 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
             return None
         F = self._design(data.X, data.steps, data.bounds, bank.spec, bank.groups, reference)
         A = F if reference == "start" else np.column_stack([F, np.ones(len(F))])
-        n_total = bank.grams.n_columns
 
         # the sensors and the penalty are chosen again without each test, the
         # penalty on every other value of the grid (half the cost; the residuals
@@ -1358,6 +1357,7 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
         """
         check_is_fitted(self)
         q = self._quantile(coverage)
+        X = self._with_unused_columns(X)
         pred = self.predict(X, initial_displacement=initial_displacement)
         _, _, segments = validate_sequences(self, X, reset=False)
         steps = self._timeline(X, segments, self.gap_limit_s_, self.nominal_step_s_)
