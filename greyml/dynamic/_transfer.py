@@ -207,6 +207,51 @@ def _finite(value, what):
 
 #: The most held-out residuals a saved model may keep for its intervals.
 MAX_CONFORMITY_SCORES = 10_000_000
+#: A test starts at rest when its temperatures at its first row lie within this
+#: many resolutions of each other (about ±3 of a sensor's noise or quantum).
+REST_RESOLUTIONS = 6.0
+#: How a test's lags start: the values of ``test_starts_``.
+START_STATES = ("carried", "at rest", "assumed at rest")
+
+
+def sensor_resolution(x, bounds):
+    """The resolution of one sensor's readings: its quantum or its noise, the larger.
+
+    The quantum is the smallest change between successive readings; the noise
+    the robust spread of those changes (a random walk's step, so divided by
+    √2). A reading that never changes has resolution 0.
+    """
+    parts = [np.diff(x[a:b]) for a, b in bounds if b - a > 1]
+    d = np.concatenate(parts) if parts else np.zeros(0)
+    moved = np.abs(d[d != 0])
+    if not moved.size:
+        return 0.0
+    noise = 1.4826 * float(np.median(np.abs(d - np.median(d)))) / np.sqrt(2.0)
+    return float(max(moved.min(), noise))
+
+
+def start_states(x, bounds, carried, columns, resolution):
+    """How each test's lags start: carried on, at rest (a cold start), or assumed at rest.
+
+    A test that does not carry the state of the one before starts at rest
+    when its temperatures ``columns`` (two or more) at its first row agree
+    within :data:`REST_RESOLUTIONS` times ``resolution``: the machine at one
+    temperature, its lags settled. Otherwise the lags are assumed at rest
+    without that evidence (a test cut from a running machine).
+    """
+    states = []
+    for i, (start, _) in enumerate(bounds):
+        if i > 0 and carried[i]:
+            states.append("carried")
+        elif (
+            len(columns) >= 2
+            and resolution is not None
+            and np.ptp(x[start, columns]) <= REST_RESOLUTIONS * resolution
+        ):
+            states.append("at rest")
+        else:
+            states.append("assumed at rest")
+    return states
 
 
 class ThermalTransferFunction(RegressorMixin, BaseEstimator):
@@ -320,6 +365,17 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
     group_penalty_ : float or None
         The group lasso's penalty (per row, on the standardised design), None
         when the gains are a ridge solution.
+    sensor_resolution_ : float
+        The temperature sensors' resolution in the training data (the largest
+        of each sensor's quantum or noise, K): temperatures within six of it of
+        each other at a test's first row are a machine at rest.
+    test_starts_ : dict
+        How each training test's lags started: ``"carried"`` on from the test
+        before, ``"at rest"`` (a cold start: its temperatures agreed at its
+        first row, so the lags at rest at them and the drivers idle are what
+        happened) or ``"assumed at rest"`` (no history and temperatures that
+        disagree: the state at rest is the model's assumption, as for a test
+        cut from a running machine). :meth:`predict` warns only for the last.
     time_constants_ : ndarray of shape (n_taus,)
         The sensors' time constants in seconds (fitted with ``"fit"``).
     driver_time_constants_ : ndarray of shape (n_driver_taus,)
@@ -781,6 +837,17 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
         self.interval_calibration_ = self._calibrate(
             data, bank, reference, y_fit, folds, settings.alphas
         )
+        columns = [data.names.index(c) for c in data.sensors]
+        self.sensor_resolution_ = max(
+            (sensor_resolution(data.X[:, k], data.bounds) for k in columns), default=0.0
+        )
+        states = start_states(
+            data.X, data.bounds, data.steps.carried, columns, self.sensor_resolution_
+        )
+        self.test_starts_ = {
+            ("" if seg.label is None else str(seg.label)): state
+            for seg, state in zip(data.segments, states)
+        }
         # the labels of the tests whose displacement the fit saw (weight > 0)
         self.fitted_tests_ = [
             "" if data.segments[i].label is None else str(data.segments[i].label) for i in scored
@@ -949,7 +1016,8 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
             number) or of the tests named (a dict from test label to number),
             in the reference ``reference_``: such a test's prediction is moved
             to start there. Without it, a test that starts later on its clock
-            than 0 without the rows before it gets a
+            than 0 without the rows before it, and whose temperatures at its
+            first row disagree (a machine not at rest), gets a
             :class:`~greyml.exceptions.WarmStartWarning` (unless
             ``state="restart"``: every test starting at rest is then the
             model's assumption).
@@ -959,12 +1027,21 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
         y : ndarray of shape (n_samples,)
         """
         check_is_fitted(self)
+        present = self._sensors_given(X)
         X = self._with_unused_columns(X)
         Xa, _, segments = validate_sequences(self, X, reset=False)
-        check_magnitudes(self, Xa, column_names(self, Xa.shape[1]), segments)
+        names = column_names(self, Xa.shape[1])
+        check_magnitudes(self, Xa, names, segments)
         steps = self._timeline(X, segments, self.gap_limit_s_, self.nominal_step_s_)
         bounds = [(s.start, s.stop) for s in segments]
         given = self._initial_displacements(initial_displacement, segments)
+        states = start_states(
+            Xa,
+            bounds,
+            steps.carried,
+            [names.index(c) for c in present],
+            vars(self).get("sensor_resolution_"),
+        )
         if not (self.feature_coef_ != 0).any():
             pred = np.full(Xa.shape[0], self.intercept_)
         else:
@@ -975,7 +1052,7 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
                 pred[seg.slice] += given[i] - pred[seg.start]
             elif (
                 self.state != "restart"  # restarting each test is then what was asked
-                and (i == 0 or not steps.carried[i])
+                and states[i] == "assumed at rest"
                 and steps.starts[i] > self.nominal_step_s_
             ):
                 warnings.warn(
@@ -988,6 +1065,14 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
                     stacklevel=2,
                 )
         return pred
+
+    def _sensors_given(self, X):
+        """The temperature sensors whose readings ``X`` holds (a frame may lack unused ones)."""
+        sensors = list(map(str, getattr(self, "sensors_", ())))
+        if isinstance(X, pd.DataFrame):
+            given = set(map(str, X.columns))
+            return [c for c in sensors if c in given]
+        return sensors
 
     def _with_unused_columns(self, X):
         """``X``, or a new frame with the fitted columns it lacks that the model never reads.
@@ -1151,6 +1236,16 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
 
     def _check_selection_state(self, name):
         """What chose the sensors, and the group lasso's penalty: None or finite >= 0."""
+        resolution = vars(self).setdefault("sensor_resolution_", None)
+        if resolution is not None and not (
+            _is_real(resolution) and np.isfinite(resolution) and resolution >= 0
+        ):
+            raise ValueError(f"{name}: sensor_resolution_ is {resolution!r}.")
+        starts = vars(self).setdefault("test_starts_", {})
+        if not isinstance(starts, dict) or any(v not in START_STATES for v in starts.values()):
+            raise ValueError(
+                f"{name}: test_starts_ must map test labels to one of {', '.join(START_STATES)}."
+            )
         method = vars(self).setdefault("selection_method_", "forward")
         if method not in ("group", "forward", "stable", "all"):
             raise ValueError(f"{name}: selection_method_ is {method!r}.")
@@ -1641,8 +1736,24 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
                 f"{name}: {final:.3g} {unit} per {per} at steady state, {at_once:.3g} {unit} "
                 f"at once, {at45:.3g} {unit} after 45 min; {within}"
             )
-        text = "\n".join(lines)
+        lines.append(self._starts_line())
+        text = "\n".join(line for line in lines if line)
         print(text, file=file)
         return text
+
+    def _starts_line(self):
+        """One line: which training tests carried their state, started at rest, or were assumed."""
+        starts = vars(self).get("test_starts_") or {}
+        parts = []
+        for state, words in (
+            ("carried", "carried on from the test before"),
+            ("at rest", "at rest at their first row (cold starts)"),
+            ("assumed at rest", "without history, their lags assumed at rest"),
+        ):
+            labels = [label for label, s in starts.items() if s == state]
+            if labels:
+                shown = ", ".join(labels[:8]) + (" ..." if len(labels) > 8 else "")
+                parts.append(f"{words}: {shown}")
+        return ("training tests " + "; ".join(parts)) if parts else ""
 
     # -- predict --------------------------------------------------------------
