@@ -78,11 +78,11 @@ LEGEND = """\
   greyml default, restart  default_model().fit(X[train], y[train]), then predict(X[held]) alone"""
 
 
-def default_model():
+def default_model(drivers=(DRIVER,)):
     """The default greyml model, as a user constructs it: the one place it is built."""
     from greyml import ThermalTransferFunction
 
-    return ThermalTransferFunction(drivers=[DRIVER], max_sensors=N_SENSORS)
+    return ThermalTransferFunction(drivers=list(drivers), max_sensors=N_SENSORS)
 
 
 def revision():
@@ -126,7 +126,12 @@ def load(path, target):
 
 @dataclass(frozen=True)
 class Fold:
-    """One held-out cycle, with what the rows share: the default model's fit and the sensors."""
+    """One held-out cycle, with what the rows share: the default model's fit and the sensors.
+
+    ``drivers`` and ``temperatures`` name X's columns (CAIVIAC's by default),
+    ``lag_state`` is the ``state`` of the LagFeatures row, and ``clock`` times
+    every fit (wall time by default).
+    """
 
     X: object
     y: object
@@ -140,39 +145,64 @@ class Fold:
     default_warnings: tuple
     sensors: dict
     select_s: dict
+    drivers: tuple = (DRIVER,)
+    temperatures: tuple = SENSORS
+    lag_state: str = "carry"
+    clock: object = time.perf_counter
 
     held = property(lambda self: self.groups == self.cycle)
     train = property(lambda self: self.groups != self.cycle)
     train_cycles = property(lambda self: [c for c in dict.fromkeys(self.groups) if c != self.cycle])
 
 
-def corr_sensors(X, y, rows):
+def corr_sensors(X, y, rows, temperatures=SENSORS):
     """The N_SENSORS temperatures with the highest |correlation| with y on ``rows``."""
     yt = y.to_numpy()[rows]
-    score = [abs(np.corrcoef(X[s].to_numpy()[rows], yt)[0, 1]) for s in SENSORS]
-    return [SENSORS[i] for i in np.argsort(score, kind="stable")[::-1][:N_SENSORS]]
+    with np.errstate(invalid="ignore", divide="ignore"):  # a constant column scores 0
+        score = [abs(np.corrcoef(X[s].to_numpy()[rows], yt)[0, 1]) for s in temperatures]
+    score = np.nan_to_num(score)
+    return [temperatures[i] for i in np.argsort(score, kind="stable")[::-1][:N_SENSORS]]
 
 
-def prepare_fold(X, y, groups, cycle, peer_step, quick):
+def prepare_fold(X, y, groups, cycle, peer_step, quick, **columns):
+    """The fold holding out ``cycle``; ``columns``: Fold's drivers, temperatures, lag_state, clock."""
     held = groups == cycle
+    drivers = tuple(columns.get("drivers", (DRIVER,)))
+    temperatures = tuple(columns.get("temperatures", SENSORS))
+    clock = columns.get("clock", time.perf_counter)
     sensors, select_s, pred, error = {}, {}, None, None
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        start = time.perf_counter()
+        start = clock()
         try:
-            model = default_model().fit(X, y, sample_weight=(~held).astype(float))
-            default_s = time.perf_counter() - start
+            model = default_model(drivers).fit(X, y, sample_weight=(~held).astype(float))
+            default_s = clock() - start
             pred = np.asarray(model.predict(X), dtype=float)[held]
             sensors["default"] = list(model.selected_sensors_)
         except Exception as exc:  # the default keeps its row too
-            default_s, error = time.perf_counter() - start, f"{type(exc).__name__}: {exc}"
+            default_s, error = clock() - start, f"{type(exc).__name__}: {exc}"
     caught = tuple((w.category, str(w.message)) for w in caught)
     select_s["default"] = default_s
-    start = time.perf_counter()
-    sensors["corr"] = corr_sensors(X, y, ~held)
-    select_s["corr"] = time.perf_counter() - start
+    start = clock()
+    sensors["corr"] = corr_sensors(X, y, ~held, temperatures)
+    select_s["corr"] = clock() - start
     return Fold(
-        X, y, groups, cycle, peer_step, quick, pred, default_s, error, caught, sensors, select_s
+        X,
+        y,
+        groups,
+        cycle,
+        peer_step,
+        quick,
+        pred,
+        default_s,
+        error,
+        caught,
+        sensors,
+        select_s,
+        drivers,
+        temperatures,
+        columns.get("lag_state", "carry"),
+        clock,
     )
 
 
@@ -198,13 +228,13 @@ def no_correction(fold):
 
 
 def ridge16(fold, rises):
-    start = time.perf_counter()
-    T, y = fold.X[list(SENSORS)], fold.y
+    start = fold.clock()
+    T, y = fold.X[list(fold.temperatures)], fold.y
     if rises:  # temperatures and displacement from each cycle's first row
         T = T - T.groupby(level=0, sort=False).transform("first")
         y = y - y.groupby(level=0, sort=False).transform("first")
     model = ridge().fit(T[fold.train], y[fold.train])
-    fit_s = time.perf_counter() - start
+    fit_s = fold.clock() - start
     return model.predict(T[fold.held]), fit_s, f"alpha {model[-1].alpha_:.3g}"
 
 
@@ -212,10 +242,11 @@ def lag_ridge(fold, source):
     from greyml import LagFeatures
 
     sensors, select_s = chosen_sensors(fold, source)
-    start = time.perf_counter()
-    F = LagFeatures(list(TAUS), state="carry").fit_transform(fold.X[[*sensors, DRIVER]])
+    start = fold.clock()
+    lags = LagFeatures(list(TAUS), state=fold.lag_state)
+    F = lags.fit_transform(fold.X[[*sensors, *fold.drivers]])
     model = ridge().fit(F[fold.train], fold.y[fold.train])
-    fit_s = select_s + time.perf_counter() - start
+    fit_s = select_s + fold.clock() - start
     return model.predict(F[fold.held]), fit_s, f"alpha {model[-1].alpha_:.3g}; {short(sensors)}"
 
 
@@ -228,9 +259,9 @@ def greyml_default(fold):
 
 
 def greyml_restart(fold):
-    start = time.perf_counter()
-    model = default_model().fit(fold.X[fold.train], fold.y[fold.train])
-    fit_s = time.perf_counter() - start
+    start = fold.clock()
+    model = default_model(fold.drivers).fit(fold.X[fold.train], fold.y[fold.train])
+    fit_s = fold.clock() - start
     return model.predict(fold.X[fold.held]), fit_s, short(model.selected_sensors_)
 
 
@@ -244,7 +275,7 @@ Series = namedtuple("Series", "x y t segments")
 def peer_series(fold, sensors):
     X = fold.X
     keep = X.groupby(level=0, sort=False).cumcount().to_numpy() % fold.peer_step == 0
-    x = X[[DRIVER, *sensors]].to_numpy(float)[keep]
+    x = X[[*fold.drivers, *sensors]].to_numpy(float)[keep]
     rows = fold.train[keep]
     scale = x[rows].std(axis=0)
     x = (x - x[rows].mean(axis=0)) / np.where(scale > 0, scale, 1.0)
@@ -347,10 +378,10 @@ def nested(fold, s, candidates, fit, simulate):
 
 def simulated_peer(fold, source, candidates, fit, simulate):
     sensors, select_s = chosen_sensors(fold, source)
-    start = time.perf_counter()
+    start = fold.clock()
     s = peer_series(fold, sensors)
     best, model, inner = nested(fold, s, candidates, fit, simulate)
-    fit_s = select_s + time.perf_counter() - start
+    fit_s = select_s + fold.clock() - start
     seg = s.segments[fold.cycle]
     pred = simulate(model, s, seg, s.y[seg[0]])
     t_held = fold.X.index.get_level_values(-1).to_numpy(float)[fold.held]
