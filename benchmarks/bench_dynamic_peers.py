@@ -72,7 +72,7 @@ LEGEND = """\
                          fitted on the training cycles joined end to end (one series); steps_ahead=None
   ARDL, NARX             simulated from the held-out cycle's first row, their past outputs set to the
                          displacement measured there: no other row is given that value
-  greyml's sensors       the <= 5 sensors the default greyml model chose in the fold (its fit timed in)
+  greyml's sensors       the sensors the default greyml model kept in the fold (its fit timed in)
   top-5 corr             the 5 sensors with the highest |corr| with y on the training rows
   greyml default         default_model().fit(X, y, sample_weight=0 on the held-out cycle), predict(X)
   greyml default, restart  default_model().fit(X[train], y[train]), then predict(X[held]) alone"""
@@ -82,7 +82,7 @@ def default_model(drivers=(DRIVER,)):
     """The default greyml model, as a user constructs it: the one place it is built."""
     from greyml import ThermalTransferFunction
 
-    return ThermalTransferFunction(drivers=list(drivers), max_sensors=N_SENSORS)
+    return ThermalTransferFunction(drivers=list(drivers))
 
 
 def revision():

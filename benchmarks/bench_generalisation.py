@@ -3,8 +3,8 @@
 Protocol
 --------
 * Models: the default greyml model exactly as a user constructs it,
-  ``ThermalTransferFunction(drivers=[the machine's drivers], max_sensors=5)``
-  (built in ``bench_dynamic_peers.default_model``, so whatever the model's
+  ``ThermalTransferFunction(drivers=[the machine's drivers])``, every other
+  parameter at its default (built in ``bench_dynamic_peers.default_model``, so whatever the model's
   defaults become flows through), against no correction, ridge on all the
   temperatures' rises from each test's first row ("ridge-16" on CAIVIAC),
   ``LagFeatures`` + ``RidgeCV``, statsmodels ARDL (orders chosen inside the

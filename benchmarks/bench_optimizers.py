@@ -225,7 +225,9 @@ def run_greyml_pso(problem, seed, max_iter):
 def run_greyml_cs(problem, seed, max_iter):
     from greyml.optimize import CuckooSearch
 
-    optimiser = CuckooSearch(n_population=POPULATION, max_iter=max_iter, pa=PA, alpha=ALPHA, beta=BETA)
+    optimiser = CuckooSearch(
+        n_population=POPULATION, max_iter=max_iter, pa=PA, alpha=ALPHA, beta=BETA
+    )
     objective = VectorObjective(problem.fun)
     rng = np.random.default_rng(seed)
     start = time.perf_counter()

@@ -256,7 +256,11 @@ def make_model(name, *, random_state=0, quick=False, drivers=(), max_sensors=Non
         model = ThermalTransferFunction(
             drivers=tuple(drivers), max_sensors=max_sensors, random_state=random_state, **given
         )
-        budget = "all sensors" if max_sensors is None else f"at most {max_sensors} sensors"
+        budget = (
+            "sensors chosen on held-out tests"
+            if max_sensors is None
+            else f"at most {max_sensors} sensors"
+        )
         driven = ", ".join(drivers) if drivers else "no drivers"
         taus = model.time_constants
         if taus is None:

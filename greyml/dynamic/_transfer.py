@@ -479,10 +479,11 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
       ``max_sensors`` among those that keep at most that many sensors. The
       second is a ridge on every sensor or, with ``max_sensors``, on those
       that forward selection chooses. The candidates are compared on the
-      tests their choices did not see: forward selection is run again
-      without each test (its own held-out RMSE, computed on the tests that
-      chose the sensors, would flatter it), while the ridge and the group
-      lasso are scored as chosen, having chosen only a penalty;
+      tests their choices did not see: with four tests or more, forward
+      selection is run again without each test (its own held-out RMSE,
+      computed on the tests that chose the sensors, would flatter it), while
+      the ridge and the group lasso are scored as chosen, having chosen only
+      a penalty;
     * **forward selection** (``"auto"`` with ``max_sensors``, or ``"forward"``)
       of whole sensors (a sensor's static term and all its lags enter
       together), each step adding the sensor that lowers the mean held-out
@@ -903,9 +904,10 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
             elif forward == "stable" and not (path and len(path[0]) == 2):
                 forward = "forward"  # fewer than four tests: stable is forward
             chosen_bank = bank(list(picked), float(alpha), float(score), path, forward)
-            if candidates and forward != "all":
+            if candidates and forward != "all" and len(folds) >= 4:
                 # sensors chosen on the same held-out tests that score them: compared
-                # with the group lasso on tests the selection never saw
+                # with the group lasso on tests the selection never saw (a selection
+                # without one test holds out three more: four tests or more)
                 without = {
                     k: self._selection_without(chosen_bank, data.sensors, settings.alphas, k, folds)
                     for k in folds
