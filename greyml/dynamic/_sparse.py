@@ -200,7 +200,9 @@ def _choose(errors, ok):
     return int(np.flatnonzero(ok & (mean <= mean[i] + se))[0])
 
 
-def group_lasso_select(grams, pen, col_group, folds, max_groups, ratios=LAMBDA_RATIOS):
+def group_lasso_select(
+    grams, pen, col_group, folds, max_groups, ratios=LAMBDA_RATIOS, lambdas=None
+):
     """The group lasso with its penalty chosen on held-out tests.
 
     ``grams`` are per-test raw :class:`~greyml.dynamic._gram.GramBlocks`,
@@ -211,6 +213,8 @@ def group_lasso_select(grams, pen, col_group, folds, max_groups, ratios=LAMBDA_R
     same on each set). The penalty kept has the lowest mean held-out RMSE,
     or is the largest within one standard error of it (Breiman et al., 1984),
     among those that keep at most ``max_groups`` sensors on the whole data.
+    ``lambdas`` (absolute penalties, largest first) replaces the path, e.g.
+    one penalty already chosen on another bank of the same sensors.
 
     Returns ``(coef, chosen, lam, score, path, without)``: the raw
     coefficients on all tests, the sensors (group labels) they keep, the
@@ -226,7 +230,8 @@ def group_lasso_select(grams, pen, col_group, folds, max_groups, ratios=LAMBDA_R
     Q, c, back = _normal_forms(Gs, bs, sws, pen)
     labels, M, free = _memberships(col_group, c.shape[1])
     lam_max, beta0 = _largest_penalty(Q, c, M, free, RIDGE)
-    lambdas = np.repeat(lam_max[0] * np.asarray(ratios)[None, :], len(Gs), axis=0)
+    path_of = lam_max[0] * np.asarray(ratios) if lambdas is None else np.asarray(lambdas)
+    lambdas = np.repeat(path_of[None, :], len(Gs), axis=0)
     coefs = back(_path(Q, c, M, free, lambdas, beta0, RIDGE))
     active = np.einsum("flp,pg->flg", coefs[:, :, : M.shape[0]] ** 2, M) > 0
     errors = []
@@ -239,7 +244,7 @@ def group_lasso_select(grams, pen, col_group, folds, max_groups, ratios=LAMBDA_R
     n_active = active[0].sum(axis=1)
     j = _choose(errors, n_active <= budget)
     mean = errors.mean(axis=0)
-    path = [(float(lambdas[0, i]), int(n_active[i]), float(mean[i])) for i in range(len(ratios))]
+    path = [(float(lam), int(n), float(m)) for lam, n, m in zip(lambdas[0], n_active, mean)]
     chosen = [int(g) for g in labels[active[0, j]]]
     without = {h: coefs[1 + i, j] for i, h in enumerate(folds)}
     return coefs[0, j], chosen, float(lambdas[0, j]), float(mean[j]), path, without

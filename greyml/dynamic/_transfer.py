@@ -805,7 +805,15 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
             fits += [
                 replace(
                     self._fit_bank(
-                        data, settings, y_fit, folds, reference, *b, base.chosen, base.method
+                        data,
+                        settings,
+                        y_fit,
+                        folds,
+                        reference,
+                        *b,
+                        base.chosen,
+                        base.method,
+                        base.lam,
                     ),
                     path=base.path,
                 )
@@ -818,7 +826,16 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
                 data, chosen_names, settings, y_fit, folds, reference
             )
             bank = self._fit_bank(
-                data, settings, y_fit, folds, reference, taus, driver_taus, bank.chosen, bank.method
+                data,
+                settings,
+                y_fit,
+                folds,
+                reference,
+                taus,
+                driver_taus,
+                bank.chosen,
+                bank.method,
+                bank.lam,
             )
         cols = _cols_all(bank.col_group, bank.chosen, bank.grams.n_columns)
         G, b = bank.grams.G.sum(axis=0), bank.grams.b.sum(axis=0)
@@ -856,12 +873,23 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
         return self
 
     def _fit_bank(
-        self, data, settings, y, folds, reference, taus, driver_taus, chosen=None, method=None
+        self,
+        data,
+        settings,
+        y,
+        folds,
+        reference,
+        taus,
+        driver_taus,
+        chosen=None,
+        method=None,
+        lam=None,
     ):
         """Lag features on one bank, the sensors and penalty chosen on held-out tests.
 
         With ``chosen`` (and the ``method`` that chose them) the sensors are
-        kept and only the penalty is chosen.
+        kept and only the ridge penalty is chosen (the group lasso keeps its
+        penalty ``lam``).
         """
         spec, groups, labels = self._spec(
             data.drivers, data.sensors, data.names, settings.powers, taus, driver_taus
@@ -875,7 +903,7 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
         bank = partial(bank, groups, labels, col_group, grams, pen)
         if chosen is not None:
             if method == "group":
-                return bank(*self._group_lasso_on(grams, pen, col_group, chosen, folds))
+                return bank(*self._group_lasso_on(grams, pen, col_group, chosen, folds, lam))
             cols = _cols_all(col_group, chosen, grams.n_columns)
             sc = held_out_scores(grams, cols, settings.alphas, pen, folds)
             alpha, score = float(settings.alphas[np.argmin(sc)]), float(sc.min())
@@ -947,14 +975,15 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
         return coef
 
     @staticmethod
-    def _group_lasso_on(grams, pen, col_group, chosen, folds):
-        """The group lasso again on the columns of ``chosen`` sensors (another bank)."""
+    def _group_lasso_on(grams, pen, col_group, chosen, folds, lam):
+        """The group lasso at the penalty ``lam`` chosen on the first bank, on the columns
+        of the sensors it kept (another bank of the same sensors)."""
         n = grams.n_columns
         cols = _cols_all(col_group, chosen, n)
         sub = GramBlocks(grams.G[:, cols][:, :, cols], grams.b[:, cols], grams.yy, grams.sw)
         inside = cols[cols < len(col_group)]
         coef, _, lam, score, path, without = group_lasso_select(
-            sub, pen[cols], col_group[inside], folds, None
+            sub, pen[cols], col_group[inside], folds, None, lambdas=[lam]
         )
 
         def full(c):
