@@ -254,7 +254,9 @@ def test_step_response_and_describe(data, capsys):
     # one line per input, the driver first, then the sensors in the order selected
     assert capsys.readouterr().out == text + "\n"
     lines = text.splitlines()
-    assert [line.split(":")[0] for line in lines] == ["spindle_rpm", *model.selected_sensors_]
+    assert [line.split(":")[0] for line in lines[:-1]] == ["spindle_rpm", *model.selected_sensors_]
+    # and how the training tests started: each on a clock of its own, not at rest
+    assert lines[-1] == "training tests without history, their lags assumed at rest: t0, t1, t2, t3"
     assert model.selected_sensors_ == ["T2_C", "T1_C"]
     # the gains _tests() made y with: 2e-4 µm/rpm at once and 1e-3 µm/rpm through a
     # 45-min lag, 3 µm/K through a 15-min lag for T2, 0.8 µm/K at once for T1
