@@ -128,3 +128,17 @@ def test_validate_on_caiviac_equals_the_python_leave_one_cycle_out(tmp_path, cap
     assert list(got) == ["1", "2", "3", "4", "5"]
     for test, (rmse, _) in expected.items():
         assert got[test] == pytest.approx(rmse, abs=1e-6)
+
+
+def test_a_speed_column_left_out_of_the_model_is_named(tmp_path, capsys):
+    data = write_tests_csv(_recording(), tmp_path / "rec.csv")
+    assert main(["validate", str(data), "--target", "dz_um", "--quiet"]) == 0
+    err = capsys.readouterr().err
+    assert (
+        "greyml validate: warning: no --drivers given, so the model does not use "
+        "'spindle_rpm'; name what the controller knows (spindle speed, feed) with "
+        "--drivers spindle_rpm"
+    ) in err
+    argv = ["validate", str(data), "--target", "dz_um", "--drivers", "spindle_rpm", "--quiet"]
+    assert main(argv) == 0
+    assert "no --drivers given" not in capsys.readouterr().err

@@ -189,6 +189,7 @@ def run_fit(
             final.fitted_tests_ = [str(t) for t in _test_labels(frame)]
         progress.step(f"saving {os.fspath(path)!r}")
         saved = save_model(estimator, path, overwrite=force)
+    _warn("fit", [built.hint] if built.hint else [])
     _warn("fit", fit_messages)
     _warn("fit", messages)
     _warn("fit", _careless(frame, data, fit_scores, csv_options))

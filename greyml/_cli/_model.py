@@ -11,6 +11,7 @@ for the columns of the data. Both commands build through here, so
 
 from __future__ import annotations
 
+import re
 from dataclasses import dataclass, field
 
 from greyml._cli import _flags as flags
@@ -194,12 +195,15 @@ class Built:
         The columns it takes (the drivers first).
     steps : list of str
         The names of the Pipeline's steps before the model (empty: no Pipeline).
+    hint : str
+        One line on what the user should tell the model, or "".
     """
 
     estimator: object
     settings: str
     columns: list
     steps: list
+    hint: str = ""
 
 
 def build(choice, frame, columns, data):
@@ -252,4 +256,29 @@ def build(choice, frame, columns, data):
         steps.append(("select", _selector(select, choice.cluster_on, choice.random_state)))
     if steps:
         estimator = Pipeline([*steps, ("model", estimator)])
-    return Built(estimator, settings, columns, [name for name, _ in steps])
+    hint = _drivers_hint(choice, frame.columns, columns)
+    return Built(estimator, settings, columns, [name for name, _ in steps], hint)
+
+
+#: Column names that read as what a controller knows (speed, feed, power), not a temperature.
+_DRIVER_LIKE = re.compile(r"rpm|speed|feed|power|load|torque|current", re.IGNORECASE)
+
+
+def _drivers_hint(choice, names, candidates):
+    """One line when a transfer function has no drivers but a column of the file looks like
+    one: left out of the model, or taken as a temperature sensor."""
+    if not choice.dynamic or choice.drivers:
+        return ""
+    like = [c for c in names if _DRIVER_LIKE.search(str(c))]
+    if not like:
+        return ""
+    used = [c for c in like if c in candidates]
+    what = (
+        f"{', '.join(map(repr, used[:3]))} is taken as a temperature sensor"
+        if used
+        else f"the model does not use {', '.join(map(repr, like[:3]))}"
+    )
+    return (
+        f"no --drivers given, so {what}; name what the controller knows (spindle speed, "
+        f"feed) with --drivers {like[0]}"
+    )

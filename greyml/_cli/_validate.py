@@ -229,6 +229,7 @@ def run_validate(
         interval = COVERAGE
     else:
         interval = None
+    _warn("validate", [built.hint] if built.hint else [])
     _warn("validate", list(dict.fromkeys(messages)))
     how = (
         "fitted on the whole file with weight 0 on the held-out test's rows"
