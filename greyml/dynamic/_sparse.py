@@ -181,7 +181,7 @@ def group_lasso_at(G, b, sw, pen, col_group, lam, ridge=RIDGE):
     """The group-lasso coefficients (raw units, shape (p,)) of one training set at ``lam``.
 
     ``G``, ``b``, ``sw``: its summed raw Grams; the penalty ``lam`` is per unit
-    weight on the standardised columns, as :func:`group_lasso_nested` chooses it.
+    weight on the standardised columns, as :func:`group_lasso_select` chooses it.
     """
     Q, c, back = _normal_forms(G[None], b[None], np.array([sw]), pen)
     labels, M, free = _memberships(col_group, c.shape[1])
