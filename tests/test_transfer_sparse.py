@@ -118,3 +118,12 @@ def test_a_saved_penalty_out_of_its_domain_is_refused(data):
     model.selection_method_ = "lasso"
     with pytest.raises(ValueError, match="selection_method_ is 'lasso'"):
         model._check_fitted_state()
+
+
+def test_group_with_fewer_than_three_tests_is_forward_selection():
+    X, y = _tests(n_tests=2)
+    model = _model(selection="group", max_sensors=2).fit(X, y)
+    assert model.selection_method_ == "forward"
+    assert model.group_penalty_ is None
+    forward = _model(selection="forward", max_sensors=2).fit(X, y)
+    np.testing.assert_array_equal(model.feature_coef_, forward.feature_coef_)

@@ -916,7 +916,8 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
             )
             candidates.append(bank(picked, RIDGE, score, path, "group", coef, lam, without))
         if self.selection != "group" or not candidates:
-            forward = "forward" if self.selection == "auto" else self.selection
+            # "group" here: fewer than three tests, nothing to choose its penalty on
+            forward = "forward" if self.selection in ("auto", "group") else self.selection
             picked, alpha, score, path = select_sensors(
                 grams,
                 pen,
