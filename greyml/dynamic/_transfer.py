@@ -17,8 +17,9 @@ compensator, so batch and stream agree.
 Choices made inside ``fit`` are scored on whole held-out tests (leave one test
 out, from three tests on): the ridge penalty, which temperature sensors to use
 (a group lasso over whole sensors, or forward selection) and, with
-``time_constants="fit"``, the time constants. Every held-out score is computed from per-test Gram
-matrices, so a candidate costs a few small linear solves, not a refit.
+``time_constants="fit"``, the time constants. Every held-out score is
+computed from per-test Gram matrices, so a candidate costs a few small linear
+solves, not a refit.
 
 One class, whole, in this module: the checks of its parameters, data and
 fitted state; the design (time, inputs, blocks of lags, per-test Grams); the
