@@ -11,12 +11,15 @@ from greyml.persist import load_model, save_model
 
 
 def _model():
+    # the ridge on every sensor: its normal equations are what partial_fit adds to
+    # (the group lasso's partial_fit is in test_transfer_sparse.py)
     return ThermalTransferFunction(
         drivers=["spindle_rpm"],
         time_constants=[900.0, 2700.0],
         driver_time_constants=[2700.0],
         driver_powers=(1,),
         alphas=[1e-3],
+        selection="forward",
     )
 
 

@@ -475,9 +475,11 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
       temperatures share a displacement without one test's peculiarities
       deciding which of them carries it; the drivers are never dropped. Its
       penalty is chosen on held-out tests along a path of 13 from the one at
-      which no sensor enters down to a thousandth of it, the largest within
-      one standard error of the lowest mean held-out RMSE, and with
-      ``max_sensors`` among those that keep at most that many sensors. The
+      which no sensor enters down to a thousandth of it: the lowest mean
+      held-out RMSE (with ``max_sensors``, among those that keep at most that
+      many sensors), not the sparsest within one standard error of it, since
+      a sensor dropped for parsimony can be the one a test unlike the
+      training tests needs. The
       second is a ridge on every sensor or, with ``max_sensors``, on those
       that forward selection chooses. The candidates are compared on the
       tests their choices did not see: with four tests or more, forward
