@@ -193,9 +193,15 @@ def held_out_errors(grams, cols, alphas, pen, folds):
 
 
 def held_out_rmse(grams, k, coef):
-    """The RMSE of test ``k`` predicted by ``coef`` (every column), from its own Gram."""
-    sse = grams.yy[k] - 2.0 * (grams.b[k] @ coef) + coef @ grams.G[k] @ coef
-    return float(np.sqrt(max(sse, 0.0) / grams.sw[k]))
+    """The RMSE of test ``k`` predicted by ``coef`` (every column), from its own Gram.
+
+    ``coef`` of shape (p,) gives a float; of shape (L, p), one RMSE per row.
+    """
+    coef = np.asarray(coef, dtype=float)
+    rows = np.atleast_2d(coef)
+    sse = grams.yy[k] - 2.0 * (rows @ grams.b[k]) + np.einsum("lp,pq,lq->l", rows, grams.G[k], rows)
+    rmse = np.sqrt(np.maximum(sse, 0.0) / grams.sw[k])
+    return float(rmse[0]) if coef.ndim == 1 else rmse
 
 
 def held_out_scores(grams, cols, alphas, pen, folds):

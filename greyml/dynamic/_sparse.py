@@ -18,7 +18,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from greyml.dynamic._gram import _standardised
+from greyml.dynamic._gram import _standardised, held_out_rmse
 
 __all__ = [
     "LAMBDA_RATIOS",
@@ -236,12 +236,7 @@ def group_lasso_select(
     lambdas = np.repeat(path_of[None, :], len(Gs), axis=0)
     coefs = back(_path(Q, c, M, free, lambdas, beta0, RIDGE))
     active = np.einsum("flp,pg->flg", coefs[:, :, : M.shape[0]] ** 2, M) > 0
-    errors = []
-    for i, h in enumerate(folds):
-        C = coefs[1 + i]
-        sse = grams.yy[h] - 2.0 * (C @ grams.b[h]) + np.einsum("lp,pq,lq->l", C, grams.G[h], C)
-        errors.append(np.sqrt(np.maximum(sse, 0.0) / grams.sw[h]))
-    errors = np.array(errors)
+    errors = np.array([held_out_rmse(grams, h, coefs[1 + i]) for i, h in enumerate(folds)])
     budget = np.inf if max_groups is None else max_groups
     n_active = active[0].sum(axis=1)
     j = _choose(errors, n_active <= budget)
