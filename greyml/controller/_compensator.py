@@ -14,20 +14,22 @@ noise_var``: the structure :meth:`greyml.ThermalTransferFunction.predict_interva
 is calibrated with, so that the compensator's interval is the batch one.
 
 A probe reading (:meth:`Compensator.observe`) corrects a small Kalman filter
-(Kalman, 1960) on three states: the error's slow part (an offset that
-forgets itself with the memory ``memory_h``, towards the variance
-``memory_var``: an Ornstein-Uhlenbeck process, fitted to the held-out
-residuals' variogram), a rate (µm per hour) and a gain error of the model's
-correction. The rate and the gain start certain (variance 0), so readings
-move only the offset, until the change detector fires and recalibrates.
-The detector is a two-sided CUSUM (Page, 1954) of the standardised
-innovations, with the textbook allowance of half a standard deviation:
-it fires when the sum of the readings' excess in one direction passes
-``change_threshold`` (5 standard deviations by default), so a persistent
-small shift fires it as surely as one large jump. On recalibrating, the
-rate and the gain become uncertain and the next readings estimate them (no
-refit from scratch). The user can force that with
-:meth:`Compensator.recalibrate`.
+(Kalman, 1960) on the model's error, with three states
+(:mod:`greyml.dynamic._observer`): an offset that forgets itself with the
+memory ``memory_h`` (an Ornstein-Uhlenbeck process fitted to the held-out
+residuals' variogram), and a bias with its rate, both random walks, so that
+readings follow a machine that drifts without waiting for a detector. The
+filter's noise is chosen on the training tests' held-out residuals (its
+innovations there have a mean square of 1).
+
+A change the random walks are too slow for (a step, a ramp that starts) is
+found by a generalised likelihood ratio test (Willsky and Jones, 1976) over
+the last readings, which fires at most ``false_alarm_rate`` times per
+reading on unchanged Gaussian innovations (one in 1,000 by default); on
+firing, the change it estimated is added to the states and
+:attr:`Compensator.status` says which (``change_kind``) and when it began
+(``change_start_s``). The user can open the bias and the rate to a known
+change with :meth:`Compensator.recalibrate`.
 
 Rows. A row becomes the float array ``(time_s, *inputs)``; a value that is not
 a real number (a bool, bytes, text, a date) is refused in one line, since it
@@ -56,6 +58,17 @@ from greyml.controller._from_model import pipeline_terms, transfer_terms
 from greyml.controller._output import QUANTA_MAX, OutputLimits, limit_output
 from greyml.dynamic._kernels import lag_step
 from greyml.dynamic._lags import _power_name, _tau_label
+from greyml.dynamic._observer import (
+    KINDS,
+    WINDOW,
+    H,
+    glr_advance,
+    glr_change,
+    glr_reset,
+    glr_threshold,
+    transition,
+    update,
+)
 from greyml.dynamic._time import MAX_TERMS, gap_message
 
 __all__ = ["HISTORY", "Compensator", "Status", "Uncertainty", "UpdatePlan", "real"]
@@ -78,7 +91,7 @@ _PARAMETERS = (
     "tolerance_um",
     "max_correction_um",
     "probe_noise_um",
-    "change_threshold",
+    "false_alarm_rate",
     "rate_limit_um_s",
     "quantum_um",
     "clamp_um",
@@ -88,14 +101,11 @@ _PARAMETERS = (
 
 #: Rows remembered for readings that arrive late (e.g. 2 h of 15 s rows).
 HISTORY = 512
-#: The CUSUM's allowance, in standard deviations of the innovation (Page, 1954).
-_ALLOWANCE = 0.5
-#: Variance given to the gain error when recalibrating (a 30 % standard deviation).
-_GAIN_VAR = 0.09
 
 Status = namedtuple(
     "Status",
-    "time_s correction half_width trusted plausible changes output held",
+    "time_s correction half_width trusted plausible changes output held innovation "
+    "change_kind change_start_s",
     module=__name__,
 )
 Status.__doc__ = """What the last update gave and how far to trust it.
@@ -119,6 +129,14 @@ held : bool
     The last update had a missing input (NaN or infinite) and gave the
     output before it again; its row changed no state (``time_s`` is the last
     row taken).
+innovation : float
+    The last reading's standardised innovation (the reading's surprise in
+    standard deviations; NaN before any reading of the test).
+change_kind : str or None
+    What the change detector found last: ``"step"`` or ``"ramp"`` (None
+    before it fires).
+change_start_s : float
+    When that change began, on the rows' clock (NaN before it fires).
 """
 
 
@@ -129,9 +147,12 @@ class Uncertainty:
     The error of the model's correction at ``t`` hours since the displacement
     was last known has the variance ``offset_var + growth_var_per_h·t +
     noise_var``; a probe reading corrects the offset part, which then
-    forgets itself with the memory ``memory_h`` towards ``memory_var``.
-    Variances in µm². :meth:`Compensator.from_model` takes it from a fitted
-    model's :class:`~greyml.dynamic.IntervalCalibration`.
+    forgets itself with the memory ``memory_h`` towards ``memory_var``, and
+    a bias and its rate, random walks of ``bias_var_per_h`` and
+    ``rate_var_per_h3`` (:mod:`greyml.dynamic._observer`). Inside the
+    filter every variance is multiplied by ``scale``. Variances in µm².
+    :meth:`Compensator.from_model` takes it from a fitted model's
+    :class:`~greyml.dynamic.IntervalCalibration`.
 
     Attributes
     ----------
@@ -145,6 +166,12 @@ class Uncertainty:
         The variance the slow part returns to after a reading (≥ 0).
     memory_h : float
         The slow part's memory, in hours (> 0).
+    bias_var_per_h : float, default=0.0
+        The bias's random walk, µm² per hour (≥ 0).
+    rate_var_per_h3 : float, default=0.0
+        The bias rate's random walk, µm² per hour³ (≥ 0).
+    scale : float, default=1.0
+        What the filter multiplies every variance by (> 0).
 
     Examples
     --------
@@ -166,10 +193,13 @@ class Uncertainty:
     noise_var: float
     memory_var: float
     memory_h: float
+    bias_var_per_h: float = 0.0
+    rate_var_per_h3: float = 0.0
+    scale: float = 1.0
 
 
 #: No uncertainty: what the filter's arithmetic assumes without one.
-_CERTAIN = Uncertainty(0.0, 0.0, 0.0, 0.0, math.inf)
+_CERTAIN = Uncertainty(0.0, 0.0, 0.0, 0.0, math.inf, 0.0, 0.0, 1.0)
 
 
 @dataclass(frozen=True)
@@ -286,13 +316,41 @@ def output_from_vars(saved):
     return {"output_um": saved["_output"], "credit_um": saved["_credit"], "held": saved["_held"]}
 
 
+def _glr_dict(bank):
+    """The likelihood test's bank as a saved state holds it (checked by ``set_state``)."""
+    try:
+        D, A, B, T0, n = bank
+        return {"response": D, "sum_rho_nu": A, "sum_rho2": B, "start_h": T0, "open": n}
+    except (TypeError, ValueError):
+        raise ValueError("Compensator: the saved probe filter is not valid.") from None
+
+
+def _found_dict(found):
+    try:
+        kind, start, innovation = found
+        return {"kind": kind, "start_s": start, "innovation": innovation}
+    except (TypeError, ValueError):
+        raise ValueError("Compensator: the saved probe filter is not valid.") from None
+
+
+def _positive_semidefinite(P):
+    """A covariance: its eigenvalues ≥ 0, up to rounding."""
+    sym = 0.5 * (P + P.T)
+    return bool((np.linalg.eigvalsh(sym) >= -1e-9 * max(1.0, float(np.abs(sym).max()))).all())
+
+
+def _number(value):
+    """A float or an int (NaN allowed), not a bool."""
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
 def filter_from_vars(saved):
     """The filter's state (as ``get_state`` gives it) from a compensator's saved
     attributes, or None when it has none (a file from before probe readings).
 
     Nothing is trusted: the values are checked by ``set_state`` afterwards.
     """
-    keys = ("_fx", "_fP", "_ft0", "_adjusted", "_flags", "_changes", "_last_reading")
+    keys = ("_fx", "_fP", "_ft0", "_adjusted", "_glr", "_changes", "_last_reading", "_found")
     if not all(k in saved for k in (*keys, "_model", "_corr", "_ht", "_hm", "_hn")):
         return None
     try:
@@ -310,8 +368,9 @@ def filter_from_vars(saved):
         "P": saved["_fP"],
         "t0": saved["_ft0"],
         "adjusted": saved["_adjusted"],
-        "flags": saved["_flags"],
+        "glr": _glr_dict(saved["_glr"]),
         "changes": saved["_changes"],
+        "found": _found_dict(saved["_found"]),
         "last_reading": saved["_last_reading"],
         "model": saved["_model"],
         "correction": saved["_corr"],
@@ -504,7 +563,7 @@ class Compensator:
         Series is always read by name.
     uncertainty, interval_quantile, tolerance_um, max_correction_um, probe_noise_um
         How far to trust the correction and how probe readings correct it
-        (with ``change_threshold``, the change detector's): see
+        (with ``false_alarm_rate``, the change detector's): see
         :attr:`status` and :meth:`observe` (a
         :meth:`from_model` sets them from a fitted model's
         calibration).
@@ -589,7 +648,7 @@ class Compensator:
         "tolerance_um": [Interval(Real, 0, None, closed="neither"), None],
         "max_correction_um": [Interval(Real, 0, math.inf, closed="right")],
         "probe_noise_um": [Interval(Real, 0, None, closed="left")],
-        "change_threshold": [Interval(Real, 0, None, closed="neither")],
+        "false_alarm_rate": [Interval(Real, 0, 1, closed="neither")],
         "rate_limit_um_s": [Interval(Real, 0, None, closed="neither"), None],
         "quantum_um": [Interval(Real, 0, None, closed="neither"), None],
         "clamp_um": [Interval(Real, 0, None, closed="neither"), None],
@@ -612,7 +671,7 @@ class Compensator:
         tolerance_um=None,
         max_correction_um=1000.0,
         probe_noise_um=0.0,
-        change_threshold=5.0,
+        false_alarm_rate=1e-3,
         rate_limit_um_s=None,
         quantum_um=None,
         clamp_um=None,
@@ -631,7 +690,7 @@ class Compensator:
         self.tolerance_um = tolerance_um
         self.max_correction_um = max_correction_um
         self.probe_noise_um = probe_noise_um
-        self.change_threshold = change_threshold
+        self.false_alarm_rate = false_alarm_rate
         self.rate_limit_um_s = rate_limit_um_s
         self.quantum_um = quantum_um
         self.clamp_um = clamp_um
@@ -1088,7 +1147,7 @@ class Compensator:
         tolerance_um=None,
         probe_noise_um=0.0,
         max_correction_um=1000.0,
-        change_threshold=5.0,
+        false_alarm_rate=1e-3,
         rate_limit_um_s=None,
         quantum_um=None,
         clamp_um=None,
@@ -1127,7 +1186,7 @@ class Compensator:
             most this (and the correction plausible).
         probe_noise_um : float, default=0.0
             The standard deviation of a probe reading.
-        max_correction_um, change_threshold, rate_limit_um_s, quantum_um, clamp_um, on_missing
+        max_correction_um, false_alarm_rate, rate_limit_um_s, quantum_um, clamp_um, on_missing
             The plausibility bound, the change detector's threshold and the
             output stage (clamp, quantum, rate limit, what a missing input
             does), as the class takes them; they can also be changed later
@@ -1154,12 +1213,15 @@ class Compensator:
                 noise_var=calibration.noise_var,
                 memory_var=calibration.memory_var,
                 memory_h=calibration.memory_h,
+                bias_var_per_h=calibration.bias_var_per_h,
+                rate_var_per_h3=calibration.rate_var_per_h3,
+                scale=calibration.filter_scale,
             )
         return cls(
             **params,
             row_columns=row_columns,
             max_correction_um=max_correction_um,
-            change_threshold=change_threshold,
+            false_alarm_rate=false_alarm_rate,
             rate_limit_um_s=rate_limit_um_s,
             quantum_um=quantum_um,
             clamp_um=clamp_um,
@@ -1343,18 +1405,20 @@ class Compensator:
             return None
         values = []
         if isinstance(u, Uncertainty):
-            values = [u.offset_var, u.growth_var_per_h, u.noise_var, u.memory_var, u.memory_h]
+            values = [getattr(u, f, math.nan) for f in Uncertainty.__dataclass_fields__]
             values = [v if real(v) else math.nan for v in values]
         if (
-            len(values) != 5
+            len(values) != 8
             or not all(map(math.isfinite, values))
             or min(values) < 0
             or values[4] <= 0
+            or values[7] <= 0
         ):
             raise ValueError(
-                "The 'uncertainty' parameter of Compensator must be an Uncertainty of five "
+                "The 'uncertainty' parameter of Compensator must be an Uncertainty of eight "
                 "finite numbers (offset_var, growth_var_per_h, noise_var, memory_var >= 0, "
-                f"and memory_h > 0); got {u!r}."
+                "memory_h > 0, bias_var_per_h, rate_var_per_h3 >= 0 and scale > 0); "
+                f"got {u!r}."
             )
         return Uncertainty(*(float(v) for v in values))
 
@@ -1362,12 +1426,13 @@ class Compensator:
 
     def _reset_trust(self):
         u = self._plan_or_build().uncertainty
-        offset_var = u.offset_var if u else 0.0
-        self._fx = np.zeros(3)  # offset, rate per hour, gain error: at _ft0
+        offset_var = u.offset_var * u.scale if u else 0.0
+        self._fx = np.zeros(3)  # offset, bias, bias rate per hour: at _ft0
         self._fP = np.diag([offset_var, 0.0, 0.0])
         self._ft0 = None
         self._adjusted = False
-        self._flags = [0.0, 0.0]  # the CUSUM's sums upwards and downwards
+        self._glr = glr_reset()
+        self._found = (None, math.nan, math.nan)  # the last change: kind, start, innovation
         self._changes = 0
         self._last_reading = None
         self._corr = None
@@ -1455,20 +1520,20 @@ class Compensator:
         """The model's correction with the filter's states carried to ``time``."""
         x = self._fx
         dh = (time - self._ft0) / 3600.0
-        return model * (1.0 + x[2]) + x[0] * math.exp(-dh / self._memory_h) + x[1] * dh
+        u = self._plan_or_build().uncertainty or _CERTAIN
+        phi = math.exp(-dh / u.memory_h) if math.isfinite(u.memory_h) else 1.0
+        return model + x[0] * phi + x[1] + x[2] * dh
 
-    @property
-    def _memory_h(self):
-        u = self._plan_or_build().uncertainty
-        return u.memory_h if u else math.inf
+    def _transition(self, dh):
+        u = self._plan_or_build().uncertainty or _CERTAIN
+        return transition(
+            dh, u.memory_h, u.memory_var, u.bias_var_per_h, u.rate_var_per_h3, u.scale
+        )
 
     def _propagated(self, time):
         """The filter's states and covariance carried from its time to ``time``."""
         dh = max(0.0, (time - self._ft0) / 3600.0)
-        u = self._plan_or_build().uncertainty or _CERTAIN
-        phi = math.exp(-dh / u.memory_h)
-        F = np.array([[phi, dh, 0.0], [0.0, 1.0, 0.0], [0.0, 0.0, 1.0]])
-        Q = np.diag([u.memory_var * (1.0 - phi * phi), 0.0, 0.0])
+        F, Q = self._transition(dh)
         return F @ self._fx, F @ self._fP @ F.T + Q, dh
 
     def _variance_at(self, time, model):
@@ -1478,16 +1543,26 @@ class Compensator:
             dh = max(0.0, (time - self._ft0) / 3600.0)
             return u.offset_var + u.growth_var_per_h * dh + u.noise_var
         _, P, _ = self._propagated(time)
-        h = np.array([1.0, 0.0, model])
-        return max(float(h @ P @ h), 0.0) + u.noise_var
+        return max(float(H @ P @ H), 0.0) + u.scale * u.noise_var
 
     @property
     def status(self):
         """:class:`Status` of the last update: correction, half-width, trust."""
         u = self._plan_or_build().uncertainty
+        kind, start, innovation = self._found
         if self._time is None or self._corr is None:
             return Status(
-                self._time, None, math.nan, False, False, self._changes, self._output, self._held
+                self._time,
+                None,
+                math.nan,
+                False,
+                False,
+                self._changes,
+                self._output,
+                self._held,
+                innovation,
+                kind,
+                start,
             )
         corr = self._corr
         plausible = abs(corr) <= self.max_correction_um
@@ -1506,6 +1581,9 @@ class Compensator:
             self._changes,
             self._output,
             self._held,
+            innovation,
+            kind,
+            start,
         )
 
     # -- readings -------------------------------------------------------------
@@ -1607,47 +1685,48 @@ class Compensator:
             )
         m = self._model_at(time_s)
         u = self._plan_or_build().uncertainty or _CERTAIN
+        previous = self._ft0
+        x, P, dh = self._propagated(time_s)
         if not self._adjusted:
-            # the first reading: the slow part's prior is the batch variance there
-            dh = max(0.0, (time_s - self._ft0) / 3600.0)
-            x, P = np.zeros(3), self._fP.copy()
-            P[0, 0] = u.offset_var + u.growth_var_per_h * dh
-        else:
-            x, P, _ = self._propagated(time_s)
-        h = np.array([1.0, 0.0, m])
-        predicted = m * (1.0 + x[2]) + x[0]
-        innovation = z - predicted
-        S = float(h @ P @ h) + u.noise_var + self.probe_noise_um**2
-        if S <= 0:  # every variance 0: the model is held certain, the reading moves nothing
-            S = np.finfo(float).tiny
-        K = P @ h / S
-        x = x + K * innovation
-        IKH = np.eye(3) - np.outer(K, h)
-        P = IKH @ P @ IKH.T + np.outer(K, K) * (S - float(h @ P @ h))  # Joseph form
+            # the first reading: the batch variance there, all in the offset (the
+            # bias and its rate walk from here on)
+            x = np.zeros(3)
+            P = np.diag([u.scale * (u.offset_var + u.growth_var_per_h * dh), 0.0, 0.0])
+        F, _ = self._transition(dh)
+        R = u.scale * u.noise_var + self.probe_noise_um**2
+        x, P, innovation, S, K = update(x, P, z - m, R)
+        self._glr, (stat, kind, slot) = glr_advance(
+            self._glr, F, K, innovation, S, time_s / 3600.0, previous / 3600.0
+        )
+        kind_name, start = self._found[0], self._found[1]
+        if stat > glr_threshold(self.false_alarm_rate):
+            dx, dP, _, start_h = glr_change(self._glr, kind, slot, time_s / 3600.0)
+            x, P = x + dx, P + dP
+            kind_name, start = KINDS[kind], start_h * 3600.0
+            self._changes += 1
+            self._glr = glr_reset()
         self._fx, self._fP, self._ft0 = x, 0.5 * (P + P.T), time_s
         self._adjusted = True
         self._last_reading = time_s
-        z = innovation / math.sqrt(S)
-        up, down = self._flags
-        self._flags = [max(0.0, up + z - _ALLOWANCE), max(0.0, down - z - _ALLOWANCE)]
-        if max(self._flags) > self.change_threshold:
-            self.recalibrate(innovation)
+        self._found = (kind_name, start, innovation / math.sqrt(S))
         # the last update's correction, with the filter's new state
         self._corr = float(self._corrected(self._model, self._time))
         return self.status
 
     def recalibrate(self, size_um=None):
-        """Let the next readings estimate a drift and a gain error (the machine changed).
+        """Let the next readings estimate a step and a drift (the machine changed).
 
-        The change detector calls this when its CUSUM passes
-        ``change_threshold``; call it yourself after a known change (a crash,
-        a new spindle, a season).
+        The change detector does this itself for the change it estimated;
+        call it after a change you know of (a crash, a new spindle, a
+        season): the bias and its rate become uncertain, and the next
+        readings estimate them (no refit from scratch).
 
         Parameters
         ----------
         size_um : float, optional
-            How far off the model is thought to be (by default the interval's
-            standard deviation at the last update).
+            How far off the model is thought to be: a step of that size, and a
+            drift of that size per hour, become possible (by default the
+            interval's standard deviation at the anchor).
 
         Returns
         -------
@@ -1658,23 +1737,31 @@ class Compensator:
             u = self._plan_or_build().uncertainty or _CERTAIN
             size_um = math.sqrt(max(u.offset_var + u.noise_var, 0.0)) or 1.0
         size2 = float(size_um) ** 2
-        # a drift of that size per hour, and a 30 % gain error, become possible
-        self._fP = self._fP + np.diag([size2, size2, _GAIN_VAR])
+        self._fP = self._fP + np.diag([0.0, size2, size2])
         self._changes += 1
-        self._flags = [0.0, 0.0]
+        self._glr = glr_reset()
         return self
 
     # -- saved state ----------------------------------------------------------
 
     def _filter_state(self):
         t, m = self._history()
+        D, A, B, T0, n = self._glr
+        kind, start, innovation = self._found
         return {
             "x": self._fx.tolist(),
             "P": self._fP.tolist(),
             "t0": self._ft0,
             "adjusted": self._adjusted,
-            "flags": list(self._flags),
+            "glr": {
+                "response": D.tolist(),
+                "sum_rho_nu": A.tolist(),
+                "sum_rho2": B.tolist(),
+                "start_h": T0.tolist(),
+                "open": n,
+            },
             "changes": self._changes,
+            "found": {"kind": kind, "start_s": start, "innovation": innovation},
             "last_reading": self._last_reading,
             "model": self._model,
             "correction": self._corr,
@@ -1690,18 +1777,27 @@ class Compensator:
             P = np.asarray(state["P"], dtype=float)
             ht = np.asarray(state["history_time_s"], dtype=float)
             hm = np.asarray(state["history_model"], dtype=float)
-            flags = [float(f) for f in state["flags"]]
+            glr = state["glr"]
+            D = np.asarray(glr["response"], dtype=float)
+            A = np.asarray(glr["sum_rho_nu"], dtype=float)
+            B = np.asarray(glr["sum_rho2"], dtype=float)
+            T0 = np.asarray(glr["start_h"], dtype=float)
+            n = glr["open"]
+            found = state["found"]
+            kind, start, innovation = found["kind"], found["start_s"], found["innovation"]
             changes = state["changes"]
             adjusted = state["adjusted"]
             scalars = [state["t0"], state["last_reading"], state["model"], state["correction"]]
-        except (KeyError, TypeError, ValueError):
+        except (KeyError, TypeError, ValueError, OverflowError):
             raise bad from None
         if (
             x.shape != (3,)
             or P.shape != (3, 3)
             or not (np.isfinite(x).all() and np.isfinite(P).all())
             or not np.allclose(P, P.T)
-            or (np.diag(P) < 0).any()
+            or (
+                np.linalg.eigvalsh(0.5 * (P + P.T)) < -1e-9 * max(1.0, float(np.abs(P).max()))
+            ).any()
             or ht.shape != hm.shape
             or ht.ndim != 1
             or ht.size > HISTORY
@@ -1709,15 +1805,26 @@ class Compensator:
             or (np.diff(ht) < 0).any()
             or not (isinstance(changes, int) and not isinstance(changes, bool) and changes >= 0)
             or not isinstance(adjusted, bool)
-            or len(flags) != 2
-            or not all(math.isfinite(f) and f >= 0 for f in flags)
+            or D.shape != (2, WINDOW, 3)
+            or A.shape != (2, WINDOW)
+            or B.shape != (2, WINDOW)
+            or T0.shape != (WINDOW,)
+            or not all(np.isfinite(v).all() for v in (D, A, B, T0))
+            or (B < 0).any()
+            or not (isinstance(n, int) and not isinstance(n, bool) and 0 <= n <= WINDOW)
+            or kind not in (None, *KINDS)
+            or not all(
+                isinstance(v, (int, float)) and not isinstance(v, bool) for v in (start, innovation)
+            )
             or not all(v is None or real(v) for v in scalars)
         ):
             raise bad
         self._fx, self._fP = x, P
         self._ft0, self._last_reading, self._model, self._corr = scalars
         self._adjusted = adjusted
-        self._flags, self._changes = flags, changes
+        self._glr = (D, A, B, T0, n)
+        self._found = (kind, float(start), float(innovation))
+        self._changes = changes
         self._ht = np.full(HISTORY, -np.inf)
         self._hm = np.zeros(HISTORY)
         self._ht[: ht.size], self._hm[: hm.size] = ht, hm

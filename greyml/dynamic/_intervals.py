@@ -9,12 +9,26 @@ part of the displacement drifts away. The interval's half-width at a time
     h(t) = q · s(t),    s(t)² = a + b·t,
 
 where ``a`` and ``b`` (≥ 0) are fitted to the squared held-out residuals by
-non-negative least squares, and ``q`` is the conformal quantile of the scaled
-held-out scores ``|e| / s(t)`` (Vovk, Gammerman and Shafer, 2005; with a
-scale, the "normalised" conformity score of Papadopoulos et al., 2011). The
-residuals come from leave-one-test-out refits, so the coverage promise rests
-on whole tests being exchangeable: a test unlike every training test (a new
-speed, a new season) is not covered by it.
+non-negative least squares, every training test weighing the same (a long
+test does not outvote a short one), and ``q`` comes from the scaled held-out
+scores ``|e| / s(t)`` (the "normalised" conformity score of Papadopoulos et
+al., 2011). The residuals come from leave-one-test-out refits on the other
+training tests, every test's at once.
+
+The rows of one test are not exchangeable with each other (its error is one
+slow curve), but whole tests are: the promise is made by test. With ``n``
+held-out tests, each test's empirical distribution of scores weighing
+``1/n``, the pooled distribution's quantile at ``p·(n + 1)/n`` covers, in
+expectation over a new test exchangeable with them, at least a share ``p``
+of its rows (the split-conformal argument of Vovk, Gammerman and Shafer,
+2005, applied to tests rather than rows, as Dunn, Wasserman and Ramdas, 2023,
+do for groups). That level is at most 1 only from ``n ≥ p/(1 − p)`` tests
+(9 for 90 %). With fewer, there is no distribution-free promise, and the
+quantile is the parametric one: the scores Gaussian with the tests' mean
+square, ``q = z_{(1+p)/2}·√(mean over tests of mean(score²))``. Either way a
+test unlike every training test (a new speed, a new season) is not covered;
+inputs outside what training saw widen the interval separately
+(:mod:`greyml.dynamic._envelope`).
 
 Pure array functions (no validation, no estimator), and the record a fit
 keeps: :class:`IntervalCalibration`.
@@ -27,6 +41,7 @@ from dataclasses import dataclass
 
 import numpy as np
 from scipy.optimize import nnls
+from scipy.special import ndtri
 
 __all__ = [
     "IntervalCalibration",
@@ -34,6 +49,8 @@ __all__ = [
     "held_out_predictions",
     "scale_fit",
     "scale_of",
+    "quantile_by_test",
+    "weights_by_test",
     "variogram_fit",
 ]
 
@@ -60,11 +77,23 @@ def held_out_predictions(A, grams, folds, bounds, choose):
     return out
 
 
-def scale_fit(hours, residuals):
-    """``(a, b)`` of ``s(t)² = a + b·t`` fitted to the squared residuals (both ≥ 0)."""
+def weights_by_test(sizes):
+    """Each row's weight when every one of the tests (of ``sizes`` rows) weighs the same:
+    ``1 / (n_tests · size)``, summing to 1."""
+    sizes = np.asarray(sizes, dtype=int)
+    return np.repeat(1.0 / (sizes.size * sizes.astype(float)), sizes)
+
+
+def scale_fit(hours, residuals, weights=None):
+    """``(a, b)`` of ``s(t)² = a + b·t`` fitted to the squared residuals (both ≥ 0),
+    each row weighing ``weights`` (equal by default)."""
     M = np.column_stack([np.ones_like(hours), hours])
     e2 = residuals**2
-    (a, b), _ = nnls(M, e2)
+    if weights is not None:
+        root = np.sqrt(np.asarray(weights, dtype=float))
+        (a, b), _ = nnls(M * root[:, None], e2 * root)
+    else:
+        (a, b), _ = nnls(M, e2)
     floor = _FLOOR * float(e2.mean()) if e2.size else 0.0
     return max(float(a), floor, np.finfo(float).tiny), float(b)
 
@@ -121,6 +150,28 @@ def conformal_quantile(scores, coverage):
     return float(scores[rank - 1])
 
 
+def quantile_by_test(scores, weights, n_tests, coverage):
+    """The quantile of the scaled scores at ``coverage``, the promise made by test.
+
+    ``scores`` (any order) come from ``n_tests`` held-out tests, ``weights``
+    their row weights (:func:`weights_by_test`: each test weighs ``1/n``). From
+    ``n ≥ coverage/(1 − coverage)`` tests: the weighted quantile at level
+    ``coverage·(n + 1)/n`` (split-conformal by test). With fewer: the
+    Gaussian quantile times the weighted root mean square of the scores.
+    Returns ``(q, method)``, method ``"conformal"`` or ``"gaussian"``.
+    """
+    scores = np.asarray(scores, dtype=float)
+    weights = np.asarray(weights, dtype=float)
+    level = coverage * (n_tests + 1) / n_tests if n_tests > 0 else math.inf
+    if level <= 1.0 + 1e-12:
+        order = np.argsort(scores, kind="stable")
+        cum = np.cumsum(weights[order])
+        i = int(np.searchsorted(cum, min(level, 1.0) * cum[-1] - 1e-12 * cum[-1]))
+        return float(scores[order][min(i, scores.size - 1)]), "conformal"
+    rms = math.sqrt(float(weights @ scores**2) / float(weights.sum()))
+    return float(ndtri(0.5 + coverage / 2.0)) * rms, "gaussian"
+
+
 @dataclass
 class IntervalCalibration:
     """How far to trust a fitted model: its interval's calibration on held-out tests.
@@ -151,24 +202,57 @@ class IntervalCalibration:
     memory_h : float
         The slow part's memory, in hours (> 0).
     scores : ndarray of shape (n_residuals,)
-        The held-out residuals divided by ``s(t)``, sorted: the split-conformal
+        The held-out residuals divided by ``s(t)``, sorted: the conformity
         scores of the quantile.
+    score_weights : ndarray of shape (n_residuals,) or None
+        Each score's weight, in the order of ``scores``: ``1/(n·size)`` for a
+        score of a test of ``size`` rows among ``n`` tests (every test weighs
+        the same). None (a calibration saved before the weights): the rows
+        are exchangeable, the plain split-conformal rank.
+    n_tests : int
+        How many held-out tests the scores come from (0 with no weights).
+    filter_scale : float
+        What the probe filter's variances are multiplied by (> 0): the mean
+        square of the filter's standardised innovations on the training
+        tests' held-out residuals, read every 15 min, 1 h and 4 h, before
+        this scale (so that after it their mean square is 1).
+    bias_var_per_h : float
+        The variance per hour of the error's persistent bias, a random walk
+        (≥ 0; µm²/h).
+    rate_var_per_h3 : float
+        The variance per hour of the bias's rate, a random walk (≥ 0;
+        µm²/h³): the filter follows a drifting machine with it.
 
     Examples
     --------
-    Nine held-out scores: the 90 % quantile is the ⌈10·0.9⌉ = 9th smallest,
-    and the width grows with the square root of the variance since the anchor:
+    Nine held-out scores of one test each: the 90 % quantile of nine tests is
+    the conformal one, the pooled scores' quantile at 0.9·10/9 = 1 (the
+    largest); the width grows with the square root of the variance since the
+    anchor:
 
     >>> import numpy as np
     >>> from greyml.dynamic import IntervalCalibration
     >>> cal = IntervalCalibration(
     ...     anchor_var=1.0, growth_var_per_h=3.0, noise_var=0.5, memory_var=0.5,
     ...     memory_h=2.0, scores=np.linspace(0.2, 1.8, 9),
+    ...     score_weights=np.full(9, 1 / 9), n_tests=9,
     ... )
     >>> cal.quantile(0.9)
     1.8
+    >>> cal.promise(0.9)
+    'conformal'
     >>> float(cal.scale(1.0))  # s(1 h) = sqrt(1 + 3·1)
     2.0
+
+    With four tests there is no distribution-free 90 % promise: the quantile
+    is 1.645 times the scores' root mean square.
+
+    >>> cal4 = IntervalCalibration(
+    ...     anchor_var=1.0, growth_var_per_h=0.0, noise_var=0.5, memory_var=0.5,
+    ...     memory_h=2.0, scores=np.ones(4), score_weights=np.full(4, 0.25), n_tests=4,
+    ... )
+    >>> round(cal4.quantile(0.9), 4), cal4.promise(0.9)
+    (1.6449, 'gaussian')
     """
 
     anchor_var: float
@@ -177,18 +261,38 @@ class IntervalCalibration:
     memory_var: float
     memory_h: float
     scores: np.ndarray
+    score_weights: np.ndarray | None = None
+    n_tests: int = 0
+    filter_scale: float = 1.0
+    bias_var_per_h: float = 0.0
+    rate_var_per_h3: float = 0.0
 
     def scale(self, hours):
         """``s(t)`` at ``hours`` since the displacement was last known."""
         return scale_of(hours, self.anchor_var, self.growth_var_per_h)
 
-    def quantile(self, coverage, owner="ThermalTransferFunction"):
-        """The conformal quantile of the scores at ``coverage`` (``owner`` names the model
-        in the messages)."""
+    def _checked(self, coverage, owner):
         if not isinstance(coverage, (int, float, np.floating)) or not 0 < coverage < 1:
             raise ValueError(
                 f"{owner}.predict_interval: coverage must be a number in (0, 1); got {coverage!r}."
             )
+
+    def promise(self, coverage):
+        """What the ``coverage`` interval rests on: ``"conformal"`` (a distribution-free
+        promise by test: enough tests), ``"gaussian"`` (the parametric model: too few
+        tests for one) or ``"rows"`` (a calibration saved before tests were weighed)."""
+        self._checked(coverage, "IntervalCalibration")
+        if self.score_weights is None:
+            return "rows"
+        return quantile_by_test(self.scores, self.score_weights, self.n_tests, coverage)[1]
+
+    def quantile(self, coverage, owner="ThermalTransferFunction"):
+        """The quantile of the scores at ``coverage`` (``owner`` names the model in the
+        messages): by test (:func:`quantile_by_test`), or, for a calibration saved
+        without weights, the rows' split-conformal rank."""
+        self._checked(coverage, owner)
+        if self.score_weights is not None:
+            return quantile_by_test(self.scores, self.score_weights, self.n_tests, coverage)[0]
         q = conformal_quantile(self.scores, coverage)
         if not np.isfinite(q):
             n = self.scores.size

@@ -74,7 +74,9 @@ from greyml.dynamic._intervals import (
     scale_fit,
     scale_of,
     variogram_fit,
+    weights_by_test,
 )
+from greyml.dynamic._observer import observer_noise
 from greyml.dynamic._sparse import RIDGE, group_lasso_at, group_lasso_select
 from greyml.dynamic._time import MAX_TERMS, STATES, Timeline, check_time_constants, timeline
 from greyml.exceptions import UnderdeterminedWarning, WarmStartWarning
@@ -1464,21 +1466,36 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
             used = data.w[start:stop] > 0
             hours.append(hours_all[start:stop][used])
             residuals.append((y[start:stop] - pred)[used])
+        series = [(h, r) for h, r in zip(hours, residuals) if r.size]
         c, s2, memory_h = variogram_fit(residuals, data.steps.nominal_step_s)
+        weights = weights_by_test([r.size for _, r in series])
         hours, residuals = np.concatenate(hours), np.concatenate(residuals)
         if reference == "start":
-            a, b = scale_fit(hours, residuals)
+            a, b = scale_fit(hours, residuals, weights)
         else:
             # from the recording's zero the displacement is never known at a row,
             # so nothing anchors a width that grows: one width for every row
-            a, b = scale_fit(np.zeros_like(hours), residuals)[0], 0.0
+            a, b = scale_fit(np.zeros_like(hours), residuals, weights)[0], 0.0
+        noise = float(min(c, a))
+
+        def prior(h):  # the offset's variance before the first reading, h hours in
+            return a - noise + b * h
+
+        qb, qr, scale = observer_noise(series, prior, noise, memory_h, s2)
+        scores = np.abs(residuals) / scale_of(hours, a, b)
+        order = np.argsort(scores, kind="stable")
         return IntervalCalibration(
             anchor_var=float(a),
             growth_var_per_h=float(b),
-            noise_var=float(min(c, a)),
+            noise_var=noise,
             memory_var=float(s2),
             memory_h=float(memory_h),
-            scores=np.sort(np.abs(residuals) / scale_of(hours, a, b)),
+            scores=scores[order],
+            score_weights=weights[order],
+            n_tests=len(series),
+            filter_scale=float(scale),
+            bias_var_per_h=float(qb),
+            rate_var_per_h3=float(qr),
         )
 
     def interval_half_width(self, hours, coverage=0.9):

@@ -3,6 +3,7 @@ estimator from the checked tree, or describe it."""
 
 from __future__ import annotations
 
+import dataclasses
 import inspect
 import math
 import warnings
@@ -43,7 +44,12 @@ from greyml.persist._format import (
 
 def _shadows_behaviour(cls, key):
     """True if the class or one of its bases has something named ``key`` (a
-    method, property or class attribute), which an instance attribute would hide."""
+    method, property or class attribute), which an instance attribute would hide.
+
+    A dataclass's field is data even when it has a default (which the class
+    then holds): the instance's value is what the field is for."""
+    if dataclasses.is_dataclass(cls) and key in cls.__dataclass_fields__:
+        return False
     return inspect.getattr_static(cls, key, _ABSENT) is not _ABSENT
 
 

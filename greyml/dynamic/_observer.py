@@ -1,0 +1,237 @@
+"""The probe filter's arithmetic: a Kalman filter on the error, and a likelihood test for changes.
+
+Pure numpy functions, shared by :class:`greyml.Compensator` (which runs them
+at every probe reading) and :meth:`greyml.ThermalTransferFunction.fit`
+(which chooses the filter's noise on the training tests' held-out residuals
+with them, so that the filter a controller runs is the one calibrated).
+
+The error of the model's correction (measured minus corrected, µm) is
+``o + β + v``: three states and a white part.
+
+* ``o``, the offset: an Ornstein-Uhlenbeck process of variance
+  ``memory_var`` that forgets itself with ``memory_h`` hours (what the
+  held-out residuals' variogram shows);
+* ``β``, the bias: a random walk of variance ``bias_var_per_h`` per hour,
+  moved by the rate ``r``, itself a random walk of ``rate_var_per_h3`` per
+  hour (an integrated random walk): a drifting machine is followed without a
+  detector;
+* ``v``, white, of variance ``noise_var`` (what no reading removes), plus the
+  probe's own noise.
+
+Every variance is multiplied by ``scale``, chosen so that the filter's
+standardised innovations on the training tests have a mean square of 1.
+
+Changes the random walks are too slow for (a crash, a moved fixture, a
+sensor that lost its gain) are found by a generalised likelihood ratio test
+(Willsky and Jones, 1976) for a step in the bias or a ramp from some reading
+among the last :data:`WINDOW`: for each onset, the innovations' expected
+response to a unit change (its *signature*, which the filter's own gains
+shape) is carried, and the statistic is ``(Σ ρ·ν/S)² / Σ ρ²/S``; the test
+fires above the χ²₁ quantile of ``rate / (2·WINDOW)`` (a Bonferroni bound
+over the onsets and both kinds), so that unchanged Gaussian innovations
+raise at most ``rate`` false alarms per reading. On firing, the estimated
+change is added to the states, its variance to their covariance.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from scipy.special import chdtri
+
+__all__ = [
+    "H",
+    "WINDOW",
+    "glr_advance",
+    "glr_reset",
+    "glr_threshold",
+    "observer_noise",
+    "transition",
+    "update",
+]
+
+#: The readings a change may have begun before (the GLR's window).
+WINDOW = 12
+#: The measurement row: the error read is offset + bias.
+H = np.array([1.0, 1.0, 0.0])
+#: The kinds of change the likelihood test looks for.
+KINDS = ("step", "ramp")
+#: The grid of reading intervals (h) the filter's noise is chosen on.
+READING_HOURS = (0.25, 1.0, 4.0)
+
+
+def transition(dh, memory_h, memory_var, bias_var_per_h, rate_var_per_h3, scale=1.0):
+    """``(F, Q)`` carrying the states ``(o, β, r)`` over ``dh`` hours (≥ 0)."""
+    phi = math.exp(-dh / memory_h) if math.isfinite(memory_h) else 1.0
+    qb, qr = bias_var_per_h, rate_var_per_h3
+    F = np.array([[phi, 0.0, 0.0], [0.0, 1.0, dh], [0.0, 0.0, 1.0]])
+    Q = np.array(
+        [
+            [memory_var * (1.0 - phi * phi), 0.0, 0.0],
+            [0.0, qb * dh + qr * dh**3 / 3.0, qr * dh * dh / 2.0],
+            [0.0, qr * dh * dh / 2.0, qr * dh],
+        ]
+    )
+    return F, scale * Q
+
+
+def update(x, P, z_minus_model, R):
+    """One reading: ``(x, P, innovation, S, K)`` after it (Joseph form).
+
+    ``z_minus_model`` is the reading minus the model's correction there;
+    ``R`` the variance of its white part (the model's and the probe's).
+    """
+    innovation = z_minus_model - float(H @ x)
+    PH = P @ H
+    S = float(H @ PH) + R
+    if S <= 0:  # every variance 0: the model is held certain, the reading moves nothing
+        S = np.finfo(float).tiny
+    K = PH / S
+    IKH = np.eye(3) - np.outer(K, H)
+    P = IKH @ P @ IKH.T + np.outer(K, K) * R
+    return x + K * innovation, 0.5 * (P + P.T), innovation, S, K
+
+
+def glr_threshold(rate, window=WINDOW):
+    """The statistic above which the test fires: the χ²₁ quantile of ``rate/(2·window)``."""
+    return float(chdtri(1.0, rate / (2.0 * window)))
+
+
+def glr_reset(window=WINDOW):
+    """An empty bank: ``(D, A, B, T0, n)``: each kind's (2) and onset's (``window``)
+    filter response (3 states), the sums ``Σ ρν/S`` and ``Σ ρ²/S``, the onsets'
+    start times, and how many onsets are open."""
+    return (
+        np.zeros((2, window, 3)),
+        np.zeros((2, window)),
+        np.zeros((2, window)),
+        np.zeros(window),
+        0,
+    )
+
+
+def glr_advance(bank, F, K, innovation, S, time_h, previous_h):
+    """The bank after a reading at ``time_h`` (the previous one at ``previous_h``).
+
+    ``F`` carried the states from the previous reading, ``K`` is this
+    reading's gain. A new onset opens (a change since the previous reading);
+    the oldest beyond the window closes. Returns the new bank and
+    ``(statistic, kind, slot)`` of the largest statistic (kind 0 step, 1 ramp).
+    """
+    D, A, B, T0, n = bank
+    window = T0.size
+    D = np.roll(D, 1, axis=1)
+    A = np.roll(A, 1, axis=1)
+    B = np.roll(B, 1, axis=1)
+    T0 = np.roll(T0, 1)
+    D[:, 0] = 0.0
+    A[:, 0] = B[:, 0] = 0.0
+    T0[0] = previous_h
+    n = min(n + 1, window)
+    D[:, :n] = D[:, :n] @ F.T  # each response carried to this reading
+    G = np.zeros((2, n, 3))
+    G[0, :, 1] = 1.0  # a step in the bias
+    G[1, :, 1] = time_h - T0[:n]  # a ramp: the bias grows with the time since its start
+    G[1, :, 2] = 1.0  # ... at a constant rate
+    rho = (G - D[:, :n]) @ H
+    D[:, :n] += rho[..., None] * K
+    A[:, :n] += rho * innovation / S
+    B[:, :n] += rho * rho / S
+    with np.errstate(divide="ignore", invalid="ignore"):
+        stat = np.where(B[:, :n] > 0, A[:, :n] ** 2 / B[:, :n], 0.0)
+    kind, slot = np.unravel_index(int(np.argmax(stat)), stat.shape)
+    return (D, A, B, T0, n), (float(stat[kind, slot]), int(kind), int(slot))
+
+
+def glr_change(bank, kind, slot, time_h):
+    """``(dx, dP, size, start_h)``: the change found by the bank (kind, slot) at
+    ``time_h``, as the states' correction and its covariance, its size (µm, or
+    µm/h for a ramp) and the time (h) it began."""
+    D, A, B, T0, _ = bank
+    g = np.zeros(3)
+    g[1] = 1.0 if kind == 0 else time_h - T0[slot]
+    g[2] = 0.0 if kind == 0 else 1.0
+    miss = g - D[kind, slot]
+    size = A[kind, slot] / B[kind, slot]
+    return size * miss, np.outer(miss, miss) / B[kind, slot], float(size), float(T0[slot])
+
+
+def replay(hours, resid, every_h, prior, noise, memory_h, memory_var, qb, qr):
+    """The filter run on one test's held-out residuals, read every ``every_h`` hours
+    from its first row (scale 1).
+
+    Returns ``(z, logs, corrected, first)``: the standardised innovations
+    and the logarithms of their variances, the residual left at every row
+    once the filter's correction is subtracted (what a compensator with those
+    readings would leave), and the first row a reading reached (rows before
+    it are corrected by nothing).
+    """
+    at = np.arange(every_h, hours[-1] + 1e-9, every_h)
+    rows = np.searchsorted(hours, at - 1e-9)
+    rows = rows[rows < hours.size]
+    corrected = resid.astype(float).copy()
+    z, logs = np.empty(rows.size), np.empty(rows.size)
+    x, P, last = np.zeros(3), np.zeros((3, 3)), 0.0
+    phi_of = (lambda d: np.exp(-d / memory_h)) if math.isfinite(memory_h) else np.ones_like
+    for k, i in enumerate(rows):
+        if k == 0:  # the first reading: the batch variance there, all in the offset
+            x, P = np.zeros(3), np.diag([prior(hours[i]), 0.0, 0.0])
+        else:
+            F, Q = transition(hours[i] - last, memory_h, memory_var, qb, qr)
+            x, P = F @ x, F @ P @ F.T + Q
+        x, P, nu, S, _ = update(x, P, float(resid[i]), noise)
+        z[k] = nu / math.sqrt(S)
+        logs[k] = math.log(S)
+        last = hours[i]
+        stop = rows[k + 1] if k + 1 < rows.size else hours.size
+        d = hours[i:stop] - last
+        corrected[i:stop] -= x[0] * phi_of(d) + x[1] + x[2] * d
+    return z, logs, corrected, (int(rows[0]) if rows.size else hours.size)
+
+
+#: The random walks' variances tried, as shares of the residuals' mean square
+#: per hour (bias) and per hour³ (rate).
+BIAS_SHARES = (0.0, 1e-3, 1e-2, 1e-1, 1.0)
+RATE_SHARES = (0.0, 1e-4, 1e-3, 1e-2, 1e-1)
+
+
+def observer_noise(series, prior, noise, memory_h, memory_var):
+    """``(bias_var_per_h, rate_var_per_h3, scale)`` of the filter, chosen on ``series``.
+
+    ``series`` is a list of ``(hours since the test's first row, held-out
+    residual)`` arrays, one per training test; ``prior(h)`` the offset's
+    variance before the first reading at ``h`` hours; ``noise`` the white
+    variance; ``memory_h`` and ``memory_var`` the offset's, from the
+    residuals' variogram.
+
+    The random walks' variances are the pair on the grid
+    (:data:`BIAS_SHARES` × :data:`RATE_SHARES`, shares of the residuals' mean
+    square) with the highest Gaussian likelihood of the filter's innovations
+    with readings every 15 min, 1 h and 4 h from each test's first row, every
+    variance multiplied by the common scale that maximises it; that scale (the
+    innovations' mean square) is returned with them, so that the filter's
+    innovations on the training tests have a mean square of 1.
+    """
+    series = [(h, r) for h, r in series if r.size]
+    if not series:
+        return 0.0, 0.0, 1.0
+    e2 = float(np.mean(np.concatenate([r for _, r in series]) ** 2)) or 1.0
+    best = None
+    for fb in BIAS_SHARES:
+        for fr in RATE_SHARES:
+            qb, qr = fb * e2, fr * e2
+            runs = [
+                replay(h, r, every, prior, noise, memory_h, memory_var, qb, qr)
+                for every in READING_HOURS
+                for h, r in series
+            ]
+            z = np.concatenate([run[0] for run in runs])
+            if z.size == 0:
+                return 0.0, 0.0, 1.0
+            logs = np.concatenate([run[1] for run in runs])
+            scale = max(float(np.mean(z**2)), 1e-12)
+            loglik = -0.5 * (float(np.sum(logs)) + z.size * math.log(scale))
+            if best is None or loglik > best[0] + 1e-9 * abs(best[0]):
+                best = (loglik, qb, qr, scale)
+    return best[1], best[2], best[3]
