@@ -112,25 +112,64 @@ def test_a_reading_older_than_the_rows_remembered():
         comp.observe(60.0, 1.0)
 
 
-def test_a_gain_change_is_detected_and_recovered():
-    """The machine now moves 1.3× what the model says; readings every 10 rows."""
-    comp = _comp(uncertainty=Uncertainty(0.04, 0.0, 0.01, 0.04, 1e6))
-    errors = []
-    for k in range(400):
-        temp = 10.0 + 5.0 * math.sin(k / 40.0)
-        truth = 1.3 * 2.0 * temp
-        errors.append(comp.update(_row(60.0 * k, temp)) - truth)
+def _exact(**kw):
+    """The model's error known well: an offset of 0.2 µm SD, white noise of 0.1 µm SD,
+    a bias and a rate that barely walk."""
+    u = Uncertainty(0.04, 0.0, 0.01, 0.04, 1e6, 1e-6, 1e-8, 1.0)
+    return _comp(uncertainty=u, **kw)
+
+
+def test_a_step_is_found_as_a_step_and_removed():
+    """Readings every 10 rows; from row 100 the machine is 5 µm further than the model."""
+    comp = _exact()
+    errors, found_at = [], None
+    for k in range(300):
+        truth = 2.0 * 10.0 + (5.0 if k >= 100 else 0.0)
+        errors.append(comp.update(_row(60.0 * k, 10.0)) - truth)
         if k % 10 == 9:
-            comp.observe(60.0 * k, truth)
-    assert comp.status.changes >= 1
-    assert abs(errors[0]) > 5.0  # 30 % of 20 µm
-    assert max(abs(e) for e in errors[-100:]) < 0.05
+            status = comp.observe(60.0 * k, truth)
+            if status.changes and found_at is None:
+                found_at = k
+    assert found_at == 109  # the first reading after the step
+    status = comp.status
+    assert status.change_kind == "step"
+    assert status.change_start_s == pytest.approx(60.0 * 99)  # after the reading before
+    assert max(abs(e) for e in errors[110:]) < 0.05
+
+
+def test_a_ramp_is_found_as_a_ramp_and_followed():
+    """From 2 h on the machine drifts 0.5 µm/h away from the model; readings every 15 min."""
+    comp = _exact()
+    errors, found = [], []
+    for k in range(12 * 60):
+        t = 60.0 * k
+        truth = 20.0 + 0.5 * max(0.0, t / 3600.0 - 2.0)
+        errors.append(comp.update(_row(t, 10.0)) - truth)
+        if k % 15 == 14:
+            before = comp.status.changes
+            status = comp.observe(t, truth)
+            if status.changes > before:
+                found.append((status.change_kind, status.change_start_s / 3600.0))
+    kind, start_h = found[0]
+    assert kind == "ramp" and 1.5 <= start_h <= 2.5
+    assert max(abs(e) for e in errors[-120:]) < 0.1
+
+
+def test_false_alarms_stay_within_the_rate():
+    """Readings the model predicts up to white noise: at 1 % per reading, the Bonferroni
+    bound allows at most 1 % of 2,000 readings to fire (Gaussian innovations)."""
+    rng = np.random.default_rng(3)
+    comp = _comp(uncertainty=Uncertainty(1.0, 0.0, 1.0, 1.0, 1e6), false_alarm_rate=0.01)
+    for k in range(2000):
+        comp.update(_row(60.0 * k, 10.0))
+        comp.observe(60.0 * k, 20.0 + rng.normal(0.0, 1.0))
+    assert comp.status.changes <= 20
 
 
 def test_no_change_detected_on_readings_the_model_predicts():
     rng = np.random.default_rng(0)
     comp = _comp(uncertainty=Uncertainty(1.0, 0.0, 1.0, 1.0, 1e6))
-    for k in range(400):  # 40 readings: the CUSUM's false alarms come every ~230 readings
+    for k in range(400):  # 40 readings: at one false alarm in 1,000 readings, none
         comp.update(_row(60.0 * k, 10.0))
         if k % 10 == 9:
             comp.observe(60.0 * k, 20.0 + rng.normal(0.0, 1.0))

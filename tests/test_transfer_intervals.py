@@ -10,7 +10,14 @@ import pandas as pd
 import pytest
 
 from greyml import ThermalTransferFunction, make_test_index
-from greyml.dynamic._intervals import conformal_quantile, scale_fit, scale_of
+from greyml.dynamic import IntervalCalibration
+from greyml.dynamic._intervals import (
+    conformal_quantile,
+    quantile_by_test,
+    scale_fit,
+    scale_of,
+    weights_by_test,
+)
 from greyml.persist import load_model, save_model
 
 STEP = 60.0
@@ -117,3 +124,38 @@ def test_intervals_survive_a_save_and_a_tampered_file_is_refused(fitted, tmp_pat
     bad = save_model(fitted_bad, tmp_path / "bad2.greyml")
     with pytest.raises(ValueError, match=r"interval_calibration_.scores must be"):
         load_model(bad)
+
+
+def test_every_test_weighs_the_same():
+    w = weights_by_test([1, 3])
+    np.testing.assert_allclose(w, [0.5, 1 / 6, 1 / 6, 1 / 6])
+
+
+def test_quantile_by_test_by_hand():
+    # nine tests of one row each, scores 1..9: the 90 % level is 0.9·10/9 = 1, the
+    # largest score (the split-conformal rank over tests)
+    scores = np.arange(1.0, 10.0)
+    q, how = quantile_by_test(scores, weights_by_test([1] * 9), 9, 0.9)
+    assert (q, how) == (9.0, "conformal")
+    # 80 %: level 0.8·10/9 = 0.889: the 8th smallest
+    assert quantile_by_test(scores, weights_by_test([1] * 9), 9, 0.8) == (8.0, "conformal")
+    # a long test does not outvote a short one: one test of 1 row (score 10) and one of
+    # 99 rows (score 1): at 50 %, level 0.5·3/2 = 0.75 of the pooled weights
+    scores = np.array([10.0] + [1.0] * 99)
+    q, how = quantile_by_test(scores, weights_by_test([1, 99]), 2, 0.5)
+    assert (q, how) == (10.0, "conformal")  # level 0.75: past the 99-row test's half
+
+
+def test_too_few_tests_give_the_gaussian_quantile():
+    # four tests: 90 % needs 9; the scores' weighted root mean square times z(0.95)
+    scores = np.array([1.0, 1.0, 3.0, 3.0])
+    w = weights_by_test([2, 1, 1])
+    q, how = quantile_by_test(scores, w, 3, 0.9)
+    assert how == "gaussian"
+    rms = math.sqrt(1 / 6 + 1 / 6 + 9 / 3 + 9 / 3)  # each of 3 tests weighs 1/3
+    assert q == pytest.approx(1.6448536269514722 * rms)
+
+
+def test_old_calibrations_keep_the_rows_rank():
+    cal = IntervalCalibration(1.0, 0.0, 0.5, 0.5, 2.0, scores=np.linspace(0.2, 1.8, 9))
+    assert cal.quantile(0.9) == 1.8 and cal.promise(0.9) == "rows"

@@ -1700,8 +1700,13 @@ class Compensator:
         )
         kind_name, start = self._found[0], self._found[1]
         if stat > glr_threshold(self.false_alarm_rate):
-            dx, dP, _, start_h = glr_change(self._glr, kind, slot, time_s / 3600.0)
-            x, P = x + dx, P + dP
+            dx, dP, size, start_h = glr_change(self._glr, kind, slot, time_s / 3600.0)
+            # a few readings cannot tell a step from a ramp: the bias and the rate
+            # are opened by the size found (its effect here, and that per hour since
+            # it began), so that the next readings settle which
+            span = max(time_s / 3600.0 - start_h, 1e-9)
+            effect2 = (size * span) ** 2 if kind else size**2
+            x, P = x + dx, P + dP + np.diag([0.0, effect2, effect2 / span**2])
             kind_name, start = KINDS[kind], start_h * 3600.0
             self._changes += 1
             self._glr = glr_reset()
