@@ -45,6 +45,7 @@ def test_pooled_coverage_weighs_rows_and_the_worst_test_is_kept():
     # test a: 90 of 100 rows inside; test b: 150 of 300
     s = bench.summarise_unit([_record("a", 100, 90, 1.0, 4.0), _record("b", 300, 150, 2.0, 2.0)])
     assert s["coverage"] == {"a": 0.9, "b": 0.5}
+    assert s["rmse"] == {"a": 1.0, "b": 2.0}
     assert s["pooled_coverage"] == pytest.approx(240 / 400)  # not the mean of 0.9 and 0.5
     assert (s["worst_coverage"], s["worst_test"]) == (0.5, "b")
     # RMSE over the 400 rows: sqrt((100 * 1 + 300 * 4) / 400); width (400 + 600) / 400
@@ -66,6 +67,7 @@ def test_readings_summary_against_none():
     assert h["tests_above_none"] == 1  # b: 2.5 > 2.0
     assert h["pooled_coverage"] == pytest.approx(0.6)
     assert h["innovation_sd"] == pytest.approx(math.sqrt(6 / 3))  # NaN left out, about 0
+    assert h["innovation_sd_per_test"] == {"a": 1.0, "b": 2.0}
     assert (h["readings"], h["fired"]) == (4, 1)
 
 
@@ -93,7 +95,7 @@ def test_false_alarms_over_units_and_reading_rates():
     )
     fa = bench.false_alarms({"a": a, "b": b})
     # b fired once per reading rate; 3 + 2 readings per rate, two rates
-    assert fa == {"fired": 2, "readings": 10, "per_reading": 0.2}
+    assert fa == {"fired": 2, "readings": 10, "per_300_readings": 60.0}
 
 
 # Changes ---------------------------------------------------------------------
@@ -197,7 +199,7 @@ def test_acceptance_on_a_hand_made_summary():
     assert lines["innovation SD, hourly readings, unchanged held-out cycles"].value == 1.0
     alarms = next(c for w, c in lines.items() if w.startswith("false alarms"))
     # once per reading rate in cycle 2: 2 firings in 2 cycles x 2 readings x 2 rates
-    assert alarms.value == 2 / 8 and alarms.passed is False
+    assert alarms.value == 300 * 2 / 8 and alarms.passed is False
     assert alarms.detail == "2 firings in 8 readings"
 
 
