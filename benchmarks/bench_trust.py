@@ -317,13 +317,14 @@ def share_removed(effect, corr_changed, corr_unchanged):
 
 
 def changed(X, y, drivers, unit):
-    """One record per (pair of cycles held out, change, onset) on one probe."""
+    """One record per (pair of cycles held out, change, onset) on one probe, and one per pair
+    streamed unchanged with its hourly readings."""
     bounds = bounds_of(X)
     tests = list(bounds)
     firsts = {start for start, _ in bounds.values()}
     rows = rows_of(X)
     times = np.array([r["time_s"] for r in rows])
-    out = []
+    out, pairs = [], []
     for a, b in zip(tests[:-1], tests[1:]):
         start, stop = bounds[a][0], bounds[b][1]
         held = np.zeros(len(rows), dtype=bool)
@@ -334,6 +335,16 @@ def changed(X, y, drivers, unit):
         y_ref = in_reference(y.to_numpy(), bounds, model.reference_)
         readings = reading_rows(times, start, stop, 3600.0)
         base = stream(model, rows, firsts, y_ref, readings)
+        pairs.append(
+            {
+                "probe": unit,
+                "tests": f"{a}-{b}",
+                "reference": model.reference_,
+                "readings": len(base.readings),
+                "fired": sum(r.fired for r in base.readings),
+                "innovations": [round(r.innovation, 4) for r in base.readings],
+            }
+        )
         part, sensor = sensor_part(model, rows, firsts)
         hours = hours_along(times, start, stop, model.nominal_step_s_)
         for kind in CHANGES:
@@ -377,7 +388,7 @@ def changed(X, y, drivers, unit):
             ),
             flush=True,
         )
-    return out
+    return out, pairs
 
 
 # 4: cost ---------------------------------------------------------------------
@@ -522,6 +533,7 @@ def summarise_changes(records):
             "detected": len(delays) / len(rs),
             "median_delay": float(np.median(delays)) if delays else None,
             "median_share_removed": finite_median(shares),
+            "median_effect_rms": finite_median([r["effect_rms"] for r in rs]),
             "min_share_removed": float(np.min(shares)) if shares else None,
             "kinds_said": kinds,
             "runs_fired_before_onset": sum(r["fired_before"] > 0 for r in rs),
@@ -544,6 +556,16 @@ def summarise(results):
                 )
     if results.get("changes"):
         out["changes"] = summarise_changes(results["changes"])
+    if results.get("unchanged_pairs"):
+        fired = sum(r["fired"] for r in results["unchanged_pairs"])
+        readings = sum(r["readings"] for r in results["unchanged_pairs"])
+        out["unchanged_pairs"] = {
+            "fired": fired,
+            "readings": readings,
+            "per_300_readings": 300.0 * fired / readings if readings else None,
+            "runs_fired": sum(r["fired"] > 0 for r in results["unchanged_pairs"]),
+            "runs": len(results["unchanged_pairs"]),
+        }
     return out
 
 
@@ -566,12 +588,14 @@ class Line:
 
 def line(part, unit, what, value, low=None, high=None, detail=""):
     ok = None
-    if value is not None and np.isfinite(value):
+    if value is not None and np.isfinite(value) and (low is not None or high is not None):
         ok = bool((low is None or value >= low) and (high is None or value <= high))
     return Line(part, unit, what, value, low, high, ok, detail)
 
 
 def bar_text(low, high):
+    if low is None and high is None:
+        return "none (reported)"
     if low is not None and high is not None:
         return f"{low:g}-{high:g}"
     return f">= {low:g}" if low is not None else f"<= {high:g}"
@@ -665,6 +689,31 @@ def acceptance(summary):
                     detail=f"{fa['fired']} firings in {fa['readings']} readings",
                 )
             )
+    pairs = summary.get("unchanged_pairs")
+    if pairs:
+        out.append(
+            line(
+                "caiviac",
+                "all",
+                "false alarms per 300 readings, two cycles held out unchanged (hourly readings, "
+                "the change runs' baseline)",
+                pairs["per_300_readings"],
+                detail=f"{pairs['fired']} firings in {pairs['readings']} readings, "
+                f"{pairs['runs_fired']} of {pairs['runs']} runs",
+            )
+        )
+    fleet_alarms = (fl or {}).get("false_alarms")
+    if fleet_alarms:
+        out.append(
+            line(
+                "fleet",
+                "all",
+                "false alarms per 300 readings, unchanged held-out tests (hourly and 4-hourly "
+                "readings)",
+                fleet_alarms["per_300_readings"],
+                detail=f"{fleet_alarms['fired']} firings in {fleet_alarms['readings']} readings",
+            )
+        )
     if ch:
         if "step" in ch:
             out.append(
@@ -759,7 +808,8 @@ def print_changes(summary):
     for kind, c in summary.items():
         delay = "n/a" if c["median_delay"] is None else f"{c['median_delay']:g}"
         print(
-            f"  {kind}: {c['runs']} runs; detected within {DETECT_WITHIN} readings "
+            f"  {kind}: {c['runs']} runs (RMS of the effect after {REMOVED_AFTER} readings: median "
+            f"{fmt(c['median_effect_rms'])} µm); detected within {DETECT_WITHIN} readings "
             f"{c['detected_within']:.0%}, at all {c['detected']:.0%} (median delay {delay} "
             f"readings); share of the effect removed after {REMOVED_AFTER} readings median "
             f"{fmt(c['median_share_removed'])}, min {fmt(c['min_share_removed'])}; the "
@@ -885,6 +935,10 @@ def docs_block(data):
                     f"{_c(s['1h']['pooled_coverage'])} / {_c(s['4h']['pooled_coverage'])}"
                     if "1h" in s
                     else "n/a",
+                    f"{s['1h']['fired'] + s['4h']['fired']} in "
+                    f"{s['1h']['readings'] + s['4h']['readings']}"
+                    if "1h" in s
+                    else "n/a",
                 ]
             )
         lines += _list_table(
@@ -897,6 +951,7 @@ def docs_block(data):
                 "pooled",
                 "width / RMSE",
                 "coverage with hourly / 4-hourly readings",
+                "detector fired (in readings)",
             ],
             body,
         )
@@ -915,6 +970,7 @@ def docs_block(data):
             [
                 "change",
                 "runs",
+                f"RMS of the effect after {REMOVED_AFTER} readings, µm (median)",
                 f"detected within {DETECT_WITHIN} readings",
                 "detected at all (median delay, readings)",
                 f"share of the effect removed after {REMOVED_AFTER} readings: median (min)",
@@ -929,6 +985,7 @@ def docs_block(data):
                         "gain": "20 % gain, one sensor",
                     }[k],
                     str(c["runs"]),
+                    fmt(c["median_effect_rms"]),
                     _pct(c["detected_within"]),
                     f"{_pct(c['detected'])} ({fmt(c['median_delay'])})",
                     f"{fmt(c['median_share_removed'])} ({fmt(c['min_share_removed'])})",
@@ -997,12 +1054,14 @@ def run(data_path, probes, machine_names, changes):
     if path is not None:
         print(f"CAIVIAC/FL_THERMAL from {path}: probes {', '.join(probes)}, leave one cycle out")
         results["caiviac"] = {}
-        results["changes"] = []
+        results["changes"], results["unchanged_pairs"] = [], []
         for probe in probes:
             X, y = peers.load(path, probe)
             results["caiviac"][probe] = held_out(X, y, (peers.DRIVER,), probe)
             if changes:
-                results["changes"] += changed(X, y, (peers.DRIVER,), probe)
+                runs, pairs = changed(X, y, (peers.DRIVER,), probe)
+                results["changes"] += runs
+                results["unchanged_pairs"] += pairs
         X, y = peers.load(path, probes[0])
         results["cost"] = cost(X, y, (peers.DRIVER,))
     if machine_names:
@@ -1083,6 +1142,13 @@ def main(argv=None):
                     f"{part}: detector fired {fa['fired']} times in {fa['readings']} readings on "
                     "unchanged held-out tests"
                 )
+    if "unchanged_pairs" in summary:
+        u = summary["unchanged_pairs"]
+        print(
+            f"caiviac, two cycles held out unchanged (the change runs' baseline): detector fired "
+            f"{u['fired']} times in {u['readings']} hourly readings ({u['runs_fired']} of "
+            f"{u['runs']} runs)"
+        )
     if "changes" in summary:
         print_changes(summary["changes"])
     if "cost" in summary:

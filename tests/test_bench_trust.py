@@ -108,6 +108,7 @@ def _change(probe, delay, share, kind="step", said="step"):
         "delay_readings": delay,
         "kind_said": said if delay is not None else None,
         "share_removed": share,
+        "effect_rms": 5.0,
         "fired_before": 0,
     }
 
@@ -125,6 +126,7 @@ def test_summarise_changes_detection_within_three_and_share_removed():
     assert s["detected"] == 0.75 and s["median_delay"] == 3.0
     assert s["median_share_removed"] == pytest.approx(0.7) and s["min_share_removed"] == 0.5
     assert s["kinds_said"] == {"step": 2, "ramp": 1}
+    assert s["median_effect_rms"] == 5.0
     assert s["by_probe"]["ch1_um"] == {
         "runs": 2,
         "detected_within": 2,
@@ -177,6 +179,27 @@ def test_line_holds_inside_its_bar():
     assert bench.line("p", "u", "w", None, 0.5).passed is None
     assert bench.line("p", "u", "w", math.nan, 0.5).passed is None
     assert bench.bar_text(0.85, 0.95) == "0.85-0.95" and bench.bar_text(None, 4.0) == "<= 4"
+    reported = bench.line("p", "u", "w", 3.0)  # no bar: reported, neither PASS nor FAIL
+    assert reported.passed is None and bench.bar_text(None, None) == "none (reported)"
+
+
+def test_false_alarms_of_the_unchanged_pairs():
+    pairs = [
+        {"fired": 1, "readings": 15},
+        {"fired": 0, "readings": 15},
+        {"fired": 2, "readings": 15},
+    ]
+    s = bench.summarise({"unchanged_pairs": pairs})["unchanged_pairs"]
+    assert s == {
+        "fired": 3,
+        "readings": 45,
+        "per_300_readings": 20.0,
+        "runs_fired": 2,
+        "runs": 3,
+    }
+    (alarms,) = bench.acceptance({"unchanged_pairs": s})
+    assert (alarms.value, alarms.passed) == (20.0, None)
+    assert alarms.detail == "3 firings in 45 readings, 2 of 3 runs"
 
 
 def test_acceptance_on_a_hand_made_summary():
