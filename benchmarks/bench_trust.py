@@ -168,7 +168,7 @@ class Stream:
     correction: np.ndarray
     half_width: np.ndarray
     readings: list
-    innovation_source: str
+    innovation_source: str | None  # None without readings
 
 
 def stream(model, rows, firsts, y_ref, readings):
@@ -181,7 +181,7 @@ def stream(model, rows, firsts, y_ref, readings):
     from_start, carry = model.reference_ == "start", model.state_ == "carry"
     z = float(norm.ppf(0.5 + COVERAGE / 2.0))
     corr, half = np.empty(len(rows)), np.empty(len(rows))
-    wanted, done, source = set(readings), [], "status.innovation"
+    wanted, done, source = set(readings), [], None
     for i, row in enumerate(rows):
         if i in firsts and i > 0 and not carry:
             comp.reset()
@@ -193,6 +193,7 @@ def stream(model, rows, firsts, y_ref, readings):
         if i in wanted:
             after = comp.observe(row["time_s"], float(y_ref[i]))
             innovation = getattr(after, "innovation", None)
+            source = "status.innovation"
             if innovation is None:  # before the compensator reports it: from the half-width
                 source = "(reading - correction) / (half-width / z), computed by the bench"
                 innovation = (y_ref[i] - s.correction) / (s.half_width / z)
@@ -279,7 +280,7 @@ def held_out(X, y, drivers, unit):
                 f"kinds_{label}": [r.kind for r in s.readings if r.fired],
                 f"innovations_{label}": [round(r.innovation, 4) for r in s.readings],
             }
-            record["innovation_source"] = s.innovation_source
+            record["innovation_source"] = record.get("innovation_source") or s.innovation_source
         out.append(record)
         print(
             f"  {unit} test {test}: {REFERENCES[model.reference_].split(' (')[0]}; no readings "
@@ -556,7 +557,7 @@ def summarise(results):
             if "1h" in next(iter(units.values())):
                 out[part]["false_alarms"] = false_alarms(units)
                 out[part]["innovation_source"] = sorted(
-                    {r["innovation_source"] for t in results[part].values() for r in t}
+                    {r["innovation_source"] for t in results[part].values() for r in t} - {None}
                 )
     if results.get("changes"):
         out["changes"] = summarise_changes(results["changes"])
