@@ -1542,8 +1542,19 @@ class Compensator:
         if not self._adjusted:  # the batch calibration, from the first row
             dh = max(0.0, (time - self._ft0) / 3600.0)
             return u.offset_var + u.growth_var_per_h * dh + u.noise_var
-        _, P, _ = self._propagated(time)
-        return max(float(H @ P @ H), 0.0) + u.scale * u.noise_var
+        # H (F P Fᵀ + Q) Hᵀ with H F = (φ, 1, dh), in scalars (read at every row)
+        dh = max(0.0, (time - self._ft0) / 3600.0)
+        phi = math.exp(-dh / u.memory_h) if math.isfinite(u.memory_h) else 1.0
+        P = self._fP
+        hph = (
+            phi * phi * P[0, 0]
+            + P[1, 1]
+            + dh * dh * P[2, 2]
+            + 2.0 * (phi * P[0, 1] + phi * dh * P[0, 2] + dh * P[1, 2])
+        )
+        hqh = u.memory_var * (1.0 - phi * phi) + u.bias_var_per_h * dh
+        hqh += u.rate_var_per_h3 * dh**3 / 3.0
+        return max(float(hph) + u.scale * hqh, 0.0) + u.scale * u.noise_var
 
     @property
     def status(self):

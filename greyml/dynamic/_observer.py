@@ -119,14 +119,10 @@ def glr_advance(bank, F, K, innovation, S, time_h, previous_h):
     the oldest beyond the window closes. Returns the new bank and
     ``(statistic, kind, slot)`` of the largest statistic (kind 0 step, 1 ramp).
     """
-    D, A, B, T0, n = bank
-    window = T0.size
-    D = np.roll(D, 1, axis=1)
-    A = np.roll(A, 1, axis=1)
-    B = np.roll(B, 1, axis=1)
-    T0 = np.roll(T0, 1)
-    D[:, 0] = 0.0
-    A[:, 0] = B[:, 0] = 0.0
+    D0, A0, B0, T00, n = bank
+    window = T00.size
+    D, A, B, T0 = np.zeros_like(D0), np.zeros_like(A0), np.zeros_like(B0), np.empty_like(T00)
+    D[:, 1:], A[:, 1:], B[:, 1:], T0[1:] = D0[:, :-1], A0[:, :-1], B0[:, :-1], T00[:-1]
     T0[0] = previous_h
     n = min(n + 1, window)
     D[:, :n] = D[:, :n] @ F.T  # each response carried to this reading
