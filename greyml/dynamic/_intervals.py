@@ -103,21 +103,24 @@ def scale_of(hours, a, b):
     return np.sqrt(a + b * np.maximum(hours, 0.0))
 
 
-def variogram_fit(series, step_s, max_hours=8.0, n_lags=24):
+def variogram_fit(series, step_s, max_hours=8.0, n_lags=24, min_hours=0.0):
     """``(c, s2, memory_h)`` of ``γ(Δ) = c + s2·(1 − exp(−Δ/memory_h))`` fitted to the
     variogram of the residual ``series`` (one array per test, rows ``step_s`` apart).
 
     ``c`` is the white part (what a reading cannot remove), ``s2`` the
     variance of a slow part that forgets itself with the memory ``memory_h``
-    hours (an Ornstein-Uhlenbeck process). Lags are log-spaced from one row
-    to ``max_hours``; for each memory on a log grid, ``c`` and ``s2`` come
-    from non-negative least squares, and the best fit is kept.
+    hours (an Ornstein-Uhlenbeck process). Lags are log-spaced from
+    ``min_hours`` (at least one row) to ``max_hours``: what decorrelates
+    faster than the shortest lag counts as white; for each memory on a log
+    grid, ``c`` and ``s2`` come from non-negative least squares, and the best
+    fit is kept.
     """
     longest = max((len(e) for e in series), default=0)
     if longest < 3 or not np.isfinite(step_s) or step_s <= 0:
         return 0.0, 0.0, 1.0
     top = max(2, min(longest - 1, int(max_hours * 3600.0 / step_s)))
-    lags = np.unique(np.geomspace(1, top, n_lags).astype(int))
+    low = min(top, max(1, int(round(min_hours * 3600.0 / step_s))))
+    lags = np.unique(np.geomspace(low, top, n_lags).astype(int))
     gamma, used = [], []
     for lag in lags:
         d = [e[lag:] - e[:-lag] for e in series if len(e) > lag]

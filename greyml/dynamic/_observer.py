@@ -42,11 +42,15 @@ from scipy.special import chdtri
 
 __all__ = [
     "H",
+    "KINDS",
+    "READING_HOURS",
     "WINDOW",
     "glr_advance",
+    "glr_change",
     "glr_reset",
     "glr_threshold",
     "observer_noise",
+    "replay",
     "transition",
     "update",
 ]

@@ -76,7 +76,7 @@ from greyml.dynamic._intervals import (
     variogram_fit,
     weights_by_test,
 )
-from greyml.dynamic._observer import observer_noise
+from greyml.dynamic._observer import READING_HOURS, observer_noise
 from greyml.dynamic._sparse import RIDGE, group_lasso_at, group_lasso_select
 from greyml.dynamic._time import MAX_TERMS, STATES, Timeline, check_time_constants, timeline
 from greyml.exceptions import UnderdeterminedWarning, WarmStartWarning
@@ -1467,7 +1467,11 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
             hours.append(hours_all[start:stop][used])
             residuals.append((y[start:stop] - pred)[used])
         series = [(h, r) for h, r in zip(hours, residuals) if r.size]
-        c, s2, memory_h = variogram_fit(residuals, data.steps.nominal_step_s)
+        # the white part: what decorrelates faster than the shortest reading
+        # interval the filter is chosen for (15 min)
+        c, s2, memory_h = variogram_fit(
+            residuals, data.steps.nominal_step_s, min_hours=READING_HOURS[0]
+        )
         weights = weights_by_test([r.size for _, r in series])
         hours, residuals = np.concatenate(hours), np.concatenate(residuals)
         if reference == "start":
