@@ -58,9 +58,10 @@ half-width is at most UM. --probe PROBES.csv replays probe readings (columns
 test, time_s and the target, in the reference of the prediction; read with
 the same --test-column and --time-unit as DATA.csv): the file is streamed
 through the model's compensator, and each reading corrects the prediction from
-its time on and narrows the interval there; when the readings stray from the
-model persistently (a CUSUM passing 5 standard deviations), the change detector
-fires and recalibrates. A reading
+its time on and narrows the interval there; a bias and its rate follow a
+drift reading by reading, and a likelihood-ratio test for a step or a ramp
+(one false alarm in 1,000 readings on Gaussian innovations) adds the change it
+finds. A reading
 of a test or time that is not in DATA.csv, or out of order, is an error.
 
 Examples:

@@ -21,8 +21,8 @@ held-out tests, each test's empirical distribution of scores weighing
 ``1/n``, the pooled distribution's quantile at ``p·(n + 1)/n`` covers, in
 expectation over a new test exchangeable with them, at least a share ``p``
 of its rows (the split-conformal argument of Vovk, Gammerman and Shafer,
-2005, applied to tests rather than rows, as Dunn, Wasserman and Ramdas, 2023,
-do for groups). That level is at most 1 only from ``n ≥ p/(1 − p)`` tests
+2005, applied to tests rather than rows; Dunn, Wasserman and Ramdas, 2023,
+pool groups' distributions the same way). That level is at most 1 only from ``n ≥ p/(1 − p)`` tests
 (9 for 90 %). With fewer, there is no distribution-free promise, and the
 quantile is the parametric one: the scores Gaussian with the tests' mean
 square, ``q = z_{(1+p)/2}·√(mean over tests of mean(score²))``. Either way a
