@@ -118,10 +118,10 @@ def scripted(calibrated=True, names=("T1_C", "T2_C", "rpm"), **limits):
         relative_to_start=True,
         idle_inputs=[rpm],
         max_step_s=3600.0,
-        uncertainty=Uncertainty(4.0, 0.5, 0.2, 2.0, 1.5) if calibrated else None,
+        uncertainty=Uncertainty(4.0, 0.5, 0.2, 2.0, 1.5, 0.3, 0.05, 1.25) if calibrated else None,
         tolerance_um=3.0,
         probe_noise_um=0.5,
-        change_threshold=2.0,
+        false_alarm_rate=0.01,
         **limits,
     )
 
@@ -183,10 +183,32 @@ def script(nominal):
     return out
 
 
+#: The change detector's kinds as the exports code them.
+CHANGE_CODES = {None: 0, "step": 1, "ramp": 2}
+
+
+def found_difference(status, engine):
+    """The largest difference between what Python's change detector found (its kind,
+    start and last innovation) and what ``engine`` says; the kinds must be equal, and
+    where Python says NaN (nothing yet) the engine must say NaN (C) or 0 (Structured
+    Text, which has no NaN)."""
+    assert engine.change_kind() == CHANGE_CODES[status.change_kind], status
+    worst = 0.0
+    for python, exported in (
+        (status.change_start_s, engine.change_start_s()),
+        (status.innovation, engine.innovation()),
+    ):
+        if math.isnan(python):
+            assert math.isnan(exported) or (engine.no_nan and exported == 0.0), status
+        else:
+            worst = max(worst, abs(exported - python))
+    return worst
+
+
 def replay(comp, engine, actions, on_missing):
     """Run ``actions`` on the Python compensator and on ``engine`` (C or Structured Text);
-    return the largest difference of output, correction and half-width after each, and
-    the most changes the detector counted."""
+    return the largest difference of output, correction, half-width and what the change
+    detector found after each, and the most changes the detector counted."""
     worst, changes = 0.0, 0
     for action in actions:
         kind = action[0]
@@ -229,6 +251,8 @@ def replay(comp, engine, actions, on_missing):
         if status.correction is not None and comp.uncertainty is not None:
             worst = max(worst, abs(engine.half_width() - status.half_width))
             assert engine.trusted() == status.trusted and engine.changes() == status.changes
+        if comp.uncertainty is not None:
+            worst = max(worst, found_difference(status, engine))
         changes = max(changes, status.changes)
     return worst, changes
 
@@ -249,6 +273,8 @@ C_FLAGS = ["-std=c99", "-O2", "-Wall", "-Wextra", "-pedantic", "-Werror"]
 
 class CompiledC:
     """The C export of ``comp`` compiled into a shared library, driven through ctypes."""
+
+    no_nan = False  # C says NaN where Python does
 
     def __init__(self, comp, folder, name="gm", cc=None):
         self.source = export_text(comp, "c", name=name)
@@ -286,7 +312,8 @@ class CompiledC:
             self._observe.argtypes = [ctypes.c_void_p, ctypes.c_double, ctypes.c_double]
             self._recalibrate = getattr(lib, f"{name}_recalibrate")
             self._recalibrate.argtypes = [ctypes.c_void_p, ctypes.c_int, ctypes.c_double]
-            getattr(lib, f"{name}_half_width").restype = ctypes.c_double
+            for what in ("half_width", "change_start_s", "innovation"):
+                getattr(lib, f"{name}_{what}").restype = ctypes.c_double
             lib.shim_changes.restype = ctypes.c_long
         self._out = ctypes.c_double()
         self.init()
@@ -326,3 +353,12 @@ class CompiledC:
 
     def changes(self):
         return self.lib.shim_changes(self.state)
+
+    def change_kind(self):
+        return getattr(self.lib, f"{self.name}_change_kind")(self.state)
+
+    def change_start_s(self):
+        return getattr(self.lib, f"{self.name}_change_start_s")(self.state)
+
+    def innovation(self):
+        return getattr(self.lib, f"{self.name}_innovation")(self.state)

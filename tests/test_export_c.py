@@ -130,7 +130,8 @@ def test_the_update_allocates_nothing_and_loops_over_constants(compiled):
     assert re.findall(r"#include\s*<[^>]+>", code) == ["#include <math.h>"]
     loops = re.findall(r"for \(([^)]*)\)", code)
     assert loops
-    bound = r"(\w+) = 0; \1( \+ 1)? < (GM_N_TERMS|GM_N_INPUTS|GM_HISTORY|\d+); \1\+\+"
+    window = r"(\d+ \* )?GM_WINDOW( \* \d+)?"  # the change detector's bank
+    bound = rf"(\w+) = 0; \1( \+ 1)? < ({window}|GM_N_TERMS|GM_N_INPUTS|GM_HISTORY|\d+); \1\+\+"
     for loop in loops:
         assert re.fullmatch(bound, loop), loop
     # no function calls itself

@@ -30,6 +30,8 @@ from _st_runtime import FunctionBlock  # noqa: E402  (needs blark)
 class Block:
     """The exported function block, driven as the C export and Python are."""
 
+    no_nan = True  # Structured Text has no NaN: 0 where Python says NaN
+
     def __init__(self, comp, *, flag_missing=False, name="gm_block"):
         program = describe(comp, name=name)
         self.source = write_st(program)
@@ -80,6 +82,15 @@ class Block:
 
     def changes(self):
         return self.out["changes"]
+
+    def change_kind(self):
+        return self.out["changekind"]
+
+    def change_start_s(self):
+        return self.out["changestarts"]
+
+    def innovation(self):
+        return self.out["innovation"]
 
 
 # Three function blocks (blark takes seconds to parse one): the day's model with
@@ -158,4 +169,4 @@ def test_every_loop_runs_over_constants_and_there_is_no_other():
     assert len(loops) > 10
     for variable, start, stop in loops:
         assert start == "0", (variable, start)
-        assert re.fullmatch(r"\d+|(N_TERMS|N_INPUTS|HISTORY) - [12]", stop), stop
+        assert re.fullmatch(r"\d+|(N_TERMS|N_INPUTS|HISTORY|WINDOW) - [12]", stop), stop
