@@ -205,6 +205,29 @@ def found_difference(status, engine):
     return worst
 
 
+#: When the change in :func:`change_script` begins: at its fifth reading (75 min).
+CHANGE_START_S = 4500.0
+
+
+def change_script(kind, size):
+    """Actions as :func:`script`'s for :func:`scripted`'s compensator: 4 h of rows a
+    minute, and a reading every 15 min, exact (the correction without readings) up to
+    :data:`CHANGE_START_S`, then off by a step of ``size`` µm (``kind`` "step") or by a
+    ramp of ``size`` µm/h from there (``kind`` "ramp")."""
+    twin = scripted(True)  # what the compensator corrects without readings
+    out = []
+    for k in range(4 * 60 + 1):
+        t = 60.0 * k
+        x = [20.0 + 0.5 * math.sin(k / 40), 21.0 - 0.3 * math.cos(k / 55), 3000.0 + 10 * (k % 13)]
+        exact = twin.update(dict(zip(["time_s", *twin.inputs], [t, *x])))
+        out.append(("update", t, x, 0))
+        if k and k % 15 == 0:
+            late = max(t - CHANGE_START_S, 0.0)
+            off = (size if late else 0.0) if kind == "step" else size * late / 3600.0
+            out.append(("observe", t, exact + off, 0))
+    return out
+
+
 def replay(comp, engine, actions, on_missing):
     """Run ``actions`` on the Python compensator and on ``engine`` (C or Structured Text);
     return the largest difference of output, correction, half-width and what the change

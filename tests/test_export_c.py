@@ -13,7 +13,9 @@ import re
 import numpy as np
 import pytest
 from _export_cases import (
+    CHANGE_START_S,
     CompiledC,
+    change_script,
     compiler,
     day,
     fitted,
@@ -119,6 +121,19 @@ def test_refusals_held_rows_readings_and_resets_match_python(
         assert changes >= 3  # the detector fired twice, and recalibrate was called
     else:
         assert "gm_observe" not in c.source
+
+
+@pytest.mark.parametrize("kind, size", [("step", 5.0), ("ramp", 3.0)])
+def test_a_step_or_a_ramp_is_found_as_python_finds_it(tmp_path, kind, size):
+    # exact readings every 15 min, then a 5 µm step or a 3 µm/h ramp from the fifth
+    comp = scripted()
+    c = CompiledC(comp, tmp_path)
+    worst, changes = replay(comp, c, change_script(kind, size), "hold")
+    assert worst <= 1e-9  # output, correction, half-width, start and innovation
+    status = comp.status
+    assert changes == status.changes == c.changes() == 1  # it fired once, in both
+    assert status.change_kind == kind and c.change_kind() == {"step": 1, "ramp": 2}[kind]
+    assert status.change_start_s == c.change_start_s() == CHANGE_START_S  # the last exact one
 
 
 def test_the_update_allocates_nothing_and_loops_over_constants(compiled):

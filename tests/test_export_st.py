@@ -16,7 +16,15 @@ import re
 
 import numpy as np
 import pytest
-from _export_cases import day, fitted, replay, script, scripted
+from _export_cases import (
+    CHANGE_START_S,
+    change_script,
+    day,
+    fitted,
+    replay,
+    script,
+    scripted,
+)
 
 from greyml.controller import Compensator
 from greyml.controller._export._program import describe
@@ -151,6 +159,19 @@ def test_refusals_held_rows_readings_and_resets_match_python(label):
         assert {"x_x_system_rm_rf", "x_end_function_block", "x_t1_c_end_var"} <= set(
             block.fb.inputs
         )
+
+
+@pytest.mark.parametrize("kind, size", [("step", 5.0), ("ramp", 3.0)])
+def test_a_step_or_a_ramp_is_found_as_python_finds_it(kind, size):
+    # exact readings every 15 min, then a 5 µm step or a 3 µm/h ramp from the fifth
+    comp = scripted()
+    block = Block(comp)
+    worst, changes = replay(comp, block, change_script(kind, size), "hold")
+    assert worst <= 1e-6  # output, correction, half-width, start and innovation
+    status = comp.status
+    assert changes == status.changes == block.changes() == 1  # it fired once, in both
+    assert status.change_kind == kind and block.change_kind() == {"step": 1, "ramp": 2}[kind]
+    assert status.change_start_s == block.change_start_s() == CHANGE_START_S
 
 
 def test_inputs_valid_false_is_a_missing_input():
