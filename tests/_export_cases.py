@@ -209,20 +209,21 @@ def found_difference(status, engine):
 CHANGE_START_S = 4500.0
 
 
-def change_script(kind, size):
+def change_script(kind, size, restart_row=None):
     """Actions as :func:`script`'s for :func:`scripted`'s compensator: 4 h of rows a
     minute, and a reading every 15 min, exact (the correction without readings) up to
     :data:`CHANGE_START_S`, then off by a step of ``size`` µm (``kind`` "step") or by a
-    ramp of ``size`` µm/h from there (``kind`` "ramp")."""
-    twin = scripted(True)  # what the compensator corrects without readings
+    ramp of ``size`` µm/h from there (``kind`` "ramp"). With ``restart_row``, the
+    rows' clock restarts at 0 there (for a compensator with ``nominal_step_s=60``)."""
+    twin = scripted(True, nominal_step_s=60.0)  # what it corrects without readings
     out = []
     for k in range(4 * 60 + 1):
-        t = 60.0 * k
+        t = 60.0 * (k if restart_row is None or k < restart_row else k - restart_row)
         x = [20.0 + 0.5 * math.sin(k / 40), 21.0 - 0.3 * math.cos(k / 55), 3000.0 + 10 * (k % 13)]
         exact = twin.update(dict(zip(["time_s", *twin.inputs], [t, *x])))
         out.append(("update", t, x, 0))
         if k and k % 15 == 0:
-            late = max(t - CHANGE_START_S, 0.0)
+            late = max(60.0 * k - CHANGE_START_S, 0.0)
             off = (size if late else 0.0) if kind == "step" else size * late / 3600.0
             out.append(("observe", t, exact + off, 0))
     return out

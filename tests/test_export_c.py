@@ -136,6 +136,30 @@ def test_a_step_or_a_ramp_is_found_as_python_finds_it(tmp_path, kind, size):
     assert status.change_start_s == c.change_start_s() == CHANGE_START_S  # the last exact one
 
 
+def test_a_clock_that_restarts_while_a_ramp_is_tested_changes_only_the_times(tmp_path):
+    # the clock restarts at 2.5 h, between the ramp's start (1.25 h) and its finding (4 h):
+    # with nominal_step_s the row's real step, everything is as on a clock that goes on,
+    # the start on the new clock (1.25 h - 2.5 h), in Python and in the C
+    steady, restarted = scripted(nominal_step_s=60.0), scripted(nominal_step_s=60.0)
+    c = CompiledC(restarted, tmp_path)
+    worst = 0.0
+    pairs = zip(change_script("ramp", 3.0), change_script("ramp", 3.0, restart_row=150))
+    for before, after in pairs:
+        if before[0] == "update":  # Python alone
+            steady.update(dict(zip(["time_s", *steady.inputs], [before[1], *before[2]])))
+        else:
+            steady.observe(before[1], before[2])
+        worst = max(worst, replay(restarted, c, [after], "hold")[0])
+        a, b = steady.status, restarted.status
+        assert b.correction == pytest.approx(a.correction, abs=1e-9)
+        assert b.half_width == pytest.approx(a.half_width, abs=1e-9)
+        assert (b.changes, b.change_kind) == (a.changes, a.change_kind)
+    assert worst <= 1e-9
+    assert restarted.status.change_kind == "ramp" and restarted.status.changes == 1
+    assert steady.status.change_start_s == CHANGE_START_S
+    assert restarted.status.change_start_s == pytest.approx(CHANGE_START_S - 9000.0, abs=1e-9)
+
+
 def test_the_update_allocates_nothing_and_loops_over_constants(compiled):
     comp, c = compiled["fast rate, quantum and clamp"]
     source = c.source
