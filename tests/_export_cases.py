@@ -295,6 +295,10 @@ def compiler():
 C_FLAGS = ["-std=c99", "-O2", "-Wall", "-Wextra", "-pedantic", "-Werror"]
 
 
+#: The probe filter's arrays in the C state struct, and their lengths.
+FILTER_ARRAYS = {"fx": 3, "fp": 9, "glr_d": 72, "glr_a": 24, "glr_b": 24, "glr_t0": 12}
+
+
 class CompiledC:
     """The C export of ``comp`` compiled into a shared library, driven through ctypes."""
 
@@ -311,6 +315,11 @@ class CompiledC:
             shim.append(f"{kind} shim_{field}(const {name}_state *s) {{ return s->{field}; }}")
         if self.trust:
             shim.append(f"long shim_changes(const {name}_state *s) {{ return s->changes; }}")
+            shim.append(f"long shim_glr_n(const {name}_state *s) {{ return s->glr_n; }}")
+            for field in FILTER_ARRAYS:
+                shim.append(
+                    f"const double *shim_{field}(const {name}_state *s) {{ return s->{field}; }}"
+                )
         (folder / "shim.c").write_text("\n".join(shim) + "\n")
         library = folder / f"lib{name}.so"
         subprocess.run(
@@ -339,6 +348,9 @@ class CompiledC:
             for what in ("half_width", "change_start_s", "innovation"):
                 getattr(lib, f"{name}_{what}").restype = ctypes.c_double
             lib.shim_changes.restype = ctypes.c_long
+            lib.shim_glr_n.restype = ctypes.c_long
+            for field in FILTER_ARRAYS:
+                getattr(lib, f"shim_{field}").restype = vector
         self._out = ctypes.c_double()
         self.init()
 
@@ -386,3 +398,19 @@ class CompiledC:
 
     def innovation(self):
         return getattr(self.lib, f"{self.name}_innovation")(self.state)
+
+    def filter_state(self):
+        """The probe filter's state in the layout of ``Compensator.get_state()["filter"]``."""
+        got = {
+            field: np.ctypeslib.as_array(getattr(self.lib, f"shim_{field}")(self.state), (n,))
+            for field, n in FILTER_ARRAYS.items()
+        }
+        return {
+            "x": got["fx"],
+            "P": got["fp"].reshape(3, 3),
+            "response": got["glr_d"].reshape(2, 12, 3),
+            "sum_rho_nu": got["glr_a"].reshape(2, 12),
+            "sum_rho2": got["glr_b"].reshape(2, 12),
+            "start_h": got["glr_t0"],
+            "open": self.lib.shim_glr_n(self.state),
+        }

@@ -134,6 +134,15 @@ def test_a_step_or_a_ramp_is_found_as_python_finds_it(tmp_path, kind, size):
     assert changes == status.changes == c.changes() == 1  # it fired once, in both
     assert status.change_kind == kind and c.change_kind() == {"step": 1, "ramp": 2}[kind]
     assert status.change_start_s == c.change_start_s() == CHANGE_START_S  # the last exact one
+    # the saved state: the filter and the likelihood test's bank as Python holds them
+    python, exported = comp.get_state()["filter"], c.filter_state()
+    for key in ("x", "P"):
+        np.testing.assert_allclose(exported[key], python[key], rtol=1e-12, atol=1e-12)
+    for key in ("response", "sum_rho_nu", "sum_rho2", "start_h"):
+        np.testing.assert_allclose(exported[key], python["glr"][key], rtol=1e-12, atol=1e-12)
+    assert exported["open"] == python["glr"]["open"] == {"step": 10, "ramp": 0}[kind]
+    # (the step is found at its first reading, 1.5 h, and 10 readings follow; the ramp
+    # at the last, 4 h, which empties the bank)
 
 
 def test_a_clock_that_restarts_while_a_ramp_is_tested_changes_only_the_times(tmp_path):
