@@ -17,7 +17,7 @@ import math
 import textwrap
 from string import Template
 
-from greyml.controller._export._program import STATUS_CODES
+from greyml.controller._export._program import CHANGE_KINDS, STATUS_CODES
 from greyml.controller._output import QUANTA_MAX, QUANTUM_TOLERANCE
 
 __all__ = ["write_c"]
@@ -252,9 +252,7 @@ def _trust_c(p):
         r"""
 #define ${M}_HISTORY ${history}
 #define ${M}_WINDOW ${window}
-#define ${M}_CHANGE_NONE 0
-#define ${M}_CHANGE_STEP 1
-#define ${M}_CHANGE_RAMP 2
+${change_macros}
 
 static double ${P}_corrected(const ${P}_state *s, double model, double time_s)
 {
@@ -528,6 +526,10 @@ int ${P}_observe(${P}_state *s, double time_s, double measured_um)
         white_var=_real(t.white_var),
         quantile=_real(t.interval_quantile),
         threshold=_real(t.glr_threshold),
+        change_macros="\n".join(
+            f"#define {p.name.upper()}_CHANGE_{kind.upper()} {code}"
+            for kind, code in CHANGE_KINDS.items()
+        ),
         max_correction=_real(p.max_correction_um),
         tolerance=tolerance,
     )
