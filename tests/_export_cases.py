@@ -118,10 +118,10 @@ def scripted(calibrated=True, names=("T1_C", "T2_C", "rpm"), **limits):
         relative_to_start=True,
         idle_inputs=[rpm],
         max_step_s=3600.0,
-        uncertainty=Uncertainty(4.0, 0.5, 0.2, 2.0, 1.5) if calibrated else None,
+        uncertainty=Uncertainty(4.0, 0.5, 0.2, 2.0, 1.5, 0.3, 0.05, 1.25) if calibrated else None,
         tolerance_um=3.0,
         probe_noise_um=0.5,
-        change_threshold=2.0,
+        false_alarm_rate=0.01,
         **limits,
     )
 
@@ -183,10 +183,56 @@ def script(nominal):
     return out
 
 
+#: The change detector's kinds as the exports code them.
+CHANGE_CODES = {None: 0, "step": 1, "ramp": 2}
+
+
+def found_difference(status, engine):
+    """The largest difference between what Python's change detector found (its kind,
+    start and last innovation) and what ``engine`` says; the kinds must be equal, and
+    where Python says NaN (nothing yet) the engine must say NaN (C) or 0 (Structured
+    Text, which has no NaN)."""
+    assert engine.change_kind() == CHANGE_CODES[status.change_kind], status
+    worst = 0.0
+    for python, exported in (
+        (status.change_start_s, engine.change_start_s()),
+        (status.innovation, engine.innovation()),
+    ):
+        if math.isnan(python):
+            assert math.isnan(exported) or (engine.no_nan and exported == 0.0), status
+        else:
+            worst = max(worst, abs(exported - python))
+    return worst
+
+
+#: When the change in :func:`change_script` begins: at its fifth reading (75 min).
+CHANGE_START_S = 4500.0
+
+
+def change_script(kind, size, restart_row=None):
+    """Actions as :func:`script`'s for :func:`scripted`'s compensator: 4 h of rows a
+    minute, and a reading every 15 min, exact (the correction without readings) up to
+    :data:`CHANGE_START_S`, then off by a step of ``size`` µm (``kind`` "step") or by a
+    ramp of ``size`` µm/h from there (``kind`` "ramp"). With ``restart_row``, the
+    rows' clock restarts at 0 there (for a compensator with ``nominal_step_s=60``)."""
+    twin = scripted(True, nominal_step_s=60.0)  # what it corrects without readings
+    out = []
+    for k in range(4 * 60 + 1):
+        t = 60.0 * (k if restart_row is None or k < restart_row else k - restart_row)
+        x = [20.0 + 0.5 * math.sin(k / 40), 21.0 - 0.3 * math.cos(k / 55), 3000.0 + 10 * (k % 13)]
+        exact = twin.update(dict(zip(["time_s", *twin.inputs], [t, *x])))
+        out.append(("update", t, x, 0))
+        if k and k % 15 == 0:
+            late = max(60.0 * k - CHANGE_START_S, 0.0)
+            off = (size if late else 0.0) if kind == "step" else size * late / 3600.0
+            out.append(("observe", t, exact + off, 0))
+    return out
+
+
 def replay(comp, engine, actions, on_missing):
     """Run ``actions`` on the Python compensator and on ``engine`` (C or Structured Text);
-    return the largest difference of output, correction and half-width after each, and
-    the most changes the detector counted."""
+    return the largest difference of output, correction, half-width and what the change
+    detector found after each, and the most changes the detector counted."""
     worst, changes = 0.0, 0
     for action in actions:
         kind = action[0]
@@ -229,6 +275,8 @@ def replay(comp, engine, actions, on_missing):
         if status.correction is not None and comp.uncertainty is not None:
             worst = max(worst, abs(engine.half_width() - status.half_width))
             assert engine.trusted() == status.trusted and engine.changes() == status.changes
+        if comp.uncertainty is not None:
+            worst = max(worst, found_difference(status, engine))
         changes = max(changes, status.changes)
     return worst, changes
 
@@ -247,8 +295,14 @@ def compiler():
 C_FLAGS = ["-std=c99", "-O2", "-Wall", "-Wextra", "-pedantic", "-Werror"]
 
 
+#: The probe filter's arrays in the C state struct, and their lengths.
+FILTER_ARRAYS = {"fx": 3, "fp": 9, "glr_d": 72, "glr_a": 24, "glr_b": 24, "glr_t0": 12}
+
+
 class CompiledC:
     """The C export of ``comp`` compiled into a shared library, driven through ctypes."""
+
+    no_nan = False  # C says NaN where Python does
 
     def __init__(self, comp, folder, name="gm", cc=None):
         self.source = export_text(comp, "c", name=name)
@@ -261,6 +315,11 @@ class CompiledC:
             shim.append(f"{kind} shim_{field}(const {name}_state *s) {{ return s->{field}; }}")
         if self.trust:
             shim.append(f"long shim_changes(const {name}_state *s) {{ return s->changes; }}")
+            shim.append(f"long shim_glr_n(const {name}_state *s) {{ return s->glr_n; }}")
+            for field in FILTER_ARRAYS:
+                shim.append(
+                    f"const double *shim_{field}(const {name}_state *s) {{ return s->{field}; }}"
+                )
         (folder / "shim.c").write_text("\n".join(shim) + "\n")
         library = folder / f"lib{name}.so"
         subprocess.run(
@@ -286,8 +345,12 @@ class CompiledC:
             self._observe.argtypes = [ctypes.c_void_p, ctypes.c_double, ctypes.c_double]
             self._recalibrate = getattr(lib, f"{name}_recalibrate")
             self._recalibrate.argtypes = [ctypes.c_void_p, ctypes.c_int, ctypes.c_double]
-            getattr(lib, f"{name}_half_width").restype = ctypes.c_double
+            for what in ("half_width", "change_start_s", "innovation"):
+                getattr(lib, f"{name}_{what}").restype = ctypes.c_double
             lib.shim_changes.restype = ctypes.c_long
+            lib.shim_glr_n.restype = ctypes.c_long
+            for field in FILTER_ARRAYS:
+                getattr(lib, f"shim_{field}").restype = vector
         self._out = ctypes.c_double()
         self.init()
 
@@ -326,3 +389,28 @@ class CompiledC:
 
     def changes(self):
         return self.lib.shim_changes(self.state)
+
+    def change_kind(self):
+        return getattr(self.lib, f"{self.name}_change_kind")(self.state)
+
+    def change_start_s(self):
+        return getattr(self.lib, f"{self.name}_change_start_s")(self.state)
+
+    def innovation(self):
+        return getattr(self.lib, f"{self.name}_innovation")(self.state)
+
+    def filter_state(self):
+        """The probe filter's state in the layout of ``Compensator.get_state()["filter"]``."""
+        got = {
+            field: np.ctypeslib.as_array(getattr(self.lib, f"shim_{field}")(self.state), (n,))
+            for field, n in FILTER_ARRAYS.items()
+        }
+        return {
+            "x": got["fx"],
+            "P": got["fp"].reshape(3, 3),
+            "response": got["glr_d"].reshape(2, 12, 3),
+            "sum_rho_nu": got["glr_a"].reshape(2, 12),
+            "sum_rho2": got["glr_b"].reshape(2, 12),
+            "start_h": got["glr_t0"],
+            "open": self.lib.shim_glr_n(self.state),
+        }

@@ -74,6 +74,16 @@ def test_the_json_holds_the_terms_limits_and_state_layout_of_c_and_st():
     assert data["limits"]["rate_limit_um_s"] == 0.5 and data["limits"]["quantum_um"] == 0.1
     assert data["limits"]["on_missing"] == "hold" and data["limits"]["clamp_um"] is None
     assert data["probe_filter"]["offset_var"] == comp.uncertainty.offset_var
+    # the probe filter's calibration, and the change detector's threshold as a number:
+    # the χ²₁ quantile of 1e-3 / (2·12), 16.79392 (scipy.stats.chi2.isf(1e-3 / 24, 1))
+    u, trust = comp.uncertainty, data["probe_filter"]
+    for field in ("bias_var_per_h", "rate_var_per_h3", "scale", "memory_h", "noise_var"):
+        assert trust[field] == getattr(u, field), field
+    assert trust["false_alarm_rate"] == 1e-3 and trust["window"] == 12
+    assert trust["glr_threshold"] == pytest.approx(16.79392, abs=1e-5)
+    assert trust["white_var"] == u.scale * u.noise_var
+    assert trust["reading_var"] == u.scale * u.noise_var + comp.probe_noise_um**2
+    assert trust["change_kinds"] == {"none": 0, "step": 1, "ramp": 2}
     assert data["intercept"] == comp.intercept and data["tolerance_um"] == 4.0
     assert data["units"]["output"] == "um" and data["units"]["time"] == "s"
     # the state layout is what the C struct and the function block declare
@@ -181,7 +191,7 @@ def test_the_file_is_written_whole_and_never_over_another_without_overwrite(tmp_
 @pytest.mark.parametrize(
     "params, words",
     [
-        ({"change_threshold": math.inf}, "'change_threshold' parameter of Compensator"),
+        ({"false_alarm_rate": math.inf}, "'false_alarm_rate' parameter of Compensator"),
         ({"rate_limit_um_s": math.inf}, "'rate_limit_um_s' parameter of Compensator"),
         ({"intercept": math.nan}, "'intercept' parameter of Compensator"),
     ],
@@ -269,7 +279,8 @@ def _frame():
 
 
 def test_an_infinite_bound_is_written_as_no_bound(tmp_path):
-    # max_correction_um, tolerance_um and change_threshold as bounds that nothing passes
+    # max_correction_um, tolerance_um and the change detector's threshold as bounds that
+    # nothing passes
     # (the Compensator's constraints refuse them today; an export must not write 'inf')
     import dataclasses
 
@@ -283,10 +294,13 @@ def test_an_infinite_bound_is_written_as_no_bound(tmp_path):
         program,
         max_correction_um=math.inf,
         tolerance_um=math.inf,
-        trust=dataclasses.replace(program.trust, change_threshold=math.inf),
+        trust=dataclasses.replace(program.trust, glr_threshold=math.inf),
     )
     data = json.loads(LANGUAGES["json"](program))
     assert data["max_correction_um"] is None and data["tolerance_um"] is None
+    assert data["probe_filter"]["glr_threshold"] is None
+    assert "GLR_THRESHOLD : LREAL := 1.7976931348623157E308" in LANGUAGES["st"](program)
+    assert "if (stat > HUGE_VAL)" in LANGUAGES["c"](program)
     st_text = LANGUAGES["st"](program)
     assert "inf" not in _strip_comments(st_text, "st").lower().replace("initial", "")
     assert "ABS(ProbeUm) > 1.7976931348623157E308" in st_text

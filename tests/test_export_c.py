@@ -13,7 +13,9 @@ import re
 import numpy as np
 import pytest
 from _export_cases import (
+    CHANGE_START_S,
     CompiledC,
+    change_script,
     compiler,
     day,
     fitted,
@@ -121,6 +123,52 @@ def test_refusals_held_rows_readings_and_resets_match_python(
         assert "gm_observe" not in c.source
 
 
+@pytest.mark.parametrize("kind, size", [("step", 5.0), ("ramp", 3.0)])
+def test_a_step_or_a_ramp_is_found_as_python_finds_it(tmp_path, kind, size):
+    # exact readings every 15 min, then a 5 µm step or a 3 µm/h ramp from the fifth
+    comp = scripted()
+    c = CompiledC(comp, tmp_path)
+    worst, changes = replay(comp, c, change_script(kind, size), "hold")
+    assert worst <= 1e-9  # output, correction, half-width, start and innovation
+    status = comp.status
+    assert changes == status.changes == c.changes() == 1  # it fired once, in both
+    assert status.change_kind == kind and c.change_kind() == {"step": 1, "ramp": 2}[kind]
+    assert status.change_start_s == c.change_start_s() == CHANGE_START_S  # the last exact one
+    # the saved state: the filter and the likelihood test's bank as Python holds them
+    python, exported = comp.get_state()["filter"], c.filter_state()
+    for key in ("x", "P"):
+        np.testing.assert_allclose(exported[key], python[key], rtol=1e-12, atol=1e-12)
+    for key in ("response", "sum_rho_nu", "sum_rho2", "start_h"):
+        np.testing.assert_allclose(exported[key], python["glr"][key], rtol=1e-12, atol=1e-12)
+    assert exported["open"] == python["glr"]["open"] == {"step": 10, "ramp": 0}[kind]
+    # (the step is found at its first reading, 1.5 h, and 10 readings follow; the ramp
+    # at the last, 4 h, which empties the bank)
+
+
+def test_a_clock_that_restarts_while_a_ramp_is_tested_changes_only_the_times(tmp_path):
+    # the clock restarts at 2.5 h, between the ramp's start (1.25 h) and its finding (4 h):
+    # with nominal_step_s the row's real step, everything is as on a clock that goes on,
+    # the start on the new clock (1.25 h - 2.5 h), in Python and in the C
+    steady, restarted = scripted(nominal_step_s=60.0), scripted(nominal_step_s=60.0)
+    c = CompiledC(restarted, tmp_path)
+    worst = 0.0
+    pairs = zip(change_script("ramp", 3.0), change_script("ramp", 3.0, restart_row=150))
+    for before, after in pairs:
+        if before[0] == "update":  # Python alone
+            steady.update(dict(zip(["time_s", *steady.inputs], [before[1], *before[2]])))
+        else:
+            steady.observe(before[1], before[2])
+        worst = max(worst, replay(restarted, c, [after], "hold")[0])
+        a, b = steady.status, restarted.status
+        assert b.correction == pytest.approx(a.correction, abs=1e-9)
+        assert b.half_width == pytest.approx(a.half_width, abs=1e-9)
+        assert (b.changes, b.change_kind) == (a.changes, a.change_kind)
+    assert worst <= 1e-9
+    assert restarted.status.change_kind == "ramp" and restarted.status.changes == 1
+    assert steady.status.change_start_s == CHANGE_START_S
+    assert restarted.status.change_start_s == pytest.approx(CHANGE_START_S - 9000.0, abs=1e-9)
+
+
 def test_the_update_allocates_nothing_and_loops_over_constants(compiled):
     comp, c = compiled["fast rate, quantum and clamp"]
     source = c.source
@@ -130,7 +178,8 @@ def test_the_update_allocates_nothing_and_loops_over_constants(compiled):
     assert re.findall(r"#include\s*<[^>]+>", code) == ["#include <math.h>"]
     loops = re.findall(r"for \(([^)]*)\)", code)
     assert loops
-    bound = r"(\w+) = 0; \1( \+ 1)? < (GM_N_TERMS|GM_N_INPUTS|GM_HISTORY|\d+); \1\+\+"
+    window = r"(\d+ \* )?GM_WINDOW( \* \d+)?"  # the change detector's bank
+    bound = rf"(\w+) = 0; \1( \+ 1)? < ({window}|GM_N_TERMS|GM_N_INPUTS|GM_HISTORY|\d+); \1\+\+"
     for loop in loops:
         assert re.fullmatch(bound, loop), loop
     # no function calls itself

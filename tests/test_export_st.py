@@ -16,7 +16,15 @@ import re
 
 import numpy as np
 import pytest
-from _export_cases import day, fitted, replay, script, scripted
+from _export_cases import (
+    CHANGE_START_S,
+    change_script,
+    day,
+    fitted,
+    replay,
+    script,
+    scripted,
+)
 
 from greyml.controller import Compensator
 from greyml.controller._export._program import describe
@@ -29,6 +37,8 @@ from _st_runtime import FunctionBlock  # noqa: E402  (needs blark)
 
 class Block:
     """The exported function block, driven as the C export and Python are."""
+
+    no_nan = True  # Structured Text has no NaN: 0 where Python says NaN
 
     def __init__(self, comp, *, flag_missing=False, name="gm_block"):
         program = describe(comp, name=name)
@@ -80,6 +90,15 @@ class Block:
 
     def changes(self):
         return self.out["changes"]
+
+    def change_kind(self):
+        return self.out["changekind"]
+
+    def change_start_s(self):
+        return self.out["changestarts"]
+
+    def innovation(self):
+        return self.out["innovation"]
 
 
 # Three function blocks (blark takes seconds to parse one): the day's model with
@@ -142,6 +161,19 @@ def test_refusals_held_rows_readings_and_resets_match_python(label):
         )
 
 
+@pytest.mark.parametrize("kind, size", [("step", 5.0), ("ramp", 3.0)])
+def test_a_step_or_a_ramp_is_found_as_python_finds_it(kind, size):
+    # exact readings every 15 min, then a 5 µm step or a 3 µm/h ramp from the fifth
+    comp = scripted()
+    block = Block(comp)
+    worst, changes = replay(comp, block, change_script(kind, size), "hold")
+    assert worst <= 1e-6  # output, correction, half-width, start and innovation
+    status = comp.status
+    assert changes == status.changes == block.changes() == 1  # it fired once, in both
+    assert status.change_kind == kind and block.change_kind() == {"step": 1, "ramp": 2}[kind]
+    assert status.change_start_s == block.change_start_s() == CHANGE_START_S
+
+
 def test_inputs_valid_false_is_a_missing_input():
     calibrated, nominal, on_missing, limits = SCRIPTED["restarting clock, rate and clamp, hold"]
     comp = scripted(calibrated, nominal_step_s=nominal, on_missing=on_missing, **limits)
@@ -158,4 +190,4 @@ def test_every_loop_runs_over_constants_and_there_is_no_other():
     assert len(loops) > 10
     for variable, start, stop in loops:
         assert start == "0", (variable, start)
-        assert re.fullmatch(r"\d+|(N_TERMS|N_INPUTS|HISTORY) - [12]", stop), stop
+        assert re.fullmatch(r"\d+|(N_TERMS|N_INPUTS|HISTORY|WINDOW) - [12]", stop), stop

@@ -1630,6 +1630,13 @@ class Compensator:
         if self._last_reading is not None:
             self._last_reading -= shift
         self._ht = self._ht - shift
+        # the likelihood test's open onsets and the last change found are times too
+        D, A, B, T0, n = self._glr
+        T0 = T0.copy()
+        T0[:n] -= shift / 3600.0
+        self._glr = (D, A, B, T0, n)
+        kind, start, innovation = self._found
+        self._found = (kind, start - shift, innovation)
 
     def observe(self, time_s, measured_um):
         """Correct the compensator with a displacement measured at ``time_s``.

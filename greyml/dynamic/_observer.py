@@ -140,6 +140,10 @@ def glr_advance(bank, F, K, innovation, S, time_h, previous_h):
     B[:, :n] += rho * rho / S
     with np.errstate(divide="ignore", invalid="ignore"):
         stat = np.where(B[:, :n] > 0, A[:, :n] ** 2 / B[:, :n], 0.0)
+    # a ramp begun since the previous reading has read only once: its signature is the
+    # step's times (time_h - previous_h), so its statistic is the step's, and only
+    # rounding would choose between them; it is the step until a second reading
+    stat[1, 0] = 0.0
     kind, slot = np.unravel_index(int(np.argmax(stat)), stat.shape)
     return (D, A, B, T0, n), (float(stat[kind, slot]), int(kind), int(slot))
 

@@ -2,10 +2,13 @@
 
 The file declares a state struct and the functions ``<name>_init``,
 ``<name>_reset``, ``<name>_update`` and (with a calibration) ``<name>_observe``,
-``<name>_recalibrate`` and ``<name>_half_width``, with the arithmetic and the
-order of checks of :meth:`greyml.dynamic.Compensator.update`. Every loop runs
-over a compile-time constant (the terms, the inputs, the 512 rows of the
-probe filter's ring), nothing is allocated, and only ``<math.h>`` is used.
+``<name>_recalibrate``, ``<name>_half_width``, ``<name>_trusted``,
+``<name>_change_kind``, ``<name>_change_start_s`` and ``<name>_innovation``,
+with the arithmetic and the order of checks of
+:meth:`greyml.Compensator.update` and :meth:`~greyml.Compensator.observe`.
+Every loop runs over a compile-time constant (the terms, the inputs, the 512
+rows of the probe filter's ring, the change detector's 12 onsets), nothing is
+allocated, and only ``<math.h>`` is used.
 """
 
 from __future__ import annotations
@@ -14,7 +17,7 @@ import math
 import textwrap
 from string import Template
 
-from greyml.controller._export._program import STATUS_CODES
+from greyml.controller._export._program import CHANGE_KINDS, STATUS_CODES
 from greyml.controller._output import QUANTA_MAX, QUANTUM_TOLERANCE
 
 __all__ = ["write_c"]
@@ -51,8 +54,9 @@ def _header(p, lines):
     return "/*\n" + "\n".join(f" * {line}".rstrip() for line in wrap(lines)) + "\n */\n"
 
 
-def header_lines(p, language, call):
-    """The header's lines, shared by the C and Structured Text writers."""
+def header_lines(p, language, call, found=""):
+    """The header's lines, shared by the C and Structured Text writers (``found``:
+    where the language gives what the change detector found)."""
     lines = [
         f"{p.name}: a thermal-error compensator exported by greyml {p.greyml_version}",
         f"({language}; Compensator.export). Generated: do not edit by hand.",
@@ -72,12 +76,14 @@ def header_lines(p, language, call):
         f"Limits: {p.limits_text()}.",
         "Probe readings: "
         + (
-            f"observe (Kalman filter, {p.trust.history} rows remembered, change "
-            f"threshold {p.trust.change_threshold:g})"
+            f"observe (a Kalman filter on the error's offset, bias and bias rate, "
+            f"{p.trust.history} rows remembered for late readings; a likelihood test for a "
+            f"step or a ramp that began within the last {p.trust.window} readings, at most "
+            f"{p.trust.false_alarm_rate:g} false alarms per reading on unchanged readings: "
+            f"threshold {p.trust.glr_threshold:.6g}). {found}"
             if p.trust is not None
-            else "none (the model has no calibration)"
-        )
-        + ".",
+            else "none (the model has no calibration)."
+        ),
         "Status codes (update, observe):",
         *(f"  {code:2d} {key}: {meaning}." for key, (code, meaning) in STATUS_CODES.items()),
         "Not safety-certified. Validate it on the machine before it moves an axis.",
@@ -233,6 +239,9 @@ def _trust_c(p):
         f"void {p.name}_recalibrate({p.name}_state *s, int has_size, double size_um);\n"
         f"double {p.name}_half_width(const {p.name}_state *s);\n"
         f"int {p.name}_trusted(const {p.name}_state *s);\n"
+        f"int {p.name}_change_kind(const {p.name}_state *s);\n"
+        f"double {p.name}_change_start_s(const {p.name}_state *s);\n"
+        f"double {p.name}_innovation(const {p.name}_state *s);\n"
     )
     tolerance = (
         "(void)half, 1"
@@ -242,23 +251,37 @@ def _trust_c(p):
     body = Template(
         r"""
 #define ${M}_HISTORY ${history}
+#define ${M}_WINDOW ${window}
+${change_macros}
 
 static double ${P}_corrected(const ${P}_state *s, double model, double time_s)
 {
     double dh = (time_s - s->ft0) / 3600.0;
-    return model * (1.0 + s->fx[2]) + s->fx[0] * exp(-dh / ${memory_h}) + s->fx[1] * dh;
+    return model + s->fx[0] * exp(-dh / ${memory_h}) + s->fx[1] + s->fx[2] * dh;
 }
 
-/* the filter's states and covariance carried from its time to time_s */
-static void ${P}_propagate(const ${P}_state *s, double time_s, double x[3], double P[9])
+/* the filter's transition over dh hours (>= 0): F, and Q (the random walks, scaled) */
+static void ${P}_transition(double dh, double F[9], double Q[9])
 {
-    double dh = (time_s - s->ft0) / 3600.0, phi, F[9], FP[9];
+    double phi = exp(-dh / ${memory_h});
+    F[0] = phi; F[1] = 0.0; F[2] = 0.0;
+    F[3] = 0.0; F[4] = 1.0; F[5] = dh;
+    F[6] = 0.0; F[7] = 0.0; F[8] = 1.0;
+    Q[0] = ${scale} * (${memory_var} * (1.0 - phi * phi)); Q[1] = 0.0; Q[2] = 0.0;
+    Q[3] = 0.0;
+    Q[4] = ${scale} * (${bias_var} * dh + ${rate_var} * pow(dh, 3.0) / 3.0);
+    Q[5] = ${scale} * (${rate_var} * dh * dh / 2.0);
+    Q[6] = 0.0; Q[7] = Q[5]; Q[8] = ${scale} * (${rate_var} * dh);
+}
+
+/* the filter's states and covariance carried from its time to time_s (F x, F P F' + Q) */
+static void ${P}_propagate(const ${P}_state *s, double time_s, double x[3], double P[9],
+                           double F[9])
+{
+    double dh = (time_s - s->ft0) / 3600.0, Q[9], FP[9];
     int i, j, k;
     if (dh < 0.0) dh = 0.0;
-    phi = exp(-dh / ${memory_h});
-    F[0] = phi; F[1] = dh; F[2] = 0.0;
-    F[3] = 0.0; F[4] = 1.0; F[5] = 0.0;
-    F[6] = 0.0; F[7] = 0.0; F[8] = 1.0;
+    ${P}_transition(dh, F, Q);
     for (i = 0; i < 3; i++) {
         x[i] = 0.0;
         for (k = 0; k < 3; k++) x[i] += F[3 * i + k] * s->fx[k];
@@ -271,16 +294,9 @@ static void ${P}_propagate(const ${P}_state *s, double time_s, double x[3], doub
         for (j = 0; j < 3; j++) {
             P[3 * i + j] = 0.0;
             for (k = 0; k < 3; k++) P[3 * i + j] += FP[3 * i + k] * F[3 * j + k];
+            P[3 * i + j] += Q[3 * i + j];
         }
     }
-    P[0] += ${memory_var} * (1.0 - phi * phi);
-}
-
-/* h P h for h = (1, 0, m), summed as (h P) h */
-static double ${P}_hph(const double P[9], double m)
-{
-    double r0 = P[0] + m * P[6], r2 = P[2] + m * P[8];
-    return r0 + r2 * m;
 }
 
 double ${P}_half_width(const ${P}_state *s)
@@ -292,10 +308,10 @@ double ${P}_half_width(const ${P}_state *s)
         if (dh < 0.0) dh = 0.0;
         var = ${offset_var} + ${growth_var} * dh + ${noise_var};
     } else {
-        double x[3], P[9], hph;
-        ${P}_propagate(s, s->time_s, x, P);
-        hph = ${P}_hph(P, s->model_um);
-        var = (hph > 0.0 ? hph : 0.0) + ${noise_var};
+        double x[3], P[9], F[9], hph;
+        ${P}_propagate(s, s->time_s, x, P, F);
+        hph = (P[0] + P[3]) + (P[1] + P[4]); /* H P H' with H = (1, 1, 0) */
+        var = (hph > 0.0 ? hph : 0.0) + ${white_var};
     }
     return ${quantile} * sqrt(var);
 }
@@ -306,6 +322,34 @@ int ${P}_trusted(const ${P}_state *s)
     return ${P}_plausible(s) && (${tolerance});
 }
 
+int ${P}_change_kind(const ${P}_state *s)
+{
+    return (int)s->change_kind;
+}
+
+double ${P}_change_start_s(const ${P}_state *s)
+{
+    return s->change_kind != ${M}_CHANGE_NONE ? s->change_start_s : NAN;
+}
+
+double ${P}_innovation(const ${P}_state *s)
+{
+    return s->adjusted ? s->innovation : NAN;
+}
+
+/* the change detector's bank emptied */
+static void ${P}_glr_reset(${P}_state *s)
+{
+    int i;
+    for (i = 0; i < 2 * ${M}_WINDOW * 3; i++) s->glr_d[i] = 0.0;
+    for (i = 0; i < 2 * ${M}_WINDOW; i++) {
+        s->glr_a[i] = 0.0;
+        s->glr_b[i] = 0.0;
+    }
+    for (i = 0; i < ${M}_WINDOW; i++) s->glr_t0[i] = 0.0;
+    s->glr_n = 0;
+}
+
 void ${P}_recalibrate(${P}_state *s, int has_size, double size_um)
 {
     double size2;
@@ -314,19 +358,70 @@ void ${P}_recalibrate(${P}_state *s, int has_size, double size_um)
         size_um = sd != 0.0 ? sd : 1.0;
     }
     size2 = size_um * size_um;
-    s->fp[0] += size2;
     s->fp[4] += size2;
-    s->fp[8] += ${gain_var};
+    s->fp[8] += size2;
     s->changes += 1;
-    s->flags[0] = 0.0;
-    s->flags[1] = 0.0;
+    ${P}_glr_reset(s);
+}
+
+/* the likelihood test after a reading (Willsky and Jones, 1976): the bank advanced by
+   one onset; returns the kind (0 step, 1 ramp) and onset of the largest statistic */
+static double ${P}_glr_advance(${P}_state *s, const double F[9], const double K[3],
+                               double innovation, double S, double time_h, double previous_h,
+                               int *kind, int *slot)
+{
+    double best = 0.0;
+    int c, i, j, k;
+    for (j = 0; j + 1 < ${M}_WINDOW; j++) {
+        int to = ${M}_WINDOW - 1 - j, from = ${M}_WINDOW - 2 - j;
+        s->glr_t0[to] = s->glr_t0[from];
+        for (c = 0; c < 2; c++) {
+            int at = c * ${M}_WINDOW + to, was = c * ${M}_WINDOW + from;
+            s->glr_a[at] = s->glr_a[was];
+            s->glr_b[at] = s->glr_b[was];
+            for (i = 0; i < 3; i++) s->glr_d[3 * at + i] = s->glr_d[3 * was + i];
+        }
+    }
+    s->glr_t0[0] = previous_h;
+    for (c = 0; c < 2; c++) {
+        s->glr_a[c * ${M}_WINDOW] = 0.0;
+        s->glr_b[c * ${M}_WINDOW] = 0.0;
+        for (i = 0; i < 3; i++) s->glr_d[c * ${M}_WINDOW * 3 + i] = 0.0;
+    }
+    if (s->glr_n < ${M}_WINDOW) s->glr_n += 1;
+    *kind = 0;
+    *slot = 0;
+    for (c = 0; c < 2; c++) {
+        for (j = 0; j < ${M}_WINDOW; j++) {
+            if (j < s->glr_n) {
+                double *d = s->glr_d + (c * ${M}_WINDOW + j) * 3, e[3], g1, rho, a, b, stat;
+                for (i = 0; i < 3; i++) {
+                    e[i] = 0.0;
+                    for (k = 0; k < 3; k++) e[i] += d[k] * F[3 * i + k];
+                }
+                g1 = c == 0 ? 1.0 : time_h - s->glr_t0[j];
+                rho = (0.0 - e[0]) + (g1 - e[1]); /* H (g - d) */
+                for (i = 0; i < 3; i++) d[i] = e[i] + rho * K[i];
+                a = s->glr_a[c * ${M}_WINDOW + j] += rho * innovation / S;
+                b = s->glr_b[c * ${M}_WINDOW + j] += rho * rho / S;
+                stat = b > 0.0 ? a * a / b : 0.0;
+                if (c == 1 && j == 0) stat = 0.0; /* a ramp read once is the step */
+                if ((c == 0 && j == 0) || stat > best) {
+                    best = stat;
+                    *kind = c;
+                    *slot = j;
+                }
+            }
+        }
+    }
+    return best;
 }
 
 int ${P}_observe(${P}_state *s, double time_s, double measured_um)
 {
-    double m, x[3], P[9], h[3], Ph[3], K[3], IKH[9], A[9], Pn[9];
-    double hph, predicted, innovation, S, zs, up, down;
-    int i, j, k, oldest, newest, found = 0;
+    double m, x[3], P[9], F[9], PH[3], K[3], IKH[9], A[9], Pn[9];
+    double dh, innovation, S, previous, stat;
+    int i, j, k, oldest, newest, kind, slot, found = 0;
     if (!isfinite(time_s) || !isfinite(measured_um) || !s->started) return ${M}_ERR_READING;
     if (fabs(measured_um) > ${max_correction} || time_s > s->time_s) return ${M}_ERR_READING;
     if (s->has_reading && time_s <= s->last_reading) return ${M}_ERR_READING;
@@ -345,30 +440,24 @@ int ${P}_observe(${P}_state *s, double time_s, double measured_um)
             }
         }
     }
+    previous = s->ft0;
+    ${P}_propagate(s, time_s, x, P, F);
     if (!s->adjusted) {
-        /* the first reading: the slow part's prior is the batch variance there */
-        double dh = (time_s - s->ft0) / 3600.0;
+        /* the first reading: the batch variance there, all in the offset */
+        dh = (time_s - s->ft0) / 3600.0;
         if (dh < 0.0) dh = 0.0;
         for (i = 0; i < 3; i++) x[i] = 0.0;
-        for (i = 0; i < 9; i++) P[i] = s->fp[i];
-        P[0] = ${offset_var} + ${growth_var} * dh;
-    } else {
-        ${P}_propagate(s, time_s, x, P);
+        for (i = 0; i < 9; i++) P[i] = 0.0;
+        P[0] = ${scale} * (${offset_var} + ${growth_var} * dh);
     }
-    h[0] = 1.0; h[1] = 0.0; h[2] = m;
-    predicted = m * (1.0 + x[2]) + x[0];
-    innovation = measured_um - predicted;
-    hph = ${P}_hph(P, m);
-    S = hph + ${noise_var} + ${probe_var};
+    /* the Kalman update, H = (1, 1, 0), Joseph form */
+    innovation = (measured_um - m) - (x[0] + x[1]);
+    for (i = 0; i < 3; i++) PH[i] = P[3 * i] + P[3 * i + 1];
+    S = (PH[0] + PH[1]) + ${reading_var};
     if (S <= 0.0) S = 2.2250738585072014e-308; /* no uncertainty at all: the reading is the truth */
     for (i = 0; i < 3; i++) {
-        Ph[i] = 0.0;
-        for (j = 0; j < 3; j++) Ph[i] += P[3 * i + j] * h[j];
-        K[i] = Ph[i] / S;
-        x[i] += K[i] * innovation;
-    }
-    for (i = 0; i < 3; i++) {
-        for (j = 0; j < 3; j++) IKH[3 * i + j] = (i == j ? 1.0 : 0.0) - K[i] * h[j];
+        K[i] = PH[i] / S;
+        for (j = 0; j < 3; j++) IKH[3 * i + j] = (i == j ? 1.0 : 0.0) - K[i] * (j < 2 ? 1.0 : 0.0);
     }
     for (i = 0; i < 3; i++) {
         for (j = 0; j < 3; j++) {
@@ -378,28 +467,44 @@ int ${P}_observe(${P}_state *s, double time_s, double measured_um)
     }
     for (i = 0; i < 3; i++) {
         for (j = 0; j < 3; j++) {
-            Pn[3 * i + j] = K[i] * K[j] * (S - hph);
+            Pn[3 * i + j] = 0.0;
             for (k = 0; k < 3; k++) Pn[3 * i + j] += A[3 * i + k] * IKH[3 * j + k];
+            Pn[3 * i + j] += K[i] * K[j] * ${reading_var};
         }
     }
     for (i = 0; i < 3; i++) {
+        x[i] += K[i] * innovation;
+        for (j = 0; j < 3; j++) P[3 * i + j] = 0.5 * (Pn[3 * i + j] + Pn[3 * j + i]);
+    }
+    /* the change detector: a step or a ramp since one of the last readings */
+    stat = ${P}_glr_advance(s, F, K, innovation, S, time_s / 3600.0, previous / 3600.0, &kind,
+                            &slot);
+    if (stat > ${threshold}) {
+        const double *d = s->glr_d + (kind * ${M}_WINDOW + slot) * 3;
+        double miss[3], b = s->glr_b[kind * ${M}_WINDOW + slot];
+        double size = s->glr_a[kind * ${M}_WINDOW + slot] / b;
+        miss[0] = 0.0 - d[0];
+        miss[1] = (kind == 0 ? 1.0 : time_s / 3600.0 - s->glr_t0[slot]) - d[1];
+        miss[2] = (kind == 0 ? 0.0 : 1.0) - d[2];
+        for (i = 0; i < 3; i++) {
+            x[i] += size * miss[i];
+            for (j = 0; j < 3; j++) P[3 * i + j] += miss[i] * miss[j] / b;
+        }
+        s->change_kind = kind + 1;
+        s->change_start_s = s->glr_t0[slot] * 3600.0;
+        s->changes += 1;
+        ${P}_glr_reset(s);
+    }
+    for (i = 0; i < 3; i++) {
         s->fx[i] = x[i];
-        for (j = 0; j < 3; j++) s->fp[3 * i + j] = 0.5 * (Pn[3 * i + j] + Pn[3 * j + i]);
+        for (j = 0; j < 3; j++) s->fp[3 * i + j] = 0.5 * (P[3 * i + j] + P[3 * j + i]);
     }
     s->ft0 = time_s;
     s->has_ft0 = 1;
     s->adjusted = 1;
     s->has_reading = 1;
     s->last_reading = time_s;
-    /* the change detector: a two-sided CUSUM of the standardised innovations */
-    zs = innovation / sqrt(S);
-    up = s->flags[0] + zs - ${allowance};
-    down = s->flags[1] - zs - ${allowance};
-    s->flags[0] = up > 0.0 ? up : 0.0;
-    s->flags[1] = down > 0.0 ? down : 0.0;
-    if ((s->flags[0] > s->flags[1] ? s->flags[0] : s->flags[1]) > ${threshold}) {
-        ${P}_recalibrate(s, 1, innovation);
-    }
+    s->innovation = innovation / sqrt(S);
     s->correction_um = ${P}_corrected(s, s->model_um, s->time_s);
     return ${M}_OK;
 }
@@ -408,16 +513,23 @@ int ${P}_observe(${P}_state *s, double time_s, double measured_um)
         P=p.name,
         M=p.name.upper(),
         history=t.history,
+        window=t.window,
         memory_h=_real(t.memory_h),
         memory_var=_real(t.memory_var),
+        bias_var=_real(t.bias_var_per_h),
+        rate_var=_real(t.rate_var_per_h3),
+        scale=_real(t.scale),
         offset_var=_real(t.offset_var),
         growth_var=_real(t.growth_var_per_h),
         noise_var=_real(t.noise_var),
-        probe_var=_real(t.probe_noise_um**2),
+        reading_var=_real(t.reading_var),
+        white_var=_real(t.white_var),
         quantile=_real(t.interval_quantile),
-        gain_var=_real(t.gain_var),
-        allowance=_real(t.allowance),
-        threshold=_real(t.change_threshold),
+        threshold=_real(t.glr_threshold),
+        change_macros="\n".join(
+            f"#define {p.name.upper()}_CHANGE_{kind.upper()} {code}"
+            for kind, code in CHANGE_KINDS.items()
+        ),
         max_correction=_real(p.max_correction_um),
         tolerance=tolerance,
     )
@@ -431,11 +543,16 @@ def _record_c(p):
             "    (void)shift; /* no filter times to move */\n    s->model_um = value;\n"
             "    s->correction_um = value;"
         )
-    return """    if (shift != 0.0) {
+    return (
+        """    if (shift != 0.0) {
         /* the rows' clock restarted (a new piece): move the filter's times with it */
         if (s->has_ft0) s->ft0 -= shift;
         if (s->has_reading) s->last_reading -= shift;
         for (k = 0; k < HISTORY_; k++) s->ht[k] -= shift;
+        for (k = 0; k < WINDOW_; k++) {
+            if (k < s->glr_n) s->glr_t0[k] -= shift / 3600.0;
+        }
+        if (s->change_kind != 0) s->change_start_s -= shift;
     }
     if (!s->has_ft0) {
         s->ft0 = time_s;
@@ -447,8 +564,9 @@ def _record_c(p):
     if (s->hcount < HISTORY_) s->hcount += 1;
     s->model_um = value;
     if (s->adjusted) value = PREFIX_corrected(s, value, time_s);
-    s->correction_um = value;""".replace("HISTORY_", f"{p.name.upper()}_HISTORY").replace(
-        "PREFIX_", f"{p.name}_"
+    s->correction_um = value;""".replace("HISTORY_", f"{p.name.upper()}_HISTORY")
+        .replace("WINDOW_", f"{p.name.upper()}_WINDOW")
+        .replace("PREFIX_", f"{p.name}_")
     )
 
 
@@ -571,4 +689,10 @@ def write_c(p):
         f"{p.name}_init once, {p.name}_update at every row (time_s and the inputs), "
         "*output_um is the output"
     )
-    return _header(p, header_lines(p, "C99", call)) + source
+    found = (
+        f"What it found: {p.name}_change_kind (0 none, 1 step, 2 ramp), "
+        f"{p.name}_change_start_s (when it began, s on the rows' clock; NaN before one is "
+        f"found), {p.name}_innovation (the last reading's standardised innovation; NaN "
+        f"before a reading); changes counts its firings and the recalibrations."
+    )
+    return _header(p, header_lines(p, "C99", call, found)) + source

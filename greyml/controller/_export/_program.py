@@ -23,10 +23,12 @@ import math
 import re
 from dataclasses import dataclass
 
-from greyml.controller._compensator import _ALLOWANCE, _GAIN_VAR, HISTORY
+from greyml.controller._compensator import HISTORY
 from greyml.controller._output import QUANTA_MAX, QUANTUM_TOLERANCE
+from greyml.dynamic._observer import KINDS, WINDOW, glr_threshold
 
 __all__ = [
+    "CHANGE_KINDS",
     "SCHEMA",
     "SCHEMA_VERSION",
     "STATUS_CODES",
@@ -40,6 +42,9 @@ __all__ = [
 #: The JSON export's schema: its name and version (a reader checks both).
 SCHEMA = "greyml.compensator-export"
 SCHEMA_VERSION = 1
+
+#: The change detector's kinds as the exports code them (0: it has not fired).
+CHANGE_KINDS = {"none": 0, **{kind: k + 1 for k, kind in enumerate(KINDS)}}
 
 #: What update and observe return, in every export (Python raises instead of
 #: the negative ones, with the same one-line message as for a refused row).
@@ -165,18 +170,31 @@ class StateVar:
 
 @dataclass(frozen=True)
 class Trust:
-    """The probe filter's calibration (an :class:`~greyml.controller.Uncertainty`) and constants."""
+    """The probe filter's calibration (an :class:`~greyml.controller.Uncertainty`) and constants.
+
+    ``reading_var`` (``scale·noise_var + probe_noise_um²``, the variance of a
+    reading's white part) and ``white_var`` (``scale·noise_var``, what no
+    reading removes) are computed here as Python computes them, and
+    ``glr_threshold`` is the χ²₁ quantile of ``false_alarm_rate / (2·window)``
+    (:func:`greyml.dynamic._observer.glr_threshold`): the exports write the
+    numbers, not the arithmetic.
+    """
 
     offset_var: float
     growth_var_per_h: float
     noise_var: float
     memory_var: float
     memory_h: float
+    bias_var_per_h: float
+    rate_var_per_h3: float
+    scale: float
     interval_quantile: float
     probe_noise_um: float
-    change_threshold: float
-    allowance: float
-    gain_var: float
+    reading_var: float
+    white_var: float
+    false_alarm_rate: float
+    glr_threshold: float
+    window: int
     history: int
 
 
@@ -240,6 +258,7 @@ class Program:
         trust = None
         if self.trust is not None:
             trust = {k: _bound(getattr(self.trust, k)) for k in self.trust.__dataclass_fields__}
+            trust["change_kinds"] = dict(CHANGE_KINDS)
         return {
             "schema": SCHEMA,
             "schema_version": SCHEMA_VERSION,
@@ -312,8 +331,8 @@ ALGORITHM = [
     "a_k = exp(-dt / tau_k) (a_k = 0 without lag); total = sum weight_k lag_k; not finite "
     "-> ERR_VALUE; (5) at the first row start = intercept + total - initial (initial "
     "given), total (relative_to_start) or nothing; total -= start; (6) model = intercept "
-    "+ total; the probe filter's correction: model (1 + gain) + offset exp(-dh / memory_h) "
-    "+ rate dh once a reading was taken (dh in hours since the filter's time); (7) the "
+    "+ total; the probe filter's correction: model + offset exp(-dh / memory_h) + bias + "
+    "rate dh once a reading was taken (dh in hours since the filter's time); (7) the "
     "output stage: clamp, quantise (floor(|v| / q + 0.5) quanta, at most quanta_max, "
     "sign of v), rate limit (without a quantum: within +-rate dt of the last output, 0 "
     "at the first row after init or reset; with one: credit = min(credit + rate dt, "
@@ -321,10 +340,32 @@ ALGORITHM = [
     "quanta towards the target, credit -= moved).",
     "refuse(): time_s not finite -> ERR_TIME; an input not finite -> HELD (the last "
     "output, no state changed; on_missing='hold') or ERR_VALUE; else ERR_VALUE.",
-    "observe(time_s, measured): Compensator.observe's Kalman filter on offset, rate and "
-    "gain, the model's correction at time_s interpolated from the last `history` rows, "
-    "and the two-sided CUSUM of the standardised innovations (allowance, "
-    "change_threshold) that recalibrates: P += diag(innovation^2, innovation^2, gain_var).",
+    "observe(time_s, measured): Compensator.observe's Kalman filter (Kalman, 1960) on the "
+    "states x = (offset, bias, rate per hour), read through H = (1, 1, 0): the model's "
+    "correction m at time_s interpolated from the last `history` rows; dh = max(0, "
+    "time_s - filter's time) / 3600, phi = exp(-dh / memory_h), F = [[phi, 0, 0], [0, 1, "
+    "dh], [0, 0, 1]], Q = scale [[memory_var (1 - phi^2), 0, 0], [0, bias_var_per_h dh + "
+    "rate_var_per_h3 dh^3 / 3, rate_var_per_h3 dh^2 / 2], [0, rate_var_per_h3 dh^2 / 2, "
+    "rate_var_per_h3 dh]]; x = F x, P = F P F' + Q, but at the first reading since reset "
+    "x = 0, P = diag(scale (offset_var + growth_var_per_h dh), 0, 0); innovation = "
+    "(measured - m) - H x, S = H P H' + reading_var, K = P H' / S, x += K innovation, P = "
+    "(I - K H) P (I - K H)' + K K' reading_var, symmetrised.",
+    "the change detector (Willsky and Jones, 1976), after each reading at time_h = time_s "
+    "/ 3600: a bank of `window` onsets for each kind (step, ramp) shifts by one (the "
+    "newest onset begins at the filter's previous time, the oldest beyond the window "
+    "closes); each open onset's response d = F d, its signature g = (0, 1, 0) for a step "
+    "or (0, time_h - onset_h, 1) for a ramp, rho = H (g - d), d += rho K, a += rho "
+    "innovation / S, b += rho^2 / S; the statistic a^2 / b (0 where b = 0, and for the "
+    "ramp of the newest onset, whose statistic is the step's), its largest "
+    "(the first, kind by kind and onset by onset, newest first) fires above glr_threshold: "
+    "miss = g - d, x += (a / b) miss, P += miss miss' / b, symmetrised, the bank emptied, "
+    "changes += 1, change_kind and change_start_s (the onset, s) set; the last "
+    "standardised innovation innovation / sqrt(S) is kept.",
+    "recalibrate(size?): P += diag(0, size^2, size^2) (size by default sqrt(offset_var + "
+    "noise_var), 1 if that is 0), changes += 1, the bank emptied.",
+    "half-width: interval_quantile sqrt(offset_var + growth_var_per_h dh + noise_var) "
+    "before any reading (dh from the filter's time to the last row), else "
+    "interval_quantile sqrt(max(H P H', 0) + white_var) with P carried to the last row.",
 ]
 
 
@@ -349,11 +390,24 @@ def _state_layout(n_inputs, n_terms, trust):
         rows += [
             ("has_ft0", "bool", 1, "", "the filter has a time"),
             ("ft0", "real", 1, "s", "the filter's time"),
-            ("fx", "real", 3, "um, um/h, 1", "offset, rate and gain error"),
+            ("fx", "real", 3, "um, um, um/h", "offset, bias and bias rate"),
             ("fp", "real", 9, "", "their covariance, row by row"),
             ("adjusted", "bool", 1, "", "a reading was taken"),
-            ("flags", "real", 2, "", "the CUSUM's sums upwards and downwards"),
-            ("changes", "int", 1, "", "how many times the change detector fired"),
+            (
+                "glr_d",
+                "real",
+                2 * trust.window * 3,
+                "",
+                "each kind's and onset's filter response to a unit change, [kind][onset][state]",
+            ),
+            ("glr_a", "real", 2 * trust.window, "", "sum of rho innovation / S, [kind][onset]"),
+            ("glr_b", "real", 2 * trust.window, "", "sum of rho^2 / S, [kind][onset]"),
+            ("glr_t0", "real", trust.window, "h", "each onset's start time"),
+            ("glr_n", "int", 1, "", "how many onsets are open"),
+            ("changes", "int", 1, "", "how many times the change detector fired or recalibrate"),
+            ("change_kind", "int", 1, "", "the last change found: 0 none, 1 step, 2 ramp"),
+            ("change_start_s", "real", 1, "s", "when it began (0 before one is found)"),
+            ("innovation", "real", 1, "", "the last standardised innovation (0 before a reading)"),
             ("has_reading", "bool", 1, "", "a reading was taken since reset"),
             ("last_reading", "real", 1, "s", "time of the last reading"),
             ("ht", "real", trust.history, "s", "times of the rows remembered (a ring)"),
@@ -406,17 +460,25 @@ def describe(comp, *, name="greyml_compensator", description=None):
     u = plan.uncertainty
     trust = None
     if u is not None:
+        probe_noise = float(comp.probe_noise_um)
+        rate = float(comp.false_alarm_rate)
         trust = Trust(
             u.offset_var,
             u.growth_var_per_h,
             u.noise_var,
             u.memory_var,
             u.memory_h,
+            u.bias_var_per_h,
+            u.rate_var_per_h3,
+            u.scale,
             interval_quantile=float(comp.interval_quantile),
-            probe_noise_um=float(comp.probe_noise_um),
-            change_threshold=float(comp.change_threshold),
-            allowance=_ALLOWANCE,
-            gain_var=_GAIN_VAR,
+            probe_noise_um=probe_noise,
+            # as Compensator.observe and status compute them
+            reading_var=u.scale * u.noise_var + probe_noise**2,
+            white_var=u.scale * u.noise_var,
+            false_alarm_rate=rate,
+            glr_threshold=glr_threshold(rate),
+            window=WINDOW,
             history=HISTORY,
         )
     limits = plan.limits

@@ -3,7 +3,8 @@
 The TwinCAT 3 / CODESYS dialect, without object-oriented extensions: one
 ``FUNCTION_BLOCK`` whose inputs say what a call does (``Reset``, then
 ``Execute`` to take a row, then ``Observe`` and ``Recalibrate`` for a probe
-reading), with the arithmetic and the order of checks of the C export and of
+reading; the outputs ``ChangeKind``, ``ChangeStartS`` and ``Innovation`` say
+what the change detector found), with the arithmetic and the order of checks of the C export and of
 :meth:`greyml.Compensator.update`, everything in ``LREAL`` (64-bit, as
 Python's floats). Every loop runs over a constant; a number that is not finite
 is told by ``ABS(x) <= 1.7976931348623157E308`` (false for NaN and infinity)
@@ -45,14 +46,16 @@ def finite(x):
 
 
 def observe_block(p):
-    """Observe and Recalibrate (Compensator.observe's filter), and the outputs of
-    the interval (``HalfWidthUm``, ``Trusted``, ``Changes``); '' and '' without one."""
+    """Observe and Recalibrate (Compensator.observe's filter and change detector), and
+    the outputs of the interval and the detector (``HalfWidthUm``, ``Trusted``,
+    ``Changes``, ``ChangeKind``, ``ChangeStartS``, ``Innovation``); '' and '' without one."""
     if p.trust is None:
         return "", ""
     t = p.trust
     tolerance = "TRUE" if p.tolerance_um is None else f"HalfWidthUm <= {literal(p.tolerance_um)}"
     return Template(
-        r"""IF Observe THEN
+        r"""glrEmpty := FALSE;
+IF Observe THEN
     ProbeStatus := 0;
     IF NOT (${finite_probe_time} AND ${finite_probe}) OR NOT st_started THEN
         ProbeStatus := ERR_READING;
@@ -85,39 +88,33 @@ def observe_block(p):
                 END_IF;
             END_IF;
         END_FOR;
+        prevTime := st_ft0;
+        propTime := ProbeTimeS;
+${propagate}
         IF NOT st_adjusted THEN
-            (* the first reading: the slow part's prior is the batch variance there *)
-            dh := (ProbeTimeS - st_ft0) / 3600.0;
-            IF dh < 0.0 THEN
-                dh := 0.0;
-            END_IF;
+            (* the first reading: the batch variance there, all in the offset *)
             FOR k := 0 TO 2 DO
                 fx[k] := 0.0;
             END_FOR;
             FOR k := 0 TO 8 DO
-                fp[k] := st_fp[k];
+                fp[k] := 0.0;
             END_FOR;
-            fp[0] := ${offset_var} + ${growth_var} * dh;
-        ELSE
-            propTime := ProbeTimeS;
-${propagate}
+            fp[0] := SCALE * (${offset_var} + ${growth_var} * dh);
         END_IF;
-        h[0] := 1.0;
-        h[1] := 0.0;
-        h[2] := m;
-        predicted := m * (1.0 + fx[2]) + fx[0];
-        innovation := ProbeUm - predicted;
-        hph := (fp[0] + m * fp[6]) + (fp[2] + m * fp[8]) * m;
-        sv := hph + ${noise_var} + ${probe_var};
+        (* the Kalman update, H = (1, 1, 0), Joseph form *)
+        innov := (ProbeUm - m) - (fx[0] + fx[1]);
+        FOR k := 0 TO 2 DO
+            ph[k] := fp[3 * k] + fp[3 * k + 1];
+        END_FOR;
+        sv := (ph[0] + ph[1]) + READING_VAR;
         IF sv <= 0.0 THEN
             sv := 2.2250738585072014E-308; (* no uncertainty at all: the reading is the truth *)
         END_IF;
+        h[0] := 1.0;
+        h[1] := 1.0;
+        h[2] := 0.0;
         FOR k := 0 TO 2 DO
-            ph[k] := fp[3 * k] * h[0] + fp[3 * k + 1] * h[1] + fp[3 * k + 2] * h[2];
             kg[k] := ph[k] / sv;
-            fx[k] := fx[k] + kg[k] * innovation;
-        END_FOR;
-        FOR k := 0 TO 2 DO
             FOR j := 0 TO 2 DO
                 IF k = j THEN
                     ikh[3 * k + j] := 1.0 - kg[k] * h[j];
@@ -134,14 +131,104 @@ ${propagate}
         END_FOR;
         FOR k := 0 TO 2 DO
             FOR j := 0 TO 2 DO
-                pn[3 * k + j] := kg[k] * kg[j] * (sv - hph) + am[3 * k] * ikh[3 * j]
-                    + am[3 * k + 1] * ikh[3 * j + 1] + am[3 * k + 2] * ikh[3 * j + 2];
+                pn[3 * k + j] := am[3 * k] * ikh[3 * j] + am[3 * k + 1] * ikh[3 * j + 1]
+                    + am[3 * k + 2] * ikh[3 * j + 2] + kg[k] * kg[j] * READING_VAR;
             END_FOR;
         END_FOR;
         FOR k := 0 TO 2 DO
+            fx[k] := fx[k] + kg[k] * innov;
+            FOR j := 0 TO 2 DO
+                fp[3 * k + j] := 0.5 * (pn[3 * k + j] + pn[3 * j + k]);
+            END_FOR;
+        END_FOR;
+        (* the change detector (Willsky and Jones, 1976): the bank moves on by one onset *)
+        FOR j := 0 TO WINDOW - 2 DO
+            jt := WINDOW - 1 - j;
+            jf := WINDOW - 2 - j;
+            st_glr_t0[jt] := st_glr_t0[jf];
+            FOR c := 0 TO 1 DO
+                st_glr_a[c * WINDOW + jt] := st_glr_a[c * WINDOW + jf];
+                st_glr_b[c * WINDOW + jt] := st_glr_b[c * WINDOW + jf];
+                FOR i := 0 TO 2 DO
+                    st_glr_d[(c * WINDOW + jt) * 3 + i] := st_glr_d[(c * WINDOW + jf) * 3 + i];
+                END_FOR;
+            END_FOR;
+        END_FOR;
+        st_glr_t0[0] := prevTime / 3600.0;
+        FOR c := 0 TO 1 DO
+            st_glr_a[c * WINDOW] := 0.0;
+            st_glr_b[c * WINDOW] := 0.0;
+            FOR i := 0 TO 2 DO
+                st_glr_d[c * WINDOW * 3 + i] := 0.0;
+            END_FOR;
+        END_FOR;
+        IF st_glr_n < WINDOW THEN
+            st_glr_n := st_glr_n + 1;
+        END_IF;
+        best := 0.0;
+        glrKind := 0;
+        glrSlot := 0;
+        FOR c := 0 TO 1 DO
+            FOR j := 0 TO WINDOW - 1 DO
+                IF j < st_glr_n THEN
+                    gi := (c * WINDOW + j) * 3;
+                    FOR i := 0 TO 2 DO
+                        dd[i] := st_glr_d[gi] * ff[3 * i] + st_glr_d[gi + 1] * ff[3 * i + 1]
+                            + st_glr_d[gi + 2] * ff[3 * i + 2];
+                    END_FOR;
+                    IF c = 0 THEN
+                        gg := 1.0;
+                    ELSE
+                        gg := ProbeTimeS / 3600.0 - st_glr_t0[j];
+                    END_IF;
+                    rho := (0.0 - dd[0]) + (gg - dd[1]);
+                    FOR i := 0 TO 2 DO
+                        st_glr_d[gi + i] := dd[i] + rho * kg[i];
+                    END_FOR;
+                    st_glr_a[c * WINDOW + j] := st_glr_a[c * WINDOW + j] + rho * innov / sv;
+                    st_glr_b[c * WINDOW + j] := st_glr_b[c * WINDOW + j] + rho * rho / sv;
+                    stat := 0.0;
+                    IF st_glr_b[c * WINDOW + j] > 0.0 AND (c = 0 OR j > 0) THEN
+                        (* a ramp read once is the step: its statistic is the step's *)
+                        stat := st_glr_a[c * WINDOW + j] * st_glr_a[c * WINDOW + j]
+                            / st_glr_b[c * WINDOW + j];
+                    END_IF;
+                    IF (c = 0 AND j = 0) OR stat > best THEN
+                        best := stat;
+                        glrKind := c;
+                        glrSlot := j;
+                    END_IF;
+                END_IF;
+            END_FOR;
+        END_FOR;
+        IF best > GLR_THRESHOLD THEN
+            (* a change: its estimate added to the states, its variance to theirs *)
+            gi := (glrKind * WINDOW + glrSlot) * 3;
+            bb := st_glr_b[glrKind * WINDOW + glrSlot];
+            sz := st_glr_a[glrKind * WINDOW + glrSlot] / bb;
+            miss[0] := 0.0 - st_glr_d[gi];
+            IF glrKind = 0 THEN
+                miss[1] := 1.0 - st_glr_d[gi + 1];
+                miss[2] := 0.0 - st_glr_d[gi + 2];
+            ELSE
+                miss[1] := (ProbeTimeS / 3600.0 - st_glr_t0[glrSlot]) - st_glr_d[gi + 1];
+                miss[2] := 1.0 - st_glr_d[gi + 2];
+            END_IF;
+            FOR k := 0 TO 2 DO
+                fx[k] := fx[k] + sz * miss[k];
+                FOR j := 0 TO 2 DO
+                    fp[3 * k + j] := fp[3 * k + j] + miss[k] * miss[j] / bb;
+                END_FOR;
+            END_FOR;
+            st_change_kind := glrKind + 1;
+            st_change_start_s := st_glr_t0[glrSlot] * 3600.0;
+            st_changes := st_changes + 1;
+            glrEmpty := TRUE;
+        END_IF;
+        FOR k := 0 TO 2 DO
             st_fx[k] := fx[k];
             FOR j := 0 TO 2 DO
-                st_fp[3 * k + j] := 0.5 * (pn[3 * k + j] + pn[3 * j + k]);
+                st_fp[3 * k + j] := 0.5 * (fp[3 * k + j] + fp[3 * j + k]);
             END_FOR;
         END_FOR;
         st_ft0 := ProbeTimeS;
@@ -149,30 +236,36 @@ ${propagate}
         st_adjusted := TRUE;
         st_has_reading := TRUE;
         st_last_reading := ProbeTimeS;
-        (* the change detector: a two-sided CUSUM of the standardised innovations *)
-        zs := innovation / SQRT(sv);
-        st_flags[0] := st_flags[0] + zs - ${allowance};
-        st_flags[1] := st_flags[1] - zs - ${allowance};
-        FOR k := 0 TO 1 DO
-            IF st_flags[k] < 0.0 THEN
-                st_flags[k] := 0.0;
-            END_IF;
-        END_FOR;
-        IF st_flags[0] > ${threshold} OR st_flags[1] > ${threshold} THEN
-            recalSize := innovation;
-${recalibrate}
-        END_IF;
+        st_innovation := innov / SQRT(sv);
         dh := (st_time_s - st_ft0) / 3600.0;
-        st_correction_um := st_model_um * (1.0 + st_fx[2]) + st_fx[0] * EXP(-dh / MEMORY_H)
-            + st_fx[1] * dh;
+        st_correction_um := st_model_um + st_fx[0] * EXP(-dh / MEMORY_H) + st_fx[1]
+            + st_fx[2] * dh;
     END_IF;
 END_IF;
 IF Recalibrate THEN
+    (* a known change: the bias and its rate become uncertain *)
     recalSize := SQRT(${offset_var} + ${noise_var});
     IF recalSize = 0.0 THEN
         recalSize := 1.0;
     END_IF;
-${recalibrate_outer}
+    st_fp[4] := st_fp[4] + recalSize * recalSize;
+    st_fp[8] := st_fp[8] + recalSize * recalSize;
+    st_changes := st_changes + 1;
+    glrEmpty := TRUE;
+END_IF;
+IF glrEmpty THEN
+    (* the change detector's bank emptied: after a change found, or Recalibrate *)
+    FOR j := 0 TO WINDOW - 1 DO
+        st_glr_t0[j] := 0.0;
+        FOR c := 0 TO 1 DO
+            st_glr_a[c * WINDOW + j] := 0.0;
+            st_glr_b[c * WINDOW + j] := 0.0;
+            FOR i := 0 TO 2 DO
+                st_glr_d[(c * WINDOW + j) * 3 + i] := 0.0;
+            END_FOR;
+        END_FOR;
+    END_FOR;
+    st_glr_n := 0;
 END_IF;
 """
     ).substitute(
@@ -182,36 +275,28 @@ END_IF;
         offset_var=literal(t.offset_var),
         growth_var=literal(t.growth_var_per_h),
         noise_var=literal(t.noise_var),
-        probe_var=literal(t.probe_noise_um**2),
-        allowance=literal(t.allowance),
-        threshold=literal(t.change_threshold),
-        propagate=_propagate_st("            "),
-        recalibrate=_recalibrate_st("            "),
-        recalibrate_outer=_recalibrate_st("    "),
+        propagate=_propagate_st("        "),
     ), _status_st(p, tolerance)
 
 
-def _recalibrate_st(indent):
-    """Compensator.recalibrate(recalSize): drift and gain become uncertain."""
-    lines = """st_fp[0] := st_fp[0] + recalSize * recalSize;
-st_fp[4] := st_fp[4] + recalSize * recalSize;
-st_fp[8] := st_fp[8] + GAIN_VAR;
-st_changes := st_changes + 1;
-st_flags[0] := 0.0;
-st_flags[1] := 0.0;"""
-    return "\n".join(indent + line for line in lines.split("\n"))
-
-
 def _propagate_st(indent):
-    """fx, fp := the filter carried from its time to propTime (F x, F P F' + Q)."""
+    """fx, fp := the filter carried from its time to propTime (F x, F P F' + Q; F in ff)."""
     lines = """dh := (propTime - st_ft0) / 3600.0;
 IF dh < 0.0 THEN
     dh := 0.0;
 END_IF;
 phi := EXP(-dh / MEMORY_H);
-ff[0] := phi; ff[1] := dh; ff[2] := 0.0;
-ff[3] := 0.0; ff[4] := 1.0; ff[5] := 0.0;
+ff[0] := phi; ff[1] := 0.0; ff[2] := 0.0;
+ff[3] := 0.0; ff[4] := 1.0; ff[5] := dh;
 ff[6] := 0.0; ff[7] := 0.0; ff[8] := 1.0;
+FOR k := 0 TO 8 DO
+    qq[k] := 0.0;
+END_FOR;
+qq[0] := SCALE * (MEMORY_VAR * (1.0 - phi * phi));
+qq[4] := SCALE * (BIAS_VAR * dh + RATE_VAR * EXPT(dh, 3.0) / 3.0);
+qq[5] := SCALE * (RATE_VAR * dh * dh / 2.0);
+qq[7] := qq[5];
+qq[8] := SCALE * (RATE_VAR * dh);
 FOR k := 0 TO 2 DO
     fx[k] := ff[3 * k] * st_fx[0] + ff[3 * k + 1] * st_fx[1] + ff[3 * k + 2] * st_fx[2];
     FOR j := 0 TO 2 DO
@@ -222,15 +307,14 @@ END_FOR;
 FOR k := 0 TO 2 DO
     FOR j := 0 TO 2 DO
         fp[3 * k + j] := am[3 * k] * ff[3 * j] + am[3 * k + 1] * ff[3 * j + 1]
-            + am[3 * k + 2] * ff[3 * j + 2];
+            + am[3 * k + 2] * ff[3 * j + 2] + qq[3 * k + j];
     END_FOR;
-END_FOR;
-fp[0] := fp[0] + MEMORY_VAR * (1.0 - phi * phi);"""
+END_FOR;"""
     return "\n".join(indent + line for line in lines.split("\n"))
 
 
 def _status_st(p, tolerance):
-    """HalfWidthUm, Trusted and Changes, at every call."""
+    """HalfWidthUm, Trusted, Changes and what the change detector found, at every call."""
     t = p.trust
     return Template(
         r"""HalfWidthUm := 0.0;
@@ -245,17 +329,19 @@ IF st_started THEN
     ELSE
         propTime := st_time_s;
 ${propagate}
-        m := st_model_um;
-        hph := (fp[0] + m * fp[6]) + (fp[2] + m * fp[8]) * m;
+        hph := (fp[0] + fp[3]) + (fp[1] + fp[4]); (* H P H' with H = (1, 1, 0) *)
         IF hph < 0.0 THEN
             hph := 0.0;
         END_IF;
-        variance := hph + ${noise_var};
+        variance := hph + WHITE_VAR;
     END_IF;
     HalfWidthUm := ${quantile} * SQRT(variance);
     Trusted := Plausible AND ${tolerance};
 END_IF;
 Changes := st_changes;
+ChangeKind := st_change_kind;
+ChangeStartS := st_change_start_s;
+Innovation := st_innovation;
 """
     ).substitute(
         offset_var=literal(t.offset_var),
@@ -406,6 +492,14 @@ def _record_st(p):
             FOR k := 0 TO HISTORY - 1 DO
                 st_ht[k] := st_ht[k] - shift;
             END_FOR;
+            FOR k := 0 TO WINDOW - 1 DO
+                IF k < st_glr_n THEN
+                    st_glr_t0[k] := st_glr_t0[k] - shift / 3600.0;
+                END_IF;
+            END_FOR;
+            IF st_change_kind <> 0 THEN
+                st_change_start_s := st_change_start_s - shift;
+            END_IF;
         END_IF;
         IF NOT st_has_ft0 THEN
             st_ft0 := TimeS;
@@ -420,8 +514,7 @@ def _record_st(p):
         st_model_um := value;
         IF st_adjusted THEN
             dh := (TimeS - st_ft0) / 3600.0;
-            value := value * (1.0 + st_fx[2]) + st_fx[0] * EXP(-dh / MEMORY_H)
-                + st_fx[1] * dh;
+            value := value + st_fx[0] * EXP(-dh / MEMORY_H) + st_fx[1] + st_fx[2] * dh;
         END_IF;
         st_correction_um := value;"""
 
@@ -566,7 +659,7 @@ def _declarations(p):
             "    Observe : BOOL; (* TRUE: take the probe reading (after the row, if any) *)",
             "    ProbeTimeS : LREAL; (* when it was measured, s, on the rows' clock *)",
             "    ProbeUm : LREAL; (* the measured displacement, um *)",
-            "    Recalibrate : BOOL; (* TRUE: let the next readings estimate drift and gain *)",
+            "    Recalibrate : BOOL; (* TRUE: let the next readings estimate a step and a drift *)",
         ]
     outputs = [
         "    OutputUm : LREAL; (* the predicted displacement after the limits, um *)",
@@ -581,7 +674,10 @@ def _declarations(p):
             "    ProbeStatus : DINT; (* of the last reading: 0 taken, -4 refused *)",
             "    HalfWidthUm : LREAL; (* of the interval at the last row, um (0 before one) *)",
             "    Trusted : BOOL; (* plausible, and HalfWidthUm within tolerance_um *)",
-            "    Changes : DINT; (* how many times the change detector fired *)",
+            "    Changes : DINT; (* how many times the change detector fired or Recalibrate *)",
+            "    ChangeKind : DINT; (* the last change found: 0 none, 1 step, 2 ramp *)",
+            "    ChangeStartS : LREAL; (* when it began, s on the rows' clock (0 before one) *)",
+            "    Innovation : LREAL; (* the last reading's standardised innovation (0 before) *)",
         ]
     scratch = [
         f"    xin : ARRAY[0..{n_inputs - 1 if n_inputs else 0}] OF LREAL;",
@@ -614,15 +710,30 @@ def _declarations(p):
             "    j1 : DINT;",
             "    found : BOOL;",
             "    slope : LREAL;",
-            "    predicted : LREAL;",
-            "    innovation : LREAL;",
+            "    innov : LREAL;",
             "    hph : LREAL;",
             "    sv : LREAL;",
-            "    zs : LREAL;",
             "    variance : LREAL;",
-            "    recal : BOOL;",
             "    recalSize : LREAL;",
+            "    prevTime : LREAL;",
+            "    i : DINT;",
+            "    c : DINT;",
+            "    jt : DINT;",
+            "    jf : DINT;",
+            "    gi : DINT;",
+            "    glrKind : DINT;",
+            "    glrSlot : DINT;",
+            "    best : LREAL;",
+            "    stat : LREAL;",
+            "    gg : LREAL;",
+            "    rho : LREAL;",
+            "    bb : LREAL;",
+            "    sz : LREAL;",
+            "    glrEmpty : BOOL;",
             "    fx : ARRAY[0..2] OF LREAL;",
+            "    dd : ARRAY[0..2] OF LREAL;",
+            "    miss : ARRAY[0..2] OF LREAL;",
+            "    qq : ARRAY[0..8] OF LREAL;",
             "    h : ARRAY[0..2] OF LREAL;",
             "    ph : ARRAY[0..2] OF LREAL;",
             "    kg : ARRAY[0..2] OF LREAL;",
@@ -663,7 +774,13 @@ def _declarations(p):
             f"    HISTORY : DINT := {p.trust.history};",
             f"    MEMORY_H : LREAL := {literal(p.trust.memory_h)};",
             f"    MEMORY_VAR : LREAL := {literal(p.trust.memory_var)};",
-            f"    GAIN_VAR : LREAL := {literal(p.trust.gain_var)};",
+            f"    WINDOW : DINT := {p.trust.window};",
+            f"    BIAS_VAR : LREAL := {literal(p.trust.bias_var_per_h)};",
+            f"    RATE_VAR : LREAL := {literal(p.trust.rate_var_per_h3)};",
+            f"    SCALE : LREAL := {literal(p.trust.scale)};",
+            f"    READING_VAR : LREAL := {literal(p.trust.reading_var)};",
+            f"    WHITE_VAR : LREAL := {literal(p.trust.white_var)};",
+            f"    GLR_THRESHOLD : LREAL := {literal(p.trust.glr_threshold)};",
         ]
     return "\n".join(
         [
@@ -729,7 +846,12 @@ def write_st(p):
         f"call {p.name} every cycle; set Execute on a cycle that brings a new row (time_s "
         "must increase); OutputUm is the output"
     )
-    lines = wrap(header_lines(p, "IEC 61131-3 Structured Text", call))
+    found = (
+        "What it found: ChangeKind (0 none, 1 step, 2 ramp), ChangeStartS (when it began, s on "
+        "the rows' clock; 0 before one is found), Innovation (the last reading's standardised "
+        "innovation; 0 before a reading); Changes counts its firings and Recalibrate."
+    )
+    lines = wrap(header_lines(p, "IEC 61131-3 Structured Text", call, found))
     header = "(*\n" + "\n".join(f"  {line}".rstrip() for line in lines) + "\n*)\n"
     return (
         header
