@@ -153,7 +153,7 @@ def test_refusals_held_rows_readings_and_resets_match_python(label):
     worst, changes = replay(comp, block, script(nominal), on_missing)
     assert worst <= 1e-6
     if calibrated:
-        assert changes >= 3
+        assert changes >= 2  # the detector fired, and recalibrate was called
     else:  # no probe inputs, and the hostile names as harmless identifiers
         assert "observe" not in block.fb.inputs
         assert {"x_x_system_rm_rf", "x_end_function_block", "x_t1_c_end_var"} <= set(

@@ -61,7 +61,6 @@ from greyml.dynamic._lags import _power_name, _tau_label
 from greyml.dynamic._observer import (
     KINDS,
     WINDOW,
-    H,
     glr_advance,
     glr_change,
     glr_reset,
@@ -842,8 +841,8 @@ class Compensator:
             subtracted from the sum of the terms: their sum at the first row
             with ``relative_to_start=True``, moved by an initial displacement
             given to :meth:`reset` (``None`` when nothing is subtracted), and
-            ``"filter"`` the probe filter's state (its offset, rate and gain,
-            their covariance, the change detector, and the rows remembered
+            ``"filter"`` the probe filter's state (its offset, bias and rate,
+            their covariance, the change detector's bank, and the rows remembered
             for late readings), and ``"output"`` the output stage's:
             ``"output_um"`` the last output, ``"credit_um"`` what the rate
             limit still allows (with a quantum), ``"held"`` whether the last
@@ -1641,9 +1640,11 @@ class Compensator:
     def observe(self, time_s, measured_um):
         """Correct the compensator with a displacement measured at ``time_s``.
 
-        The reading moves the filter's offset (and, after a recalibration,
-        its rate and gain), which every later correction carries; the
-        interval narrows at the reading and widens again with the time since.
+        The reading moves the filter's offset, bias and rate, which every
+        later correction carries, and feeds the change detector (a step or a
+        ramp found is added to them; :attr:`status` says which, and when it
+        began); the interval narrows at the reading and widens again with the
+        time since.
         A reading may arrive late (up to 512 rows back), never from the
         future of the last update, nor before the previous reading.
 

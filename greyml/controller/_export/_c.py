@@ -490,6 +490,15 @@ int ${P}_observe(${P}_state *s, double time_s, double measured_um)
             x[i] += size * miss[i];
             for (j = 0; j < 3; j++) P[3 * i + j] += miss[i] * miss[j] / b;
         }
+        {
+            /* a few readings cannot tell a step from a ramp: the bias and the rate
+               are opened by the size found (its effect here, and per hour since) */
+            double span = time_s / 3600.0 - s->glr_t0[slot], effect2;
+            if (span < 1e-9) span = 1e-9;
+            effect2 = kind ? (size * span) * (size * span) : size * size;
+            P[4] += effect2;
+            P[8] += effect2 / (span * span);
+        }
         s->change_kind = kind + 1;
         s->change_start_s = s->glr_t0[slot] * 3600.0;
         s->changes += 1;

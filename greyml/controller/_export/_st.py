@@ -220,6 +220,19 @@ ${propagate}
                     fp[3 * k + j] := fp[3 * k + j] + miss[k] * miss[j] / bb;
                 END_FOR;
             END_FOR;
+            (* a few readings cannot tell a step from a ramp: the bias and the rate
+               are opened by the size found (its effect here, and per hour since) *)
+            span := ProbeTimeS / 3600.0 - st_glr_t0[glrSlot];
+            IF span < 1.0E-9 THEN
+                span := 1.0E-9;
+            END_IF;
+            IF glrKind = 0 THEN
+                effect2 := sz * sz;
+            ELSE
+                effect2 := (sz * span) * (sz * span);
+            END_IF;
+            fp[4] := fp[4] + effect2;
+            fp[8] := fp[8] + effect2 / (span * span);
             st_change_kind := glrKind + 1;
             st_change_start_s := st_glr_t0[glrSlot] * 3600.0;
             st_changes := st_changes + 1;
@@ -729,6 +742,8 @@ def _declarations(p):
             "    rho : LREAL;",
             "    bb : LREAL;",
             "    sz : LREAL;",
+            "    span : LREAL;",
+            "    effect2 : LREAL;",
             "    glrEmpty : BOOL;",
             "    fx : ARRAY[0..2] OF LREAL;",
             "    dd : ARRAY[0..2] OF LREAL;",
