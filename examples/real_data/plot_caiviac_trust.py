@@ -17,10 +17,12 @@ from the recording's zero). Three views of cycle 5:
    (:meth:`~greyml.ThermalTransferFunction.predict_interval`, calibrated in
    ``fit`` on the training cycles held out one at a time);
 2. the compensator (:meth:`~greyml.Compensator.from_model`)
-   given a probe reading every hour (:meth:`~greyml.dynamic.Compensator.observe`);
+   given a probe reading every hour (:meth:`~greyml.Compensator.observe`);
 3. a simulated change: 1.5 µm/h added to cycle 5's measured displacement, as
    a machine whose error has drifted since the model was fitted, with the same
-   hourly readings; the change detector fires and recalibrates.
+   hourly readings: the filter's bias and rate follow it, and the change
+   detector (a likelihood-ratio test for a step or a ramp) says when it
+   found it.
 
 :doc:`/trust` explains what the interval promises and what it does not.
 """
