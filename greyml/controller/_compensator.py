@@ -54,6 +54,7 @@ from greyml._param_validation import (
 from greyml._sequences import TIME_LEVEL
 from greyml.controller._from_model import pipeline_terms, transfer_terms
 from greyml.controller._output import QUANTA_MAX, OutputLimits, limit_output
+from greyml.dynamic._envelope import InputEnvelope, follow_step
 from greyml.dynamic._kernels import lag_step
 from greyml.dynamic._lags import _power_name, _tau_label
 from greyml.dynamic._time import MAX_TERMS, gap_message
@@ -74,6 +75,7 @@ _PARAMETERS = (
     "max_step_s",
     "row_columns",
     "uncertainty",
+    "envelope",
     "interval_quantile",
     "tolerance_um",
     "max_correction_um",
@@ -95,7 +97,7 @@ _GAIN_VAR = 0.09
 
 Status = namedtuple(
     "Status",
-    "time_s correction half_width trusted plausible changes output held",
+    "time_s correction half_width trusted plausible changes output held outside",
     module=__name__,
 )
 Status.__doc__ = """What the last update gave and how far to trust it.
@@ -119,6 +121,12 @@ held : bool
     The last update had a missing input (NaN or infinite) and gave the
     output before it again; its row changed no state (``time_s`` is the last
     row taken).
+outside : tuple of (str, float)
+    The inputs outside their training envelope at the last row (an
+    ``envelope`` given), each with its excess: how far it is beyond what
+    training saw, signed, in the input's own unit; ``()`` inside (or without
+    an envelope). ``half_width`` is widened there by the model's response to
+    the excess.
 """
 
 
@@ -181,6 +189,28 @@ class RowOrder:
 
 
 @dataclass(frozen=True)
+class EnvelopeStage:
+    """The ``envelope`` parameter checked, as an update runs it.
+
+    Attributes
+    ----------
+    take : ndarray of int
+        Each enveloped input's position in a row ``(time_s, *inputs)``.
+    low, high, max_rate_per_h : ndarray
+        Its range and largest rate of change per hour (see
+        :class:`~greyml.dynamic.InputEnvelope`).
+    names : tuple of str
+        The enveloped inputs, in order.
+    """
+
+    take: np.ndarray
+    low: np.ndarray
+    high: np.ndarray
+    max_rate_per_h: np.ndarray
+    names: tuple
+
+
+@dataclass(frozen=True)
 class UpdatePlan:
     """What an update runs: the parameters checked, as arrays over terms.
 
@@ -218,6 +248,8 @@ class UpdatePlan:
         Any of the three is set.
     uncertainty : Uncertainty or None
         Checked.
+    envelope : EnvelopeStage or None
+        The input envelope, checked, with the positions it reads.
     """
 
     index: np.ndarray
@@ -236,6 +268,7 @@ class UpdatePlan:
     limits: OutputLimits = field(default_factory=OutputLimits)
     limited: bool = False
     uncertainty: Uncertainty | None = field(default=None)
+    envelope: EnvelopeStage | None = field(default=None)
 
 
 def real(value):
@@ -284,6 +317,16 @@ def output_from_vars(saved):
     if not all(k in saved for k in ("_output", "_credit", "_held")):
         return None
     return {"output_um": saved["_output"], "credit_um": saved["_credit"], "held": saved["_held"]}
+
+
+def envelope_from_vars(saved):
+    """The envelope follower's state (as ``get_state`` gives it) from a compensator's saved
+    attributes, or None when it has none (nothing is trusted: ``set_state`` checks it)."""
+    keys = ("_follow", "_beyond", "_elags", "_estart")
+    if not all(k in saved for k in keys):
+        return None
+    follower, beyond, elags, estart = (saved[k] for k in keys)
+    return {"follower": follower, "excess": beyond, "excess_lags": elags, "excess_start": estart}
 
 
 def filter_from_vars(saved):
@@ -502,6 +545,13 @@ class Compensator:
         in any order (other names are skipped). Without it an array row is
         refused, since nothing could tell a wrong order; a mapping or a
         Series is always read by name.
+    envelope : InputEnvelope, optional
+        What training saw of the inputs (each one's range and fastest change;
+        :meth:`from_model` takes the model's ``input_envelope_``). Where a
+        row leaves it, :attr:`status` names the inputs outside (``outside``)
+        and widens ``half_width`` by the model's own response to the excess,
+        as :meth:`greyml.ThermalTransferFunction.predict_interval` does. Its
+        inputs must be among ``inputs``.
     uncertainty, interval_quantile, tolerance_um, max_correction_um, probe_noise_um
         How far to trust the correction and how probe readings correct it
         (with ``change_threshold``, the change detector's): see
@@ -585,6 +635,7 @@ class Compensator:
         "max_step_s": [Interval(Real, 0, None, closed="neither"), None],
         "row_columns": [list, tuple, np.ndarray, None],
         "uncertainty": [Uncertainty, None],
+        "envelope": [InputEnvelope, None],
         "interval_quantile": [Interval(Real, 0, None, closed="neither")],
         "tolerance_um": [Interval(Real, 0, None, closed="neither"), None],
         "max_correction_um": [Interval(Real, 0, math.inf, closed="right")],
@@ -608,6 +659,7 @@ class Compensator:
         max_step_s=None,
         row_columns=None,
         uncertainty=None,
+        envelope=None,
         interval_quantile=1.6448536269514722,
         tolerance_um=None,
         max_correction_um=1000.0,
@@ -627,6 +679,7 @@ class Compensator:
         self.max_step_s = max_step_s
         self.row_columns = row_columns
         self.uncertainty = uncertainty
+        self.envelope = envelope
         self.interval_quantile = interval_quantile
         self.tolerance_um = tolerance_um
         self.max_correction_um = max_correction_um
@@ -657,6 +710,7 @@ class Compensator:
             limits=limits,
             limited=limits.any,
             uncertainty=uncertainty,
+            envelope=self._envelope_stage(plan.names),
         )
 
     def update_plan(self):
@@ -761,6 +815,7 @@ class Compensator:
         self._initial = None if initial_displacement is None else float(initial_displacement)
         self._credit = 0.0
         self._held = False
+        self._reset_envelope()
         self._reset_trust()
         return self
 
@@ -788,7 +843,10 @@ class Compensator:
             for late readings), and ``"output"`` the output stage's:
             ``"output_um"`` the last output, ``"credit_um"`` what the rate
             limit still allows (with a quantum), ``"held"`` whether the last
-            row was held for a missing input.
+            row was held for a missing input; and ``"envelope"`` (None
+            without an ``envelope``): each enveloped input's follower, its
+            excess at the last row, the excess bank's lags and its sum at the
+            first row when subtracted.
         """
         plan = self._plan_or_build()
         lags = None
@@ -800,6 +858,7 @@ class Compensator:
             "start": self._start,
             "filter": self._filter_state(),
             "output": self._output_state(),
+            "envelope": self._envelope_state(),
         }
 
     @property
@@ -819,7 +878,7 @@ class Compensator:
         self : Compensator
         """
         plan = self._plan_or_build()
-        if not isinstance(state, Mapping) or set(state) - {"filter", "output"} != {
+        if not isinstance(state, Mapping) or set(state) - {"filter", "output", "envelope"} != {
             "time_s",
             "lags",
             "start",
@@ -865,6 +924,7 @@ class Compensator:
                 self._set_filter_state(state["filter"])
             if state.get("output") is not None:
                 self._set_output_state(state["output"], plan.limits)
+            self._set_envelope_state(state.get("envelope"), plan)
         except ValueError:
             self.__dict__.clear()
             self.__dict__.update(before)
@@ -908,6 +968,7 @@ class Compensator:
                 "start": start,
                 "filter": filter_from_vars(saved),
                 "output": output_from_vars(saved),
+                "envelope": envelope_from_vars(saved),
             }
         )
 
@@ -981,6 +1042,9 @@ class Compensator:
                 )
         if plan.check_all and not np.isfinite(row).all():
             return self._bad_value(time, row, plan)
+        followed = excess = None
+        if plan.envelope is not None:
+            followed, excess = self._excess_terms(row, v, dt, plan)
         if previous is None:
             lags = v
             lags[: plan.idle.size][plan.idle] = 0.0
@@ -993,6 +1057,8 @@ class Compensator:
             return self._bad_value(time, row, plan)
         if previous is None:
             self._start = self._first_start(total)
+        if followed is not None:
+            self._step_excess(row, followed, excess, previous is None, plan)
         self._time = time
         self._lags = lags
         if self._start is not None:
@@ -1332,6 +1398,128 @@ class Compensator:
         self._held = True
         return self._output
 
+    # -- inputs outside the training envelope ---------------------------------
+
+    def _envelope_stage(self, names):
+        """``envelope`` checked (finite, ``low <= high``, rates >= 0, its inputs among
+        ``names``) as an :class:`EnvelopeStage`, or None."""
+        env = self.envelope
+        if env is None:
+            return None
+        env = env.check("The 'envelope' parameter of Compensator")
+        missing = [v for v in env.names if v not in names]
+        if missing:
+            raise ValueError(
+                f"The 'envelope' parameter of Compensator names {missing[0]!r}, which is not "
+                f"in inputs ({', '.join(names)})."
+            )
+        take = np.array([names.index(v) + 1 for v in env.names], dtype=np.intp)
+        return EnvelopeStage(take, env.low, env.high, env.max_rate_per_h, env.names)
+
+    def _reset_envelope(self):
+        self._follow = None  # the follower of each enveloped input
+        self._beyond = None  # the inputs minus their follower at the last row
+        self._elags = None  # the excess bank's lags (None: never outside)
+        self._estart = None  # the excess bank's sum at the first row, when subtracted
+        self._widening = 0.0  # |Δ|, the model's response to the excess at the last row
+
+    def _excess_terms(self, row, v, dt, plan):
+        """``(followed, excess)``: the follower of the enveloped inputs at this row, and
+        each term's value minus its value on the follower (None when all are 0)."""
+        env = plan.envelope
+        x = row[env.take]
+        follow = None if dt is None else self._follow
+        followed = follow_step(
+            follow, x, 0.0 if dt is None else dt, env.low, env.high, env.max_rate_per_h
+        )
+        if (followed == x).all():
+            return followed, None
+        inside = row.copy()
+        inside[env.take] = followed
+        w = inside[plan.index]
+        if plan.power.size:
+            start, stop = plan.span
+            w[start:stop] **= plan.power
+        return followed, v - w
+
+    def _step_excess(self, row, followed, excess, first, plan):
+        """The excess bank: the same lags (:func:`lag_step`) on the terms' excess; its
+        weighted sum is Δ, the model's response to the part of the inputs beyond the
+        envelope."""
+        elags = self._elags
+        if first:
+            elags = None if excess is None else excess
+            if elags is not None:
+                elags[: plan.idle.size][plan.idle] = 0.0
+        elif excess is not None or elags is not None:
+            zero = np.zeros(plan.weight.size) if elags is None else elags
+            elags = lag_step(zero, 0.0 if excess is None else excess, self._a)
+        delta = 0.0 if elags is None else float(plan.weight @ elags)
+        if first:
+            self._estart = delta if self._start is not None else None
+        if self._estart is not None:
+            delta -= self._estart
+        self._follow, self._elags = followed, elags
+        self._beyond = row[plan.envelope.take] - followed
+        self._widening = abs(delta)
+
+    def _restart_excess(self):
+        """The reference starts anew (:meth:`start_test`): so does the excess bank's."""
+        if self._plan.envelope is None:
+            return
+        raw = 0.0 if self._elags is None else float(self._plan.weight @ self._elags)
+        self._estart = raw if self._start is not None else None
+        self._widening = abs(raw - self._estart) if self._estart is not None else abs(raw)
+
+    def _outside(self):
+        """:attr:`Status.outside`: (input, excess) of the inputs outside at the last row."""
+        beyond = self._beyond
+        if beyond is None:
+            return ()
+        names = self._plan.envelope.names
+        return tuple((names[j], float(beyond[j])) for j in np.flatnonzero(beyond))
+
+    def _envelope_state(self):
+        if self._plan_or_build().envelope is None:
+            return None
+        return {
+            "follower": None if self._follow is None else self._follow.tolist(),
+            "excess": None if self._beyond is None else self._beyond.tolist(),
+            "excess_lags": None if self._elags is None else self._elags.tolist(),
+            "excess_start": self._estart,
+        }
+
+    def _set_envelope_state(self, state, plan):
+        """Restore :meth:`_envelope_state`'s dict (checked); the widening at the last row
+        is recomputed from it."""
+        env = plan.envelope
+        if env is None or state is None:
+            return
+        bad = ValueError("Compensator.set_state: the state's envelope follower is not valid.")
+        try:
+            follower, beyond = state["follower"], state["excess"]
+            elags, estart = state["excess_lags"], state["excess_start"]
+            follower = None if follower is None else np.asarray(follower, dtype=float)
+            beyond = None if beyond is None else np.asarray(beyond, dtype=float)
+            elags = None if elags is None else np.asarray(elags, dtype=float)
+        except (KeyError, TypeError, ValueError):
+            raise bad from None
+        if (
+            (follower is not None and (follower.shape != env.low.shape))
+            or (beyond is not None and (beyond.shape != env.low.shape))
+            or not all(a is None or np.isfinite(a).all() for a in (follower, beyond))
+            or (elags is not None and elags.shape != plan.weight.shape)
+            or not all(a is None or np.isfinite(a).all() for a in (follower, elags))
+            or not (estart is None or real(estart))
+            or (follower is not None and ((follower < env.low) | (follower > env.high)).any())
+        ):
+            raise bad
+        self._follow, self._elags = follower, elags
+        self._estart = None if estart is None else float(estart)
+        delta = 0.0 if elags is None else float(plan.weight @ elags)
+        self._widening = abs(delta - (self._estart or 0.0))
+        self._beyond = beyond
+
     # -- trust: intervals, probe readings, recalibration ---------------------
 
     # -- parameters -----------------------------------------------------------
@@ -1411,6 +1599,7 @@ class Compensator:
         total = float(self._plan.weight @ self._lags)
         self._initial = None if initial_displacement is None else float(initial_displacement)
         self._start = self._first_start(total)
+        self._restart_excess()
         model = self.intercept + total - (self._start or 0.0)
         if self._start is not None:  # the displacement is known here: the filter starts anew
             self._anchor_trust(self._time, model)
@@ -1487,13 +1676,22 @@ class Compensator:
         u = self._plan_or_build().uncertainty
         if self._time is None or self._corr is None:
             return Status(
-                self._time, None, math.nan, False, False, self._changes, self._output, self._held
+                self._time,
+                None,
+                math.nan,
+                False,
+                False,
+                self._changes,
+                self._output,
+                self._held,
+                (),
             )
         corr = self._corr
         plausible = abs(corr) <= self.max_correction_um
         half = math.nan
         if u is not None:
             half = self.interval_quantile * math.sqrt(self._variance_at(self._time, self._model))
+        half += self._widening
         trusted = plausible and (
             self.tolerance_um is None or (math.isfinite(half) and half <= self.tolerance_um)
         )
@@ -1506,6 +1704,7 @@ class Compensator:
             self._changes,
             self._output,
             self._held,
+            self._outside(),
         )
 
     # -- readings -------------------------------------------------------------
