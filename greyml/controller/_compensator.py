@@ -54,7 +54,7 @@ from greyml._param_validation import (
 from greyml._sequences import TIME_LEVEL
 from greyml.controller._from_model import pipeline_terms, transfer_terms
 from greyml.controller._output import QUANTA_MAX, OutputLimits, limit_output
-from greyml.dynamic._envelope import InputEnvelope, follow_step
+from greyml.dynamic._envelope import InputEnvelope, follow_step, reach_of
 from greyml.dynamic._kernels import lag_step
 from greyml.dynamic._lags import _power_name, _tau_label
 from greyml.dynamic._time import MAX_TERMS, gap_message
@@ -1418,21 +1418,26 @@ class Compensator:
 
     def _reset_envelope(self):
         self._follow = None  # the follower of each enveloped input
-        self._beyond = None  # the inputs minus their follower at the last row
+        self._beyond = None  # the inputs minus their follower at the last row (None: 0)
+        self._outside_now = ()  # Status.outside of the last row
         self._elags = None  # the excess bank's lags (None: never outside)
         self._estart = None  # the excess bank's sum at the first row, when subtracted
         self._widening = 0.0  # |Δ|, the model's response to the excess at the last row
+        self._edt = None  # the step the follower's reach was computed for
+        self._reach = None
 
     def _excess_terms(self, row, v, dt, plan):
         """``(followed, excess)``: the follower of the enveloped inputs at this row, and
-        each term's value minus its value on the follower (None when all are 0)."""
+        each term's value minus its value on the follower (None when no input is outside)."""
         env = plan.envelope
         x = row[env.take]
-        follow = None if dt is None else self._follow
-        followed = follow_step(
-            follow, x, 0.0 if dt is None else dt, env.low, env.high, env.max_rate_per_h
-        )
-        if (followed == x).all():
+        if dt is None or self._follow is None:
+            followed = follow_step(None, x, None, env.low, env.high)
+        else:
+            if dt != self._edt:
+                self._reach, self._edt = reach_of(env.max_rate_per_h, dt), dt
+            followed = follow_step(self._follow, x, self._reach, env.low, env.high)
+        if followed.tobytes() == x.tobytes():  # inside (the cheapest exact test)
             return followed, None
         inside = row.copy()
         inside[env.take] = followed
@@ -1448,20 +1453,35 @@ class Compensator:
         envelope."""
         elags = self._elags
         if first:
-            elags = None if excess is None else excess
+            elags = excess
             if elags is not None:
                 elags[: plan.idle.size][plan.idle] = 0.0
-        elif excess is not None or elags is not None:
-            zero = np.zeros(plan.weight.size) if elags is None else elags
-            elags = lag_step(zero, 0.0 if excess is None else excess, self._a)
-        delta = 0.0 if elags is None else float(plan.weight @ elags)
+        elif elags is not None:
+            elags = lag_step(elags, 0.0 if excess is None else excess, self._a)
+        elif excess is not None:
+            elags = lag_step(np.zeros(plan.weight.size), excess, self._a)
+        self._follow, self._elags = followed, elags
+        if excess is None:
+            self._beyond, self._outside_now = None, ()
+        else:
+            self._set_beyond(row[plan.envelope.take] - followed, plan)
+        if elags is None:
+            if first:
+                self._estart = 0.0 if self._start is not None else None
+            self._widening = 0.0
+            return
+        delta = float(plan.weight @ elags)
         if first:
             self._estart = delta if self._start is not None else None
         if self._estart is not None:
             delta -= self._estart
-        self._follow, self._elags = followed, elags
-        self._beyond = row[plan.envelope.take] - followed
         self._widening = abs(delta)
+
+    def _set_beyond(self, beyond, plan):
+        """The inputs minus their follower, and :attr:`Status.outside` from them."""
+        names = plan.envelope.names
+        self._beyond = beyond
+        self._outside_now = tuple((names[j], float(beyond[j])) for j in beyond.nonzero()[0])
 
     def _restart_excess(self):
         """The reference starts anew (:meth:`start_test`): so does the excess bank's."""
@@ -1473,11 +1493,7 @@ class Compensator:
 
     def _outside(self):
         """:attr:`Status.outside`: (input, excess) of the inputs outside at the last row."""
-        beyond = self._beyond
-        if beyond is None:
-            return ()
-        names = self._plan.envelope.names
-        return tuple((names[j], float(beyond[j])) for j in np.flatnonzero(beyond))
+        return self._outside_now
 
     def _envelope_state(self):
         if self._plan_or_build().envelope is None:
@@ -1518,7 +1534,9 @@ class Compensator:
         self._estart = None if estart is None else float(estart)
         delta = 0.0 if elags is None else float(plan.weight @ elags)
         self._widening = abs(delta - (self._estart or 0.0))
-        self._beyond = beyond
+        self._beyond, self._outside_now = None, ()
+        if beyond is not None:
+            self._set_beyond(beyond, plan)
 
     # -- trust: intervals, probe readings, recalibration ---------------------
 

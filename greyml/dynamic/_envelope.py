@@ -15,9 +15,11 @@ it that never leaves the envelope:
 
 starting at ``clip(x_0, low, high)`` at a test's first row (or carrying the
 follower of the test before, for a test that carries its state), with ``r``
-the largest rate per hour and ``Δt_k`` the step into row ``k`` in hours (a
-change within ``r·Δt_k`` takes the input itself, so a row inside the
-envelope has an excess of exactly 0). The
+the largest rate per hour (and a part in 10⁹ more, so that the training
+rows' own fastest change stays inside after rounding) and ``Δt_k`` the step
+into row ``k`` in hours; it is computed as ``x_k`` clipped to
+``[max(x̃_{k−1} − r·Δt_k, low), min(x̃_{k−1} + r·Δt_k, high)]``, so a row
+inside the envelope has an excess of exactly 0. The
 *excess* ``x − x̃`` is the part of the input that training never validated:
 0 at every row inside the envelope, the distance beyond it outside (in the
 input's own unit, signed).
@@ -32,9 +34,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["RATE_SLACK", "InputEnvelope", "envelope_of", "follow", "follow_step", "union"]
+__all__ = [
+    "RATE_SLACK",
+    "InputEnvelope",
+    "envelope_of",
+    "follow",
+    "follow_step",
+    "reach_of",
+    "union",
+]
 
-#: A change within this share above the largest rate is within it: the rate a
+#: The follower may move this share faster than the largest rate: the rate a
 #: training pair defines, times the same step, may round below that pair's change.
 RATE_SLACK = 1e-9
 
@@ -166,21 +176,27 @@ def union(first, second):
     )
 
 
-def follow_step(previous, x, step_s, low, high, max_rate_per_h):
-    """One row of the follower: ``previous`` moved towards ``x`` within the envelope.
+def reach_of(max_rate_per_h, step_s):
+    """How far the follower may move in a step of ``step_s`` seconds: the largest rate
+    times the step, and :data:`RATE_SLACK` more."""
+    return max_rate_per_h * (step_s / 3600.0) * (1.0 + RATE_SLACK)
 
-    ``previous`` None (a test without history): ``clip(x, low, high)``. Arrays
-    of shape (p,) in and out; the one update every caller uses.
+
+def follow_step(previous, x, reach, low, high):
+    """One row of the follower: ``x`` within ``reach`` of ``previous`` and within
+    ``[low, high]``, the nearest such value (``previous`` None: a test without
+    history, ``x`` within ``[low, high]``).
+
+    Since ``previous`` lies in ``[low, high]``, this is ``previous`` moved towards
+    ``x`` by at most ``reach``, then clipped to the range; a value inside both
+    bounds is ``x`` itself, bit for bit. Arrays of shape (p,) in and out; the one
+    update every caller uses (:func:`follow`, :class:`greyml.Compensator`).
     """
     if previous is None:
         return np.minimum(np.maximum(x, low), high)
-    reach = max_rate_per_h * (step_s / 3600.0)
-    change = x - previous
-    # within reach, the input itself (not previous + change, which may differ from
-    # it in the last bit): a row inside the envelope has an excess of exactly 0
-    within = np.abs(change) <= reach * (1.0 + RATE_SLACK)
-    moved = np.where(within, x, previous + np.minimum(np.maximum(change, -reach), reach))
-    return np.minimum(np.maximum(moved, low), high)
+    lower = np.maximum(previous - reach, low)
+    upper = np.minimum(previous + reach, high)
+    return np.minimum(np.maximum(x, lower), upper)
 
 
 def follow(x, dt, bounds, envelope, carry=False):
@@ -206,12 +222,13 @@ def follow(x, dt, bounds, envelope, carry=False):
     x = np.asarray(x, dtype=float)
     out = np.empty_like(x)
     links = np.broadcast_to(np.asarray(carry, dtype=bool), (len(bounds),))
-    low, high, rate = envelope.low, envelope.high, envelope.max_rate_per_h
+    low, high = envelope.low, envelope.high
+    reach = reach_of(envelope.max_rate_per_h[None, :], np.asarray(dt, dtype=float)[:, None])
     state = None
     for i, (start, stop) in enumerate(bounds):
         if i > 0 and not links[i]:
             state = None
         for k in range(start, stop):
-            state = follow_step(state, x[k], dt[k], low, high, rate)
+            state = follow_step(state, x[k], reach[k], low, high)
             out[k] = state
     return out
