@@ -1647,9 +1647,10 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
         Returns
         -------
         excess : DataFrame of shape (n_samples, n_used_inputs)
-            One column per input the model reads (the envelope's names), on
-            ``X``'s index when ``X`` is a DataFrame. A row is outside where any
-            value is not 0.
+            One column per input the model reads (a term with a weight, in the
+            envelope's order: the inputs :meth:`greyml.Compensator.from_model`
+            streams), on ``X``'s index when ``X`` is a DataFrame. A row is
+            outside where any value is not 0.
 
         Examples
         --------
@@ -1674,7 +1675,9 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
             )
         Xa, followed, columns, _ = self._followed(X)
         index = X.index if isinstance(X, pd.DataFrame) else None
-        return pd.DataFrame(Xa[:, columns] - followed, columns=list(env.names), index=index)
+        excess = pd.DataFrame(Xa[:, columns] - followed, columns=list(env.names), index=index)
+        read = {name for name, _, _, _ in self.terms_}  # a selected sensor may have no weight
+        return excess[[c for c in env.names if c in read]]
 
     def _check_envelope_state(self, name):
         """``input_envelope_``: None (saved before it existed), or an envelope in its
