@@ -291,3 +291,28 @@ def test_a_hostile_saved_envelope_is_refused_at_load(fitted, tmp_path, which, fi
         load_model(_rewrite(path, edit, tmp_path / "bad.greyml"))
     message = str(info.value)
     assert "\n" not in message and "envelope" in message and words in message, message
+
+
+# -- the exports -----------------------------------------------------------------------
+
+
+def test_the_json_and_the_headers_carry_the_envelope(fitted):
+    from greyml.controller._export._write import export_text
+
+    _, model = fitted
+    comp = Compensator.from_model(model)
+    exported = json.loads(export_text(comp, "json"))
+    env = model.input_envelope_
+    assert [exported["inputs"][j]["name"] for j in exported["envelope"]["inputs"]] == list(
+        env.names
+    )
+    assert exported["envelope"]["low"] == env.low.tolist()
+    assert exported["envelope"]["high"] == env.high.tolist()
+    assert exported["envelope"]["max_rate_per_h"] == env.max_rate_per_h.tolist()
+    names = [v["name"] for v in exported["state"]]
+    assert {"ef", "ex", "elag", "widening_um", "outside"} <= set(names)
+    for language in ("c", "st"):
+        header = export_text(comp, language).split("*)" if language == "st" else "*/")[0]
+        assert "Envelope (what training saw" in header and "outside: 0 inside" in header
+    plain = json.loads(export_text(comp.set_params(envelope=None), "json"))
+    assert "envelope" not in plain and "outside" not in [v["name"] for v in plain["state"]]

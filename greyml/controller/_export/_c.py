@@ -14,7 +14,7 @@ import math
 import textwrap
 from string import Template
 
-from greyml.controller._export._program import STATUS_CODES
+from greyml.controller._export._program import ARRAYS, STATUS_CODES
 from greyml.controller._output import QUANTA_MAX, QUANTUM_TOLERANCE
 
 __all__ = ["write_c"]
@@ -78,6 +78,7 @@ def header_lines(p, language, call):
             else "none (the model has no calibration)"
         )
         + ".",
+        *(p.envelope.lines(p.inputs) if p.envelope is not None else ()),
         "Status codes (update, observe):",
         *(f"  {code:2d} {key}: {meaning}." for key, (code, meaning) in STATUS_CODES.items()),
         "Not safety-certified. Validate it on the machine before it moves an axis.",
@@ -91,7 +92,7 @@ _KINDS = {"real": "double", "int": "long", "bool": "int"}
 def _struct(p):
     members = []
     for v in p.state:
-        size = f"[{max(v.length, 1)}]" if v.length > 1 or v.name == "lag" else ""
+        size = f"[{max(v.length, 1)}]" if v.length > 1 or v.name in ARRAYS else ""
         unit = f" ({v.unit})" if v.unit else ""
         members.append(f"    {_KINDS[v.kind]} {v.name}{size}; /* {v.meaning}{unit} */")
     return "\n".join(members)
@@ -103,7 +104,7 @@ _TEMPLATE = Template(
 
 #define ${M}_N_INPUTS ${n_inputs}
 #define ${M}_N_TERMS ${n_terms}
-#define ${M}_N_LAGS ${n_lags}
+#define ${M}_N_LAGS ${n_lags}${env_macros}
 ${status_macros}
 ${input_macros}
 
@@ -121,7 +122,7 @@ static const double ${P}_power[${n_terms_1}] = ${powers};
 static const int ${P}_fractional[${n_terms_1}] = ${fractional};
 static const double ${P}_weight[${n_terms_1}] = ${weights};
 static const double ${P}_tau[${n_lags_1}] = ${taus};
-static const int ${P}_idle[${n_lags_1}] = ${idle};
+static const int ${P}_idle[${n_lags_1}] = ${idle};${env_tables}
 
 void ${P}_init(${P}_state *s)
 {
@@ -161,7 +162,7 @@ int ${P}_update(${P}_state *s, double time_s, const double x[${M}_N_INPUTS], dou
 {
     double v[${n_terms_1}], lag[${n_terms_1}];
     double dt = 0.0, shift = 0.0, total = 0.0, value;
-    int k, j, has_dt = 0;
+    int k, j, has_dt = 0;${env_locals}
     *output_um = s->output_um; /* what a refused or held row leaves on the axis */
     /* (1) a negative input to a fractional power */
     for (k = 0; k < ${M}_N_TERMS; k++) {
@@ -195,7 +196,7 @@ ${restart}
         }
         total += ${P}_weight[k] * lag[k];
     }
-    if (!isfinite(total)) return ${P}_refuse(s, time_s, x);
+    if (!isfinite(total)) return ${P}_refuse(s, time_s, x);${env_step}
     /* (5) the reference */
     if (!s->started) {
         if (s->has_initial) {
@@ -206,7 +207,7 @@ ${restart}
             s->start = ${relative} ? total : 0.0;
         }
     }
-    for (k = 0; k < ${M}_N_TERMS; k++) s->lag[k] = lag[k];
+    for (k = 0; k < ${M}_N_TERMS; k++) s->lag[k] = lag[k];${env_store}
     if (s->has_start) total -= s->start;
     /* (6) the model's correction, and the probe filter's */
     value = ${intercept} + total;
@@ -297,7 +298,7 @@ double ${P}_half_width(const ${P}_state *s)
         hph = ${P}_hph(P, s->model_um);
         var = (hph > 0.0 ? hph : 0.0) + ${noise_var};
     }
-    return ${quantile} * sqrt(var);
+    return ${quantile} * sqrt(var)${widening};
 }
 
 int ${P}_trusted(const ${P}_state *s)
@@ -420,8 +421,83 @@ int ${P}_observe(${P}_state *s, double time_s, double measured_um)
         threshold=_real(t.change_threshold),
         max_correction=_real(p.max_correction_um),
         tolerance=tolerance,
+        widening="" if p.envelope is None else " + s->widening_um",
     )
     return declarations, body
+
+
+def _envelope_c(p):
+    """The envelope's macros, tables, locals, step and store (update), or '' each."""
+    names = ("env_macros", "env_tables", "env_locals", "env_step", "env_store")
+    e = p.envelope
+    if e is None:
+        return dict.fromkeys(names, "")
+    P, M, n = p.name, p.name.upper(), len(e.input)
+    step = Template(
+        r"""
+    /* (4b) the envelope: each enveloped input's follower, and the excess bank */
+    for (j = 0; j < ${M}_N_INPUTS; j++) xt[j] = x[j];
+    for (j = 0; j < ${M}_N_ENV; j++) {
+        double xi = x[${P}_env_input[j]], f = xi, lo = ${P}_env_low[j], hi = ${P}_env_high[j];
+        if (s->started) {
+            double reach = ${P}_env_rate[j] * (dt / 3600.0) * (1.0 + ${M}_RATE_SLACK);
+            double down = s->ef[j] - reach, up = s->ef[j] + reach;
+            lo = down < lo ? lo : down;
+            hi = up > hi ? hi : up;
+        }
+        if (f < lo) f = lo;
+        if (f > hi) f = hi;
+        ef[j] = f;
+        ex[j] = xi - f;
+        xt[${P}_env_input[j]] = f;
+        if (outside == 0 && ex[j] != 0.0) outside = ${P}_env_input[j] + 1;
+    }
+    for (k = 0; k < ${M}_N_TERMS; k++) {
+        double w = ${P}_power[k] == 1.0 ? xt[${P}_input[k]] : pow(xt[${P}_input[k]], ${P}_power[k]);
+        double e = v[k] - w;
+        if (!s->started) {
+            elag[k] = (k < ${M}_N_LAGS && ${P}_idle[k < ${M}_N_LAGS ? k : 0]) ? 0.0 : e;
+        } else if (k < ${M}_N_LAGS) {
+            double a = exp(-dt / ${P}_tau[k]);
+            elag[k] = (1.0 - a) * e + a * s->elag[k];
+        } else {
+            elag[k] = e;
+        }
+        delta += ${P}_weight[k] * elag[k];
+    }"""
+    ).substitute(P=P, M=M)
+    store = Template(
+        r"""
+    /* the envelope's state; the half-width widens by the model's response to the excess */
+    if (!s->started) {
+        s->has_estart = s->has_start;
+        s->estart = s->has_start ? delta : 0.0;
+    }
+    if (s->has_estart) delta -= s->estart;
+    for (k = 0; k < ${M}_N_TERMS; k++) s->elag[k] = elag[k];
+    for (j = 0; j < ${M}_N_ENV; j++) {
+        s->ef[j] = ef[j];
+        s->ex[j] = ex[j];
+    }
+    s->widening_um = fabs(delta);
+    s->outside = outside;"""
+    ).substitute(P=P, M=M)
+    return {
+        "env_macros": f"\n#define {M}_N_ENV {n}\n#define {M}_RATE_SLACK {_real(e.rate_slack)}",
+        "env_tables": (
+            f"\nstatic const int {P}_env_input[{n}] = {_array(e.input, str, 16)};"
+            f"\nstatic const double {P}_env_low[{n}] = {_array(e.low)};"
+            f"\nstatic const double {P}_env_high[{n}] = {_array(e.high)};"
+            f"\nstatic const double {P}_env_rate[{n}] = {_array(e.max_rate_per_h)};"
+        ),
+        "env_locals": (
+            f"\n    double ef[{M}_N_ENV], ex[{M}_N_ENV], xt[{M}_N_INPUTS];"
+            f"\n    double elag[{max(len(p.terms), 1)}], delta = 0.0;"
+            "\n    int outside = 0;"
+        ),
+        "env_step": step,
+        "env_store": store,
+    }
 
 
 def _record_c(p):
@@ -566,6 +642,7 @@ def write_c(p):
         relative=int(p.relative_to_start),
         record=_record_c(p),
         stage=stage,
+        **_envelope_c(p),
     )
     call = (
         f"{p.name}_init once, {p.name}_update at every row (time_s and the inputs), "
