@@ -29,6 +29,14 @@ rate and the gain become uncertain and the next readings estimate them (no
 refit from scratch). The user can force that with
 :meth:`Compensator.recalibrate`.
 
+Inputs outside the training envelope. With an ``envelope`` (the model's
+``input_envelope_``), each enveloped input's follower
+(:func:`greyml.dynamic._envelope.follow_step`) and a second bank of the
+same lags on each term's excess over it give the model's response to the
+part of the inputs training never saw; ``status.half_width`` widens by it and
+``status.outside`` names the inputs outside, as the batch
+:meth:`greyml.ThermalTransferFunction.predict_interval` does.
+
 Rows. A row becomes the float array ``(time_s, *inputs)``; a value that is not
 a real number (a bool, bytes, text, a date) is refused in one line, since it
 would otherwise become a number and move the axis by it.
