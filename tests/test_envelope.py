@@ -316,3 +316,18 @@ def test_the_json_and_the_headers_carry_the_envelope(fitted):
         assert "Envelope (what training saw" in header and "outside: 0 inside" in header
     plain = json.loads(export_text(comp.set_params(envelope=None), "json"))
     assert "envelope" not in plain and "outside" not in [v["name"] for v in plain["state"]]
+
+
+def test_partial_fit_widens_the_envelope_by_what_the_new_tests_saw():
+    X, y = _tests()
+    model = ThermalTransferFunction(reference="recording").fit(X, y)
+    hotter = X.xs("1", level="test", drop_level=False).copy()
+    hotter["T1_C"] += 0.5  # 20.5 to 22.2 K: 0.5 K above the highest training value, 22
+    hotter.index = make_test_index(["5"] * len(hotter), hotter.index.get_level_values("time_s"))
+    before = model.input_envelope_
+    model.partial_fit(hotter, 3.0 * (hotter["T1_C"].to_numpy() - 20.0))
+    after = model.input_envelope_
+    j = after.names.index("T1_C")
+    assert after.high[j] == pytest.approx(max(before.high[j], hotter["T1_C"].max()))
+    assert after.low[j] == before.low[j] and after.max_rate_per_h[j] == before.max_rate_per_h[j]
+    assert (model.outside_envelope(hotter).to_numpy() == 0.0).all()

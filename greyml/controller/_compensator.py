@@ -853,8 +853,9 @@ class Compensator:
             limit still allows (with a quantum), ``"held"`` whether the last
             row was held for a missing input; and ``"envelope"`` (None
             without an ``envelope``): each enveloped input's follower, its
-            excess at the last row, the excess bank's lags and its sum at the
-            first row when subtracted.
+            excess at the last row, the excess bank's lags, its sum at the
+            first row when subtracted (``"excess_start"``) and its sum at the
+            last row (``"excess_sum"``, read only).
         """
         plan = self._plan_or_build()
         lags = None
@@ -1506,11 +1507,15 @@ class Compensator:
     def _envelope_state(self):
         if self._plan_or_build().envelope is None:
             return None
+        plan = self._plan
         return {
             "follower": None if self._follow is None else self._follow.tolist(),
             "excess": None if self._beyond is None else self._beyond.tolist(),
             "excess_lags": None if self._elags is None else self._elags.tolist(),
             "excess_start": self._estart,
+            # the bank's weighted sum at the last row (read only): what excess_start
+            # becomes where the reference starts anew (as start_test does)
+            "excess_sum": 0.0 if self._elags is None else float(plan.weight @ self._elags),
         }
 
     def _set_envelope_state(self, state, plan):
