@@ -313,7 +313,8 @@ def test_the_json_and_the_headers_carry_the_envelope(fitted):
     assert {"ef", "ex", "elag", "widening_um", "outside"} <= set(names)
     for language in ("c", "st"):
         header = export_text(comp, language).split("*)" if language == "st" else "*/")[0]
-        assert "Envelope (what training saw" in header and "outside: 0 inside" in header
+        flag = "Outside: 0 inside" if language == "st" else "outside: 0 inside"
+        assert "Envelope (what training saw" in header and flag in header
     plain = json.loads(export_text(comp.set_params(envelope=None), "json"))
     assert "envelope" not in plain and "outside" not in [v["name"] for v in plain["state"]]
 

@@ -78,7 +78,7 @@ def header_lines(p, language, call):
             else "none (the model has no calibration)"
         )
         + ".",
-        *(p.envelope.lines(p.inputs) if p.envelope is not None else ()),
+        *(() if p.envelope is None else p.envelope.lines(p.inputs, "Structured" in language)),
         "Status codes (update, observe):",
         *(f"  {code:2d} {key}: {meaning}." for key, (code, meaning) in STATUS_CODES.items()),
         "Not safety-certified. Validate it on the machine before it moves an axis.",

@@ -192,8 +192,9 @@ class Envelope:
     max_rate_per_h: tuple
     rate_slack: float
 
-    def lines(self, inputs):
-        """The header's lines: what training saw of each input, and how to read the flag."""
+    def lines(self, inputs, structured_text=False):
+        """The header's lines: what training saw of each input, and how to read the flag
+        (named as the C state or the Structured Text outputs name it)."""
         out = [
             "Envelope (what training saw; outside it the half-width widens by the model's "
             "response to the excess):"
@@ -204,10 +205,14 @@ class Envelope:
                 f"  {j:3d}  {v.identifier:<32s} [{lo:.6g}, {hi:.6g}] {v.unit}, at most "
                 f"{rate:.6g} per hour"
             )
+        flag, excess, widening = ("outside", "ex", "widening_um")
+        if structured_text:
+            flag, excess, widening = ("Outside", "st_ex", "WideningUm")
         out.append(
-            "outside: 0 inside the envelope; else 1 + the position (above) of the first "
-            "input outside it at the last row; ex holds each enveloped input's excess (the "
-            "input minus its follower, in its own unit), widening_um what the half-width adds."
+            f"{flag}: 0 inside the envelope; else 1 + the position (above) of the first "
+            f"input outside it at the last row; {excess} holds each enveloped input's excess "
+            f"(the input minus its follower, in its own unit), {widening} what the "
+            "half-width adds."
         )
         return out
 
