@@ -18,7 +18,7 @@ import pytest
 from greyml import Compensator, ThermalTransferFunction, make_test_index
 from greyml.controller import Uncertainty
 from greyml.dynamic import InputEnvelope
-from greyml.dynamic._envelope import envelope_of, follow
+from greyml.dynamic._envelope import envelope_of, follow, follow_step, reach_of
 from greyml.persist import load_model, save_model
 
 # -- the kernel, by hand --------------------------------------------------------
@@ -41,6 +41,36 @@ def test_the_follower_by_hand_with_the_range_and_the_rate_both_binding():
     # carried into the second test, the follower goes on from 4.5, one unit a row
     carried = follow(x, dt, bounds, env, carry=[False, True])[:, 0]
     np.testing.assert_allclose(carried[6:], [3.5, 2.5], rtol=1e-8)
+
+
+def test_the_batch_follower_is_the_row_by_row_kernel_bit_for_bit():
+    # a random walk that leaves and re-enters the envelope by both edges and the rate;
+    # four tests, the third carrying the second's follower
+    rng = np.random.default_rng(3)
+    n = 4000
+    x = np.cumsum(rng.normal(0.0, 0.3, (n, 3)), axis=0) + rng.normal(0.0, 0.05, (n, 3))
+    x[1000:1010] += 5.0  # a jump
+    dt = rng.choice([10.0, 15.0, 60.0], n)
+    bounds = [(0, 900), (900, 2000), (2000, 3100), (3100, n)]
+    carry = [False, False, True, False]
+    env = InputEnvelope(
+        ("a", "b", "c"),
+        np.array([-3.0, -1.0, 0.0]),
+        np.array([3.0, 2.0, 0.0]),
+        np.array([40.0, 90.0, 0.0]),
+    )
+    got = follow(x, dt, bounds, env, carry=carry)
+    expected = np.empty_like(x)
+    state = None
+    for i, (start, stop) in enumerate(bounds):
+        if not carry[i]:
+            state = None
+        for k in range(start, stop):
+            state = follow_step(state, x[k], reach_of(env.max_rate_per_h, dt[k]), env.low, env.high)
+            expected[k] = state
+    assert np.array_equal(got, expected)
+    inside = (got == x).mean(axis=0)
+    assert 0.05 < inside[0] < 0.95 and 0.05 < inside[1] < 0.95 and inside[2] == 0.0
 
 
 def test_the_envelope_by_hand_with_a_weightless_row_and_a_constant_input():

@@ -220,15 +220,39 @@ def follow(x, dt, bounds, envelope, carry=False):
         The follower; ``x - followed`` is the excess.
     """
     x = np.asarray(x, dtype=float)
-    out = np.empty_like(x)
+    n, p = x.shape
     links = np.broadcast_to(np.asarray(carry, dtype=bool), (len(bounds),))
-    low, high = envelope.low, envelope.high
-    reach = reach_of(envelope.max_rate_per_h[None, :], np.asarray(dt, dtype=float)[:, None])
-    state = None
+    fresh = np.zeros(n, dtype=bool)  # a row where the follower starts without history
     for i, (start, stop) in enumerate(bounds):
-        if i > 0 and not links[i]:
-            state = None
-        for k in range(start, stop):
-            state = follow_step(state, x[k], reach[k], low, high)
-            out[k] = state
+        if stop > start and (i == 0 or not links[i]):
+            fresh[start] = True
+    reach = reach_of(envelope.max_rate_per_h[None, :], np.asarray(dt, dtype=float)[:, None])
+    out = x.copy()
+    for j in range(p):
+        out[:, j] = _follow_column(x[:, j], reach[:, j], envelope.low[j], envelope.high[j], fresh)
+    return out
+
+
+def _follow_column(x, reach, low, high, fresh):
+    """:func:`follow_step` down one column: vectorised while the follower equals the
+    input, row by row from a row that leaves the envelope until it equals it again."""
+    out = x.copy()
+    previous = np.empty_like(x)
+    previous[0], previous[1:] = np.nan, x[:-1]
+    # the rows follow_step gives back as they are, if the row before was the input
+    lower = np.maximum(previous - reach, low)
+    upper = np.minimum(previous + reach, high)
+    inside = np.where(fresh, (x >= low) & (x <= high), (x >= lower) & (x <= upper))
+    leaving = np.flatnonzero(~inside)
+    k, n = 0, x.size
+    while k < leaving.size:
+        i = int(leaving[k])
+        state = None if fresh[i] else out[i - 1]
+        while i < n:
+            state = follow_step(None if fresh[i] else state, x[i], reach[i], low, high)
+            out[i] = state
+            i += 1
+            if state == x[i - 1]:  # the follower is the input again
+                break
+        k = int(np.searchsorted(leaving, i))
     return out
