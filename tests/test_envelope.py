@@ -141,6 +141,18 @@ def test_a_static_term_widens_by_its_gain_times_the_excess():
             assert outside[0][0] == "T1_C" and outside[0][1] == pytest.approx(e, abs=1e-8)
 
 
+def test_two_inputs_outside_widen_by_both_responses_which_never_cancel():
+    env = InputEnvelope(
+        ("T1_C", "T2_C"), np.array([20.0, 20.0]), np.array([22.0, 22.0]), np.array([1e3, 1e3])
+    )
+    terms = [("T1_C", 1, None, 3.0), ("T2_C", 1, None, -2.0)]
+    comp = Compensator(["T1_C", "T2_C"], terms, uncertainty=U, envelope=env)
+    comp.update({"time_s": 0.0, "T1_C": 23.0, "T2_C": 22.5})  # 1 K and 0.5 K above
+    # the model's responses: +3 µm and -1 µm; together +2, but each is unknown: 3 + 1
+    assert _half(comp) == pytest.approx(4.0, abs=1e-12)
+    assert dict(comp.status.outside) == {"T1_C": 1.0, "T2_C": 0.5}
+
+
 def test_a_lag_term_widens_by_the_lag_of_the_excess():
     a = math.exp(-60.0 / 600.0)
     comp = Compensator(["T1_C"], [("T1_C", 1, 600.0, 2.0)], uncertainty=U, envelope=ENV)

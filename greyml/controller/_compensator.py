@@ -33,9 +33,9 @@ Inputs outside the training envelope. With an ``envelope`` (the model's
 ``input_envelope_``), each enveloped input's follower
 (:func:`greyml.dynamic._envelope.follow_step`) and a second bank of the
 same lags on each term's excess over it give the model's response to the
-part of the inputs training never saw; ``status.half_width`` widens by it and
-``status.outside`` names the inputs outside, as the batch
-:meth:`greyml.ThermalTransferFunction.predict_interval` does.
+part of each input training never saw; ``status.half_width`` widens by their
+sum in absolute value and ``status.outside`` names the inputs outside, as the
+batch :meth:`greyml.ThermalTransferFunction.predict_interval` does.
 
 Rows. A row becomes the float array ``(time_s, *inputs)``; a value that is not
 a real number (a bool, bytes, text, a date) is refused in one line, since it
@@ -209,6 +209,9 @@ class EnvelopeStage:
         :class:`~greyml.dynamic.InputEnvelope`).
     names : tuple of str
         The enveloped inputs, in order.
+    by_input : ndarray of shape (n_enveloped, n_terms)
+        Each term's weight in the row of its input (0 elsewhere): times the
+        excess bank's lags, the model's response to each input's excess.
     """
 
     take: np.ndarray
@@ -216,6 +219,7 @@ class EnvelopeStage:
     high: np.ndarray
     max_rate_per_h: np.ndarray
     names: tuple
+    by_input: np.ndarray
 
 
 @dataclass(frozen=True)
@@ -718,7 +722,7 @@ class Compensator:
             limits=limits,
             limited=limits.any,
             uncertainty=uncertainty,
-            envelope=self._envelope_stage(plan.names),
+            envelope=self._envelope_stage(plan),
         )
 
     def update_plan(self):
@@ -853,9 +857,10 @@ class Compensator:
             limit still allows (with a quantum), ``"held"`` whether the last
             row was held for a missing input; and ``"envelope"`` (None
             without an ``envelope``): each enveloped input's follower, its
-            excess at the last row, the excess bank's lags, its sum at the
-            first row when subtracted (``"excess_start"``) and its sum at the
-            last row (``"excess_sum"``, read only).
+            excess at the last row, the excess bank's lags, each input's
+            response (the bank's weighted sum over its terms) at the first
+            row when subtracted (``"excess_start"``) and at the last row
+            (``"excess_sum"``, read only).
         """
         plan = self._plan_or_build()
         lags = None
@@ -1409,12 +1414,13 @@ class Compensator:
 
     # -- inputs outside the training envelope ---------------------------------
 
-    def _envelope_stage(self, names):
+    def _envelope_stage(self, plan):
         """``envelope`` checked (finite, ``low <= high``, rates >= 0, its inputs among
-        ``names``) as an :class:`EnvelopeStage`, or None."""
+        the plan's inputs) as an :class:`EnvelopeStage`, or None."""
         env = self.envelope
         if env is None:
             return None
+        names = plan.names
         env = env.check("The 'envelope' parameter of Compensator")
         missing = [v for v in env.names if v not in names]
         if missing:
@@ -1423,15 +1429,20 @@ class Compensator:
                 f"in inputs ({', '.join(names)})."
             )
         take = np.array([names.index(v) + 1 for v in env.names], dtype=np.intp)
-        return EnvelopeStage(take, env.low, env.high, env.max_rate_per_h, env.names)
+        # each term's weight in the response to its input's excess (a row per input)
+        by_input = np.zeros((len(env.names), plan.weight.size))
+        for slot, position in enumerate(take):
+            terms = plan.index == position
+            by_input[slot, terms] = plan.weight[terms]
+        return EnvelopeStage(take, env.low, env.high, env.max_rate_per_h, env.names, by_input)
 
     def _reset_envelope(self):
         self._follow = None  # the follower of each enveloped input
         self._beyond = None  # the inputs minus their follower at the last row (None: 0)
         self._outside_now = ()  # Status.outside of the last row
         self._elags = None  # the excess bank's lags (None: never outside)
-        self._estart = None  # the excess bank's sum at the first row, when subtracted
-        self._widening = 0.0  # |Δ|, the model's response to the excess at the last row
+        self._estart = None  # each input's response at the first row, when subtracted
+        self._widening = 0.0  # Σ|Δ_i|, the responses to the excess at the last row
         self._edt = None  # the step the follower's reach was computed for
         self._reach = None
 
@@ -1458,8 +1469,8 @@ class Compensator:
 
     def _step_excess(self, row, followed, excess, first, plan):
         """The excess bank: the same lags (:func:`lag_step`) on the terms' excess; its
-        weighted sum is Δ, the model's response to the part of the inputs beyond the
-        envelope."""
+        weighted sum over each input's terms is Δ_i, the model's response to the part of
+        input i beyond the envelope, and the widening is Σ_i |Δ_i|."""
         elags = self._elags
         if first:
             elags = excess
@@ -1476,15 +1487,16 @@ class Compensator:
             self._set_beyond(row[plan.envelope.take] - followed, plan)
         if elags is None:
             if first:
-                self._estart = 0.0 if self._start is not None else None
+                zero = np.zeros(plan.envelope.take.size)
+                self._estart = zero if self._start is not None else None
             self._widening = 0.0
             return
-        delta = float(plan.weight @ elags)
+        delta = plan.envelope.by_input @ elags
         if first:
             self._estart = delta if self._start is not None else None
         if self._estart is not None:
-            delta -= self._estart
-        self._widening = abs(delta)
+            delta = delta - self._estart
+        self._widening = float(np.abs(delta).sum())
 
     def _set_beyond(self, beyond, plan):
         """The inputs minus their follower, and :attr:`Status.outside` from them."""
@@ -1496,9 +1508,18 @@ class Compensator:
         """The reference starts anew (:meth:`start_test`): so does the excess bank's."""
         if self._plan.envelope is None:
             return
-        raw = 0.0 if self._elags is None else float(self._plan.weight @ self._elags)
-        self._estart = raw if self._start is not None else None
-        self._widening = abs(raw - self._estart) if self._estart is not None else abs(raw)
+        self._estart = self._responses() if self._start is not None else None
+        self._widening = self._widening_of(self._responses(), self._estart)
+
+    def _responses(self):
+        """Each enveloped input's response (the excess bank's weighted sum), before any
+        start is subtracted."""
+        env = self._plan.envelope
+        return np.zeros(env.take.size) if self._elags is None else env.by_input @ self._elags
+
+    @staticmethod
+    def _widening_of(responses, start):
+        return float(np.abs(responses if start is None else responses - start).sum())
 
     def _outside(self):
         """:attr:`Status.outside`: (input, excess) of the inputs outside at the last row."""
@@ -1507,15 +1528,14 @@ class Compensator:
     def _envelope_state(self):
         if self._plan_or_build().envelope is None:
             return None
-        plan = self._plan
         return {
             "follower": None if self._follow is None else self._follow.tolist(),
             "excess": None if self._beyond is None else self._beyond.tolist(),
             "excess_lags": None if self._elags is None else self._elags.tolist(),
-            "excess_start": self._estart,
-            # the bank's weighted sum at the last row (read only): what excess_start
+            "excess_start": None if self._estart is None else self._estart.tolist(),
+            # each input's response at the last row (read only): what excess_start
             # becomes where the reference starts anew (as start_test does)
-            "excess_sum": 0.0 if self._elags is None else float(plan.weight @ self._elags),
+            "excess_sum": self._responses().tolist(),
         }
 
     def _set_envelope_state(self, state, plan):
@@ -1531,6 +1551,7 @@ class Compensator:
             follower = None if follower is None else np.asarray(follower, dtype=float)
             beyond = None if beyond is None else np.asarray(beyond, dtype=float)
             elags = None if elags is None else np.asarray(elags, dtype=float)
+            estart = None if estart is None else np.asarray(estart, dtype=float)
         except (KeyError, TypeError, ValueError):
             raise bad from None
         if (
@@ -1539,14 +1560,12 @@ class Compensator:
             or not all(a is None or np.isfinite(a).all() for a in (follower, beyond))
             or (elags is not None and elags.shape != plan.weight.shape)
             or not all(a is None or np.isfinite(a).all() for a in (follower, elags))
-            or not (estart is None or real(estart))
+            or not (estart is None or (estart.shape == env.low.shape and np.isfinite(estart).all()))
             or (follower is not None and ((follower < env.low) | (follower > env.high)).any())
         ):
             raise bad
-        self._follow, self._elags = follower, elags
-        self._estart = None if estart is None else float(estart)
-        delta = 0.0 if elags is None else float(plan.weight @ elags)
-        self._widening = abs(delta - (self._estart or 0.0))
+        self._follow, self._elags, self._estart = follower, elags, estart
+        self._widening = self._widening_of(self._responses(), estart)
         self._beyond, self._outside_now = None, ()
         if beyond is not None:
             self._set_beyond(beyond, plan)

@@ -1539,11 +1539,12 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
         a test unlike all of them.
 
         Where an input leaves what training saw (its range or its fastest
-        change, ``input_envelope_``), the half-width grows by ``|Δ|``, the
-        model's own response to the part of the inputs beyond the envelope:
-        ``Δ = predict(X) − predict(X̃)`` with each input replaced by its
-        follower ``X̃`` (see :meth:`outside_envelope`). Rows inside it keep the
-        calibrated half-width exactly.
+        change, ``input_envelope_``), the half-width grows by ``Σ_i |Δ_i|``,
+        the model's own response to the part of each input beyond the
+        envelope: ``Δ_i = predict(X) − predict(X̃_i)`` with input ``i``
+        replaced by its follower (see :meth:`outside_envelope`), summed in
+        absolute value so that two inputs' responses never cancel. Rows inside
+        it keep the calibrated half-width exactly.
 
         Parameters
         ----------
@@ -1599,34 +1600,37 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
         return Xa, followed, columns, segments
 
     def _envelope_widening(self, X, initial_displacement=None):
-        """``|Δ|`` of every row: the model's own response to the inputs' excess.
+        """``Σ_i |Δ_i|`` of every row: the model's own response to each input's excess.
 
-        Δ = predict(X) − predict(X with each enveloped input replaced by its
-        follower), through :meth:`predict` itself (the same lags, reference and
-        ``initial_displacement``): exactly 0 on rows whose inputs never left the
-        envelope since the test's start.
+        Δ_i = predict(X) − predict(X with input i replaced by its follower),
+        through :meth:`predict` itself (the same lags, reference and
+        ``initial_displacement``), summed in absolute value over the inputs, so
+        that the responses to two inputs' excesses never cancel: exactly 0 on
+        rows whose inputs never left the envelope since the test's start.
         """
         X = self._with_unused_columns(X)
         env = vars(self).get("input_envelope_")
         if env is None:
             return 0.0
         Xa, followed, columns, _ = self._followed(X)
-        if np.array_equal(followed, Xa[:, columns]):
-            return np.zeros(Xa.shape[0])
-        if isinstance(X, pd.DataFrame):
-            inside = X.copy()
-            for j, k in enumerate(columns):
-                inside.isetitem(k, followed[:, j])
-        else:
-            inside = np.array(Xa, dtype=float)
-            inside[:, columns] = followed
+        widening = np.zeros(Xa.shape[0])
         with warnings.catch_warnings():
             # predict_interval's own predict has already warned of a warm start
             warnings.simplefilter("ignore", WarmStartWarning)
-            delta = self.predict(X, initial_displacement) - self.predict(
-                inside, initial_displacement
-            )
-        return np.abs(delta)
+            pred = None
+            for j, k in enumerate(columns):
+                if np.array_equal(followed[:, j], Xa[:, k]):
+                    continue  # never outside: no response
+                if pred is None:
+                    pred = self.predict(X, initial_displacement)
+                if isinstance(X, pd.DataFrame):
+                    inside = X.copy()
+                    inside.isetitem(k, followed[:, j])
+                else:
+                    inside = np.array(Xa, dtype=float)
+                    inside[:, k] = followed[:, j]
+                widening += np.abs(pred - self.predict(inside, initial_displacement))
+        return widening
 
     def outside_envelope(self, X):
         """How far each input the model reads is outside its training envelope, row by row.

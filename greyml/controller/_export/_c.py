@@ -452,6 +452,7 @@ def _envelope_c(p):
         xt[${P}_env_input[j]] = f;
         if (outside == 0 && ex[j] != 0.0) outside = ${P}_env_input[j] + 1;
     }
+    for (j = 0; j < ${M}_N_ENV; j++) din[j] = 0.0;
     for (k = 0; k < ${M}_N_TERMS; k++) {
         double w = ${P}_power[k] == 1.0 ? xt[${P}_input[k]] : pow(xt[${P}_input[k]], ${P}_power[k]);
         double e = v[k] - w;
@@ -463,23 +464,21 @@ def _envelope_c(p):
         } else {
             elag[k] = e;
         }
-        delta += ${P}_weight[k] * elag[k];
+        if (${P}_env_slot[k] >= 0) din[${P}_env_slot[k]] += ${P}_weight[k] * elag[k];
     }"""
     ).substitute(P=P, M=M)
     store = Template(
         r"""
     /* the envelope's state; the half-width widens by the model's response to the excess */
-    if (!s->started) {
-        s->has_estart = s->has_start;
-        s->estart = s->has_start ? delta : 0.0;
-    }
-    if (s->has_estart) delta -= s->estart;
-    for (k = 0; k < ${M}_N_TERMS; k++) s->elag[k] = elag[k];
+    s->has_estart = s->started ? s->has_estart : s->has_start;
+    s->widening_um = 0.0;
     for (j = 0; j < ${M}_N_ENV; j++) {
+        if (!s->started) s->estart[j] = s->has_start ? din[j] : 0.0;
+        s->widening_um += fabs(s->has_estart ? din[j] - s->estart[j] : din[j]);
         s->ef[j] = ef[j];
         s->ex[j] = ex[j];
     }
-    s->widening_um = fabs(delta);
+    for (k = 0; k < ${M}_N_TERMS; k++) s->elag[k] = elag[k];
     s->outside = outside;"""
     ).substitute(P=P, M=M)
     return {
@@ -489,10 +488,12 @@ def _envelope_c(p):
             f"\nstatic const double {P}_env_low[{n}] = {_array(e.low)};"
             f"\nstatic const double {P}_env_high[{n}] = {_array(e.high)};"
             f"\nstatic const double {P}_env_rate[{n}] = {_array(e.max_rate_per_h)};"
+            f"\nstatic const int {P}_env_slot[{max(len(p.terms), 1)}] = "
+            f"{_array(e.term_slot, str, 16)};"
         ),
         "env_locals": (
             f"\n    double ef[{M}_N_ENV], ex[{M}_N_ENV], xt[{M}_N_INPUTS];"
-            f"\n    double elag[{max(len(p.terms), 1)}], delta = 0.0;"
+            f"\n    double elag[{max(len(p.terms), 1)}], din[{M}_N_ENV];"
             "\n    int outside = 0;"
         ),
         "env_step": step,

@@ -191,6 +191,8 @@ class Envelope:
     high: tuple
     max_rate_per_h: tuple
     rate_slack: float
+    #: each term's enveloped input (its position in ``input``), -1 for none
+    term_slot: tuple
 
     def lines(self, inputs, structured_text=False):
         """The header's lines: what training saw of each input, and how to read the flag
@@ -284,6 +286,7 @@ class Program:
                 "high": list(e.high),
                 "max_rate_per_h": list(e.max_rate_per_h),
                 "rate_slack": e.rate_slack,
+                "term_slot": list(e.term_slot),
             }
             out["algorithm"] = [*out["algorithm"], ENVELOPE_ALGORITHM]
         return out
@@ -386,14 +389,15 @@ ENVELOPE_ALGORITHM = (
     "input i (position input_i): reach = max_rate_per_h_i (dt / 3600) (1 + rate_slack); "
     "f_i = x[input_i] clipped to [max(ef_i - reach, low_i), min(ef_i + reach, high_i)] "
     "([low_i, high_i] at the first row); ex_i = x[input_i] - f_i; xt = x with xt[input_i] "
-    "= f_i; e_k = v_k - xt[input_k] ** power_k; elag_k as lag_k with e_k for v_k; delta = "
-    "sum weight_k elag_k; at the first row estart = delta when start is subtracted; delta "
-    "-= estart; widening_um = |delta|; outside = 1 + input_i of the first i with ex_i != "
-    "0, else 0. half_width = quantile sqrt(variance) + widening_um."
+    "= f_i; e_k = v_k - xt[input_k] ** power_k; elag_k as lag_k with e_k for v_k; d_i = "
+    "sum of weight_k elag_k over the terms of input i (term_slot_k = i); at the first row "
+    "estart_i = d_i when start is subtracted; d_i -= estart_i; widening_um = sum |d_i|; "
+    "outside = 1 + input_i of the first i with ex_i != 0, else 0. half_width = quantile "
+    "sqrt(variance) + widening_um."
 )
 
 #: State variables that are arrays whatever their length.
-ARRAYS = ("lag", "ef", "ex", "elag")
+ARRAYS = ("lag", "ef", "ex", "elag", "estart")
 
 
 def _state_layout(n_inputs, n_terms, trust, n_envelope=0):
@@ -435,7 +439,7 @@ def _state_layout(n_inputs, n_terms, trust, n_envelope=0):
             ("ex", "real", n_envelope, "as the input", "each one's excess at the last row"),
             ("elag", "real", n_terms, "as the term", "each term's lag of the excess"),
             ("has_estart", "bool", 1, "", "estart is subtracted"),
-            ("estart", "real", 1, "um", "the excess bank's sum at the first row"),
+            ("estart", "real", n_envelope, "um", "each input's response at the first row"),
             ("widening_um", "real", 1, "um", "the half-width's widening at the last row"),
             ("outside", "int", 1, "", "0 inside, else 1 + the first input outside"),
         ]
@@ -500,12 +504,14 @@ def describe(comp, *, name="greyml_compensator", description=None):
     envelope = None
     if plan.envelope is not None:
         e = plan.envelope
+        slot_of = {int(position): i for i, position in enumerate(e.take)}
         envelope = Envelope(
             input=tuple(int(j) - 1 for j in e.take),
             low=tuple(float(v) for v in e.low),
             high=tuple(float(v) for v in e.high),
             max_rate_per_h=tuple(float(v) for v in e.max_rate_per_h),
             rate_slack=RATE_SLACK,
+            term_slot=tuple(slot_of.get(int(position), -1) for position in plan.index),
         )
     limits = plan.limits
     clamp, quantum, rate = limits.clamp_um, limits.quantum_um, limits.rate_limit_um_s

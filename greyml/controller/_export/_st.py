@@ -553,7 +553,6 @@ def _envelope_st(p):
     step = r"""
     (* (4b) the envelope: each enveloped input's follower, and the excess bank *)
     IF NOT refuse AND code = 0 THEN
-        delta := 0.0;
         outsideNew := 0;
         FOR j := 0 TO N_INPUTS - 1 DO
             xt[j] := xin[j];
@@ -584,6 +583,9 @@ def _envelope_st(p):
                 outsideNew := ENV_INPUT[j] + 1;
             END_IF;
         END_FOR;
+        FOR j := 0 TO N_ENV - 1 DO
+            din[j] := 0.0;
+        END_FOR;
         FOR k := 0 TO N_TERMS - 1 DO
             IF POWER[k] = 1.0 THEN
                 w := xt[INPUT[k]];
@@ -604,29 +606,35 @@ def _envelope_st(p):
             ELSE
                 elagNew[k] := e;
             END_IF;
-            delta := delta + WEIGHT[k] * elagNew[k];
+            IF ENV_SLOT[k] >= 0 THEN
+                din[ENV_SLOT[k]] := din[ENV_SLOT[k]] + WEIGHT[k] * elagNew[k];
+            END_IF;
         END_FOR;
     END_IF;"""
     store = r"""
         (* the envelope's state; the half-width widens by the model's response to the excess *)
         IF NOT st_started THEN
             st_has_estart := st_has_start;
-            st_estart := 0.0;
-            IF st_has_start THEN
-                st_estart := delta;
-            END_IF;
         END_IF;
-        IF st_has_estart THEN
-            delta := delta - st_estart;
-        END_IF;
-        FOR k := 0 TO N_TERMS - 1 DO
-            st_elag[k] := elagNew[k];
-        END_FOR;
+        st_widening_um := 0.0;
         FOR j := 0 TO N_ENV - 1 DO
+            IF NOT st_started THEN
+                st_estart[j] := 0.0;
+                IF st_has_start THEN
+                    st_estart[j] := din[j];
+                END_IF;
+            END_IF;
+            IF st_has_estart THEN
+                st_widening_um := st_widening_um + ABS(din[j] - st_estart[j]);
+            ELSE
+                st_widening_um := st_widening_um + ABS(din[j]);
+            END_IF;
             st_ef[j] := efNew[j];
             st_ex[j] := exNew[j];
         END_FOR;
-        st_widening_um := ABS(delta);
+        FOR k := 0 TO N_TERMS - 1 DO
+            st_elag[k] := elagNew[k];
+        END_FOR;
         st_outside := outsideNew;"""
     outputs = "\nOutside := st_outside;\nWideningUm := st_widening_um;"
     return {"env_step": step, "env_store": store, "env_outputs": outputs}
@@ -704,7 +712,7 @@ def _declarations(p):
             f"    efNew : ARRAY[0..{n_env - 1}] OF LREAL;",
             f"    exNew : ARRAY[0..{n_env - 1}] OF LREAL;",
             f"    elagNew : ARRAY[0..{max(n_terms, 1) - 1}] OF LREAL;",
-            "    delta : LREAL;",
+            f"    din : ARRAY[0..{n_env - 1}] OF LREAL;",
             "    outsideNew : DINT;",
             "    fi : LREAL;",
             "    lo : LREAL;",
@@ -777,6 +785,9 @@ def _declarations(p):
             f"    ENV_HIGH : ARRAY[0..{n_env - 1}] OF LREAL := {_list(env.high, literal)};",
             f"    ENV_RATE : ARRAY[0..{n_env - 1}] OF LREAL := "
             + _list(env.max_rate_per_h, literal)
+            + ";",
+            f"    ENV_SLOT : ARRAY[0..{max(n_terms, 1) - 1}] OF DINT := "
+            + _list(env.term_slot, str, 16)
             + ";",
         ]
     if trust:
