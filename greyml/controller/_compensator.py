@@ -561,8 +561,9 @@ class Compensator:
         What training saw of the inputs (each one's range and fastest change;
         :meth:`from_model` takes the model's ``input_envelope_``). Where a
         row leaves it, :attr:`status` names the inputs outside (``outside``)
-        and widens ``half_width`` by the model's own response to the excess,
-        as :meth:`greyml.ThermalTransferFunction.predict_interval` does. Its
+        and widens ``half_width`` by the model's own response to each input's
+        excess (summed in absolute value), as
+        :meth:`greyml.ThermalTransferFunction.predict_interval` does. Its
         inputs must be among ``inputs``.
     uncertainty, interval_quantile, tolerance_um, max_correction_um, probe_noise_um
         How far to trust the correction and how probe readings correct it
@@ -1493,10 +1494,10 @@ class Compensator:
             return
         delta = plan.envelope.by_input @ elags
         if first:
-            self._estart = delta if self._start is not None else None
+            self._estart = delta.copy() if self._start is not None else None
         if self._estart is not None:
-            delta = delta - self._estart
-        self._widening = float(np.abs(delta).sum())
+            delta -= self._estart
+        self._widening = float(np.add.reduce(np.abs(delta)))
 
     def _set_beyond(self, beyond, plan):
         """The inputs minus their follower, and :attr:`Status.outside` from them."""
