@@ -27,6 +27,7 @@ from conftest import caiviac_csv
 from greyml import Compensator, ThermalTransferFunction, make_test_index
 from greyml.controller import Uncertainty
 from greyml.controller._export._write import export_text
+from greyml.dynamic import InputEnvelope
 from greyml.io import read_tests_csv
 
 DAY_S = 24 * 3600.0
@@ -99,11 +100,23 @@ def day(inputs):
     return t[keep], X[list(inputs)].to_numpy(dtype=float)[keep], y.to_numpy(dtype=float)[keep]
 
 
-def scripted(calibrated=True, names=("T1_C", "T2_C", "rpm"), **limits):
+#: The script's envelope: its rows leave it by T1's range (from row 31), T2's range (from
+#: row 26) and the speed's (3250 and 3300 rpm), and after the last reset by T2's rate.
+ENVELOPE = (
+    np.array([20.0, 20.5, 0.0]),
+    np.array([21.5, 21.0, 3200.0]),
+    np.array([15.0, 5.0, 1e6]),
+)
+
+
+def scripted(calibrated=True, names=("T1_C", "T2_C", "rpm"), envelope=False, **limits):
     """A small compensator with every feature: lags, raw inputs, a fractional power, an
     idle driver, a gap limit and (``calibrated``) a calibration that fires easily; its
-    inputs (two temperatures and a speed) are called ``names``."""
+    inputs (two temperatures and a speed) are called ``names``; with ``envelope``, the
+    script's :data:`ENVELOPE`."""
     t1, t2, rpm = names
+    if envelope:
+        limits["envelope"] = InputEnvelope(tuple(names), *ENVELOPE)
     return Compensator(
         list(names),
         [
@@ -229,10 +242,11 @@ def change_script(kind, size, restart_row=None):
     return out
 
 
-def replay(comp, engine, actions, on_missing):
+def replay(comp, engine, actions, on_missing, outside=None):
     """Run ``actions`` on the Python compensator and on ``engine`` (C or Structured Text);
     return the largest difference of output, correction, half-width and what the change
-    detector found after each, and the most changes the detector counted."""
+    detector found after each, and the most changes the detector counted; each exported
+    ``outside`` flag that is not 0 is appended to the list ``outside``, if given."""
     worst, changes = 0.0, 0
     for action in actions:
         kind = action[0]
@@ -269,6 +283,12 @@ def replay(comp, engine, actions, on_missing):
             engine.recalibrate()
         status = comp.status
         assert engine.held() == status.held, action
+        if comp.envelope is not None and status.correction is not None:
+            first = status.outside[0][0] if status.outside else None
+            assert engine.outside() == (0 if first is None else comp.inputs.index(first) + 1)
+            if outside is not None and engine.outside():
+                outside.append((engine.outside(), engine.widening()))
+            worst = max(worst, abs(engine.widening() - comp._widening))
         worst = max(worst, abs(engine.output() - status.output))
         if status.correction is not None:
             worst = max(worst, abs(engine.correction() - status.correction))
@@ -320,6 +340,10 @@ class CompiledC:
                 shim.append(
                     f"const double *shim_{field}(const {name}_state *s) {{ return s->{field}; }}"
                 )
+        self.envelope = comp.envelope is not None
+        if self.envelope:
+            shim.append(f"int shim_outside(const {name}_state *s) {{ return s->outside; }}")
+            shim.append(f"double shim_widening(const {name}_state *s) {{ return s->widening_um; }}")
         (folder / "shim.c").write_text("\n".join(shim) + "\n")
         library = folder / f"lib{name}.so"
         subprocess.run(
@@ -340,6 +364,8 @@ class CompiledC:
         self._reset.argtypes = [ctypes.c_void_p, ctypes.c_int, ctypes.c_double]
         for field in ("correction_um", "output_um"):
             getattr(lib, f"shim_{field}").restype = ctypes.c_double
+        if self.envelope:
+            lib.shim_widening.restype = ctypes.c_double
         if self.trust:
             self._observe = getattr(lib, f"{name}_observe")
             self._observe.argtypes = [ctypes.c_void_p, ctypes.c_double, ctypes.c_double]
@@ -414,3 +440,9 @@ class CompiledC:
             "start_h": got["glr_t0"],
             "open": self.lib.shim_glr_n(self.state),
         }
+
+    def outside(self):
+        return self.lib.shim_outside(self.state)
+
+    def widening(self):
+        return self.lib.shim_widening(self.state)

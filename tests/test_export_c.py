@@ -100,22 +100,30 @@ LIMITED = {"rate_limit_um_s": 0.01, "quantum_um": 0.1, "clamp_um": 2.0}
 
 
 @pytest.mark.parametrize(
-    "nominal, on_missing, limits, calibrated",
+    "nominal, on_missing, limits, calibrated, envelope",
     [
-        (None, "hold", {}, True),
-        (15.0, "hold", LIMITED, True),
-        (None, "raise", LIMITED, True),
-        (15.0, "raise", {}, True),
-        (None, "hold", {"quantum_um": 0.1}, False),
-        (15.0, "raise", {"rate_limit_um_s": 0.01}, False),
+        (None, "hold", {}, True, True),
+        (15.0, "hold", LIMITED, True, False),
+        (None, "raise", LIMITED, True, True),
+        (15.0, "raise", {}, True, False),
+        (None, "hold", {"quantum_um": 0.1}, False, True),
+        (15.0, "raise", {"rate_limit_um_s": 0.01}, False, False),
+        (15.0, "hold", LIMITED, True, True),
     ],
 )
 def test_refusals_held_rows_readings_and_resets_match_python(
-    tmp_path, nominal, on_missing, limits, calibrated
+    tmp_path, nominal, on_missing, limits, calibrated, envelope
 ):
-    comp = scripted(calibrated, nominal_step_s=nominal, on_missing=on_missing, **limits)
+    comp = scripted(
+        calibrated, nominal_step_s=nominal, on_missing=on_missing, envelope=envelope, **limits
+    )
     c = CompiledC(comp, tmp_path)
-    worst, changes = replay(comp, c, script(nominal), on_missing)
+    outside = []
+    worst, changes = replay(comp, c, script(nominal), on_missing, outside)
+    assert ("_N_ENV" in c.source) == envelope
+    if envelope:  # each input left the envelope, and the interval widened
+        assert {flag for flag, _ in outside} == {1, 2, 3}
+        assert max(w for _, w in outside) > 0.1
     assert worst <= 1e-9
     if calibrated:
         assert changes >= 2  # the detector fired, and recalibrate was called
@@ -179,7 +187,10 @@ def test_the_update_allocates_nothing_and_loops_over_constants(compiled):
     loops = re.findall(r"for \(([^)]*)\)", code)
     assert loops
     window = r"(\d+ \* )?GM_WINDOW( \* \d+)?"  # the change detector's bank
-    bound = rf"(\w+) = 0; \1( \+ 1)? < ({window}|GM_N_TERMS|GM_N_INPUTS|GM_HISTORY|\d+); \1\+\+"
+    bound = (
+        rf"(\w+) = 0; \1( \+ 1)? < ({window}|GM_N_TERMS|GM_N_INPUTS|GM_N_ENV|GM_HISTORY|\d+); "
+        r"\1\+\+"
+    )
     for loop in loops:
         assert re.fullmatch(bound, loop), loop
     # no function calls itself

@@ -100,6 +100,12 @@ class Block:
     def innovation(self):
         return self.out["innovation"]
 
+    def outside(self):
+        return self.out["outside"]
+
+    def widening(self):
+        return self.out["wideningum"]
+
 
 # Three function blocks (blark takes seconds to parse one): the day's model with
 # a rate limit, a quantum and a clamp, and the script's model twice: on a
@@ -148,12 +154,23 @@ def test_a_day_of_rows_and_readings_gives_pythons_output_to_1e_6():
 def test_refusals_held_rows_readings_and_resets_match_python(label):
     calibrated, nominal, on_missing, limits = SCRIPTED[label]
     names = {} if calibrated else {"names": HOSTILE}
-    comp = scripted(calibrated, nominal_step_s=nominal, on_missing=on_missing, **names, **limits)
+    # the calibrated block with the script's input envelope (its rows leave it)
+    comp = scripted(
+        calibrated,
+        nominal_step_s=nominal,
+        on_missing=on_missing,
+        envelope=calibrated,
+        **names,
+        **limits,
+    )
     block = Block(comp)
-    worst, changes = replay(comp, block, script(nominal), on_missing)
+    outside = []
+    worst, changes = replay(comp, block, script(nominal), on_missing, outside)
     assert worst <= 1e-6
     if calibrated:
         assert changes >= 2  # the detector fired, and recalibrate was called
+        assert {flag for flag, _ in outside} == {1, 2, 3}  # each input left the envelope
+        assert max(w for _, w in outside) > 0.1
     else:  # no probe inputs, and the hostile names as harmless identifiers
         assert "observe" not in block.fb.inputs
         assert {"x_x_system_rm_rf", "x_end_function_block", "x_t1_c_end_var"} <= set(
@@ -190,4 +207,4 @@ def test_every_loop_runs_over_constants_and_there_is_no_other():
     assert len(loops) > 10
     for variable, start, stop in loops:
         assert start == "0", (variable, start)
-        assert re.fullmatch(r"\d+|(N_TERMS|N_INPUTS|HISTORY|WINDOW) - [12]", stop), stop
+        assert re.fullmatch(r"\d+|(N_TERMS|N_INPUTS|N_ENV|HISTORY|WINDOW) - [12]", stop), stop

@@ -27,7 +27,7 @@ from greyml import (
     groups_of,
 )
 from greyml.controller import Uncertainty
-from greyml.dynamic import IntervalCalibration
+from greyml.dynamic import InputEnvelope, IntervalCalibration
 from greyml.exceptions import UnsafeModelError
 from greyml.optimize import CuckooSearch
 from greyml.persist import ALLOWED_CLASSES, describe_model, load_model, save_model
@@ -148,6 +148,8 @@ def test_the_allowlist_holds_every_estimator_by_its_top_level_name():
     assert greyml.Compensator is ALLOWED_CLASSES["greyml.Compensator"]
     # the records a fitted model and a compensator hold, by their public names
     others |= {"greyml.dynamic.IntervalCalibration", "greyml.controller.Uncertainty"}
+    others.add("greyml.dynamic.InputEnvelope")
+    assert ALLOWED_CLASSES["greyml.dynamic.InputEnvelope"] is InputEnvelope
     assert ALLOWED_CLASSES["greyml.dynamic.IntervalCalibration"] is IntervalCalibration
     assert ALLOWED_CLASSES["greyml.controller.Uncertainty"] is Uncertainty
     assert greyml_classes == {f"greyml.{name}" for name, _ in estimators} | others

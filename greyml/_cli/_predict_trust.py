@@ -164,6 +164,8 @@ def _reanchor(comp, row, value):
     fresh.update(row)
     state["start"] = start + model - value
     state["filter"] = fresh.get_state()["filter"]
+    if state.get("envelope") is not None:  # the excess is measured from here too
+        state["envelope"]["excess_start"] = state["envelope"]["excess_sum"]
     comp.set_state(state)
 
 
@@ -181,6 +183,8 @@ def _unshift(comp):
     memory["model"] += shift
     memory["correction"] += shift
     memory["history_model"] = [m + shift for m in memory["history_model"]]
+    if state.get("envelope") is not None:
+        state["envelope"]["excess_start"] = None
     comp.set_state(state)
 
 

@@ -31,6 +31,14 @@ firing, the change it estimated is added to the states and
 (``change_start_s``). The user can open the bias and the rate to a known
 change with :meth:`Compensator.recalibrate`.
 
+Inputs outside the training envelope. With an ``envelope`` (the model's
+``input_envelope_``), each enveloped input's follower
+(:func:`greyml.dynamic._envelope.follow_step`) and a second bank of the
+same lags on each term's excess over it give the model's response to the
+part of each input training never saw; ``status.half_width`` widens by their
+sum in absolute value and ``status.outside`` names the inputs outside, as the
+batch :meth:`greyml.ThermalTransferFunction.predict_interval` does.
+
 Rows. A row becomes the float array ``(time_s, *inputs)``; a value that is not
 a real number (a bool, bytes, text, a date) is refused in one line, since it
 would otherwise become a number and move the axis by it.
@@ -56,6 +64,7 @@ from greyml._param_validation import (
 from greyml._sequences import TIME_LEVEL
 from greyml.controller._from_model import pipeline_terms, transfer_terms
 from greyml.controller._output import QUANTA_MAX, OutputLimits, limit_output
+from greyml.dynamic._envelope import InputEnvelope, follow_step, reach_of
 from greyml.dynamic._kernels import lag_step
 from greyml.dynamic._lags import _power_name, _tau_label
 from greyml.dynamic._observer import (
@@ -86,6 +95,7 @@ _PARAMETERS = (
     "max_step_s",
     "row_columns",
     "uncertainty",
+    "envelope",
     "interval_quantile",
     "tolerance_um",
     "max_correction_um",
@@ -104,7 +114,7 @@ HISTORY = 512
 Status = namedtuple(
     "Status",
     "time_s correction half_width trusted plausible changes output held innovation "
-    "change_kind change_start_s",
+    "change_kind change_start_s outside",
     module=__name__,
 )
 Status.__doc__ = """What the last update gave and how far to trust it.
@@ -136,6 +146,12 @@ change_kind : str or None
     before it fires).
 change_start_s : float
     When that change began, on the rows' clock (NaN before it fires).
+outside : tuple of (str, float)
+    The inputs outside their training envelope at the last row (an
+    ``envelope`` given), each with its excess: how far it is beyond what
+    training saw, signed, in the input's own unit; ``()`` inside (or without
+    an envelope). ``half_width`` is widened there by the model's response to
+    the excess.
 """
 
 
@@ -210,6 +226,32 @@ class RowOrder:
 
 
 @dataclass(frozen=True)
+class EnvelopeStage:
+    """The ``envelope`` parameter checked, as an update runs it.
+
+    Attributes
+    ----------
+    take : ndarray of int
+        Each enveloped input's position in a row ``(time_s, *inputs)``.
+    low, high, max_rate_per_h : ndarray
+        Its range and largest rate of change per hour (see
+        :class:`~greyml.dynamic.InputEnvelope`).
+    names : tuple of str
+        The enveloped inputs, in order.
+    by_input : ndarray of shape (n_enveloped, n_terms)
+        Each term's weight in the row of its input (0 elsewhere): times the
+        excess bank's lags, the model's response to each input's excess.
+    """
+
+    take: np.ndarray
+    low: np.ndarray
+    high: np.ndarray
+    max_rate_per_h: np.ndarray
+    names: tuple
+    by_input: np.ndarray
+
+
+@dataclass(frozen=True)
 class UpdatePlan:
     """What an update runs: the parameters checked, as arrays over terms.
 
@@ -247,6 +289,8 @@ class UpdatePlan:
         Any of the three is set.
     uncertainty : Uncertainty or None
         Checked.
+    envelope : EnvelopeStage or None
+        The input envelope, checked, with the positions it reads.
     """
 
     index: np.ndarray
@@ -265,6 +309,7 @@ class UpdatePlan:
     limits: OutputLimits = field(default_factory=OutputLimits)
     limited: bool = False
     uncertainty: Uncertainty | None = field(default=None)
+    envelope: EnvelopeStage | None = field(default=None)
 
 
 def real(value):
@@ -341,6 +386,16 @@ def _positive_semidefinite(P):
 def _number(value):
     """A float or an int (NaN allowed), not a bool."""
     return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+def envelope_from_vars(saved):
+    """The envelope follower's state (as ``get_state`` gives it) from a compensator's saved
+    attributes, or None when it has none (nothing is trusted: ``set_state`` checks it)."""
+    keys = ("_follow", "_beyond", "_elags", "_estart")
+    if not all(k in saved for k in keys):
+        return None
+    follower, beyond, elags, estart = (saved[k] for k in keys)
+    return {"follower": follower, "excess": beyond, "excess_lags": elags, "excess_start": estart}
 
 
 def filter_from_vars(saved):
@@ -560,6 +615,14 @@ class Compensator:
         in any order (other names are skipped). Without it an array row is
         refused, since nothing could tell a wrong order; a mapping or a
         Series is always read by name.
+    envelope : InputEnvelope, optional
+        What training saw of the inputs (each one's range and fastest change;
+        :meth:`from_model` takes the model's ``input_envelope_``). Where a
+        row leaves it, :attr:`status` names the inputs outside (``outside``)
+        and widens ``half_width`` by the model's own response to each input's
+        excess (summed in absolute value), as
+        :meth:`greyml.ThermalTransferFunction.predict_interval` does. Its
+        inputs must be among ``inputs``.
     uncertainty, interval_quantile, tolerance_um, max_correction_um, probe_noise_um
         How far to trust the correction and how probe readings correct it
         (with ``false_alarm_rate``, the change detector's): see
@@ -643,6 +706,7 @@ class Compensator:
         "max_step_s": [Interval(Real, 0, None, closed="neither"), None],
         "row_columns": [list, tuple, np.ndarray, None],
         "uncertainty": [Uncertainty, None],
+        "envelope": [InputEnvelope, None],
         "interval_quantile": [Interval(Real, 0, None, closed="neither")],
         "tolerance_um": [Interval(Real, 0, None, closed="neither"), None],
         "max_correction_um": [Interval(Real, 0, math.inf, closed="right")],
@@ -666,6 +730,7 @@ class Compensator:
         max_step_s=None,
         row_columns=None,
         uncertainty=None,
+        envelope=None,
         interval_quantile=1.6448536269514722,
         tolerance_um=None,
         max_correction_um=1000.0,
@@ -685,6 +750,7 @@ class Compensator:
         self.max_step_s = max_step_s
         self.row_columns = row_columns
         self.uncertainty = uncertainty
+        self.envelope = envelope
         self.interval_quantile = interval_quantile
         self.tolerance_um = tolerance_um
         self.max_correction_um = max_correction_um
@@ -715,6 +781,7 @@ class Compensator:
             limits=limits,
             limited=limits.any,
             uncertainty=uncertainty,
+            envelope=self._envelope_stage(plan),
         )
 
     def update_plan(self):
@@ -819,6 +886,7 @@ class Compensator:
         self._initial = None if initial_displacement is None else float(initial_displacement)
         self._credit = 0.0
         self._held = False
+        self._reset_envelope()
         self._reset_trust()
         return self
 
@@ -846,7 +914,12 @@ class Compensator:
             for late readings), and ``"output"`` the output stage's:
             ``"output_um"`` the last output, ``"credit_um"`` what the rate
             limit still allows (with a quantum), ``"held"`` whether the last
-            row was held for a missing input.
+            row was held for a missing input; and ``"envelope"`` (None
+            without an ``envelope``): each enveloped input's follower, its
+            excess at the last row, the excess bank's lags, each input's
+            response (the bank's weighted sum over its terms) at the first
+            row when subtracted (``"excess_start"``) and at the last row
+            (``"excess_sum"``, read only).
         """
         plan = self._plan_or_build()
         lags = None
@@ -858,6 +931,7 @@ class Compensator:
             "start": self._start,
             "filter": self._filter_state(),
             "output": self._output_state(),
+            "envelope": self._envelope_state(),
         }
 
     @property
@@ -877,7 +951,7 @@ class Compensator:
         self : Compensator
         """
         plan = self._plan_or_build()
-        if not isinstance(state, Mapping) or set(state) - {"filter", "output"} != {
+        if not isinstance(state, Mapping) or set(state) - {"filter", "output", "envelope"} != {
             "time_s",
             "lags",
             "start",
@@ -923,6 +997,7 @@ class Compensator:
                 self._set_filter_state(state["filter"])
             if state.get("output") is not None:
                 self._set_output_state(state["output"], plan.limits)
+            self._set_envelope_state(state.get("envelope"), plan)
         except ValueError:
             self.__dict__.clear()
             self.__dict__.update(before)
@@ -966,6 +1041,7 @@ class Compensator:
                 "start": start,
                 "filter": filter_from_vars(saved),
                 "output": output_from_vars(saved),
+                "envelope": envelope_from_vars(saved),
             }
         )
 
@@ -1039,6 +1115,9 @@ class Compensator:
                 )
         if plan.check_all and not np.isfinite(row).all():
             return self._bad_value(time, row, plan)
+        followed = excess = None
+        if plan.envelope is not None:
+            followed, excess = self._excess_terms(row, v, dt, plan)
         if previous is None:
             lags = v
             lags[: plan.idle.size][plan.idle] = 0.0
@@ -1051,6 +1130,8 @@ class Compensator:
             return self._bad_value(time, row, plan)
         if previous is None:
             self._start = self._first_start(total)
+        if followed is not None:
+            self._step_excess(row, followed, excess, previous is None, plan)
         self._time = time
         self._lags = lags
         if self._start is not None:
@@ -1393,6 +1474,164 @@ class Compensator:
         self._held = True
         return self._output
 
+    # -- inputs outside the training envelope ---------------------------------
+
+    def _envelope_stage(self, plan):
+        """``envelope`` checked (finite, ``low <= high``, rates >= 0, its inputs among
+        the plan's inputs) as an :class:`EnvelopeStage`, or None."""
+        env = self.envelope
+        if env is None:
+            return None
+        names = plan.names
+        env = env.check("The 'envelope' parameter of Compensator")
+        missing = [v for v in env.names if v not in names]
+        if missing:
+            raise ValueError(
+                f"The 'envelope' parameter of Compensator names {missing[0]!r}, which is not "
+                f"in inputs ({', '.join(names)})."
+            )
+        take = np.array([names.index(v) + 1 for v in env.names], dtype=np.intp)
+        # each term's weight in the response to its input's excess (a row per input)
+        by_input = np.zeros((len(env.names), plan.weight.size))
+        for slot, position in enumerate(take):
+            terms = plan.index == position
+            by_input[slot, terms] = plan.weight[terms]
+        return EnvelopeStage(take, env.low, env.high, env.max_rate_per_h, env.names, by_input)
+
+    def _reset_envelope(self):
+        self._follow = None  # the follower of each enveloped input
+        self._beyond = None  # the inputs minus their follower at the last row (None: 0)
+        self._outside_now = ()  # Status.outside of the last row
+        self._elags = None  # the excess bank's lags (None: never outside)
+        self._estart = None  # each input's response at the first row, when subtracted
+        self._widening = 0.0  # Σ|Δ_i|, the responses to the excess at the last row
+        self._edt = None  # the step the follower's reach was computed for
+        self._reach = None
+
+    def _excess_terms(self, row, v, dt, plan):
+        """``(followed, excess)``: the follower of the enveloped inputs at this row, and
+        each term's value minus its value on the follower (None when no input is outside)."""
+        env = plan.envelope
+        x = row[env.take]
+        if dt is None or self._follow is None:
+            followed = follow_step(None, x, None, env.low, env.high)
+        else:
+            if dt != self._edt:
+                self._reach, self._edt = reach_of(env.max_rate_per_h, dt), dt
+            followed = follow_step(self._follow, x, self._reach, env.low, env.high)
+        if followed.tobytes() == x.tobytes():  # inside (the cheapest exact test)
+            return followed, None
+        inside = row.copy()
+        inside[env.take] = followed
+        w = inside[plan.index]
+        if plan.power.size:
+            start, stop = plan.span
+            w[start:stop] **= plan.power
+        return followed, v - w
+
+    def _step_excess(self, row, followed, excess, first, plan):
+        """The excess bank: the same lags (:func:`lag_step`) on the terms' excess; its
+        weighted sum over each input's terms is Δ_i, the model's response to the part of
+        input i beyond the envelope, and the widening is Σ_i |Δ_i|."""
+        elags = self._elags
+        if first:
+            elags = excess
+            if elags is not None:
+                elags[: plan.idle.size][plan.idle] = 0.0
+        elif elags is not None:
+            elags = lag_step(elags, 0.0 if excess is None else excess, self._a)
+        elif excess is not None:
+            elags = lag_step(np.zeros(plan.weight.size), excess, self._a)
+        self._follow, self._elags = followed, elags
+        if excess is None:
+            self._beyond, self._outside_now = None, ()
+        else:
+            self._set_beyond(row[plan.envelope.take] - followed, plan)
+        if elags is None:
+            if first:
+                zero = np.zeros(plan.envelope.take.size)
+                self._estart = zero if self._start is not None else None
+            self._widening = 0.0
+            return
+        delta = plan.envelope.by_input @ elags
+        if first:
+            self._estart = delta.copy() if self._start is not None else None
+        if self._estart is not None:
+            delta -= self._estart
+        self._widening = float(np.add.reduce(np.abs(delta)))
+
+    def _set_beyond(self, beyond, plan):
+        """The inputs minus their follower, and :attr:`Status.outside` from them."""
+        names = plan.envelope.names
+        self._beyond = beyond
+        self._outside_now = tuple((names[j], float(beyond[j])) for j in beyond.nonzero()[0])
+
+    def _restart_excess(self):
+        """The reference starts anew (:meth:`start_test`): so does the excess bank's."""
+        if self._plan.envelope is None:
+            return
+        self._estart = self._responses() if self._start is not None else None
+        self._widening = self._widening_of(self._responses(), self._estart)
+
+    def _responses(self):
+        """Each enveloped input's response (the excess bank's weighted sum), before any
+        start is subtracted."""
+        env = self._plan.envelope
+        return np.zeros(env.take.size) if self._elags is None else env.by_input @ self._elags
+
+    @staticmethod
+    def _widening_of(responses, start):
+        return float(np.abs(responses if start is None else responses - start).sum())
+
+    def _outside(self):
+        """:attr:`Status.outside`: (input, excess) of the inputs outside at the last row."""
+        return self._outside_now
+
+    def _envelope_state(self):
+        if self._plan_or_build().envelope is None:
+            return None
+        return {
+            "follower": None if self._follow is None else self._follow.tolist(),
+            "excess": None if self._beyond is None else self._beyond.tolist(),
+            "excess_lags": None if self._elags is None else self._elags.tolist(),
+            "excess_start": None if self._estart is None else self._estart.tolist(),
+            # each input's response at the last row (read only): what excess_start
+            # becomes where the reference starts anew (as start_test does)
+            "excess_sum": self._responses().tolist(),
+        }
+
+    def _set_envelope_state(self, state, plan):
+        """Restore :meth:`_envelope_state`'s dict (checked); the widening at the last row
+        is recomputed from it."""
+        env = plan.envelope
+        if env is None or state is None:
+            return
+        bad = ValueError("Compensator.set_state: the state's envelope follower is not valid.")
+        try:
+            follower, beyond = state["follower"], state["excess"]
+            elags, estart = state["excess_lags"], state["excess_start"]
+            follower = None if follower is None else np.asarray(follower, dtype=float)
+            beyond = None if beyond is None else np.asarray(beyond, dtype=float)
+            elags = None if elags is None else np.asarray(elags, dtype=float)
+            estart = None if estart is None else np.asarray(estart, dtype=float)
+        except (KeyError, TypeError, ValueError):
+            raise bad from None
+        if (
+            (follower is not None and (follower.shape != env.low.shape))
+            or (beyond is not None and (beyond.shape != env.low.shape))
+            or not all(a is None or np.isfinite(a).all() for a in (follower, beyond))
+            or (elags is not None and elags.shape != plan.weight.shape)
+            or not all(a is None or np.isfinite(a).all() for a in (follower, elags))
+            or not (estart is None or (estart.shape == env.low.shape and np.isfinite(estart).all()))
+            or (follower is not None and ((follower < env.low) | (follower > env.high)).any())
+        ):
+            raise bad
+        self._follow, self._elags, self._estart = follower, elags, estart
+        self._widening = self._widening_of(self._responses(), estart)
+        self._beyond, self._outside_now = None, ()
+        if beyond is not None:
+            self._set_beyond(beyond, plan)
+
     # -- trust: intervals, probe readings, recalibration ---------------------
 
     # -- parameters -----------------------------------------------------------
@@ -1475,6 +1714,7 @@ class Compensator:
         total = float(self._plan.weight @ self._lags)
         self._initial = None if initial_displacement is None else float(initial_displacement)
         self._start = self._first_start(total)
+        self._restart_excess()
         model = self.intercept + total - (self._start or 0.0)
         if self._start is not None:  # the displacement is known here: the filter starts anew
             self._anchor_trust(self._time, model)
@@ -1573,12 +1813,14 @@ class Compensator:
                 innovation,
                 kind,
                 start,
+                (),
             )
         corr = self._corr
         plausible = abs(corr) <= self.max_correction_um
         half = math.nan
         if u is not None:
             half = self.interval_quantile * math.sqrt(self._variance_at(self._time, self._model))
+        half += self._widening
         trusted = plausible and (
             self.tolerance_um is None or (math.isfinite(half) and half <= self.tolerance_um)
         )
@@ -1594,6 +1836,7 @@ class Compensator:
             innovation,
             kind,
             start,
+            self._outside(),
         )
 
     # -- readings -------------------------------------------------------------

@@ -3,7 +3,7 @@
 :meth:`greyml.Compensator.from_model` reads a fitted
 :class:`greyml.ThermalTransferFunction` through its public fitted attributes
 (``terms_``, ``intercept_``, ``reference_``, ``drivers_``, ``gap_limit_s_``,
-``nominal_step_s_`` and its interval calibration);
+``nominal_step_s_``, its interval calibration and its ``input_envelope_``);
 :meth:`greyml.Compensator.from_pipeline` a fitted
 ``Pipeline(LagFeatures, [StandardScaler], linear model)``, the scaler and the
 linear model's coefficients folded into the lag terms' weights and the
@@ -17,6 +17,7 @@ from sklearn.pipeline import Pipeline
 from sklearn.preprocessing import StandardScaler
 from sklearn.utils.validation import check_is_fitted
 
+from greyml.dynamic._envelope import InputEnvelope
 from greyml.dynamic._lags import LagFeatures
 
 __all__ = ["pipeline_terms", "transfer_terms"]
@@ -111,7 +112,8 @@ def transfer_terms(model, *, coverage=0.9, tolerance_um=None, probe_noise_um=0.0
     -------
     dict
         Keyword arguments of :class:`greyml.Compensator`: the terms, the
-        reference and the step limits; with a calibration (three tests or
+        reference and the step limits, the ``envelope`` of the inputs it reads
+        (the model's ``input_envelope_``); with a calibration (three tests or
         more in ``fit``), also ``"calibration"`` (the model's
         :class:`~greyml.dynamic.IntervalCalibration`, which the compensator
         turns into its ``uncertainty``) and the quantile at ``coverage``.
@@ -130,6 +132,15 @@ def transfer_terms(model, *, coverage=0.9, tolerance_um=None, probe_noise_um=0.0
         "tolerance_um": tolerance_um,
         "probe_noise_um": probe_noise_um,
     }
+    envelope = vars(model).get("input_envelope_")
+    if envelope is not None:  # the inputs the compensator reads (those with a term)
+        keep = [j for j, v in enumerate(envelope.names) if v in inputs]
+        params["envelope"] = InputEnvelope(
+            tuple(envelope.names[j] for j in keep),
+            envelope.low[keep],
+            envelope.high[keep],
+            envelope.max_rate_per_h[keep],
+        )
     calibration = model.interval_calibration_
     if calibration is not None:
         params["calibration"] = calibration

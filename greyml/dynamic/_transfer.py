@@ -57,6 +57,7 @@ from greyml._validation import (
     require_y,
     validate_sequences,
 )
+from greyml.dynamic._envelope import InputEnvelope, envelope_of, follow, union
 from greyml.dynamic._gram import (
     GramBlocks,
     _cols_all,
@@ -407,6 +408,15 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
         takes its quantile from (see
         :class:`~greyml.dynamic.IntervalCalibration`). None when fewer than 3
         tests were scored.
+    input_envelope_ : InputEnvelope or None
+        What the training rows (positive weight) saw of each input the model
+        reads (its drivers, then its selected sensors):
+        its lowest and highest value and its largest rate of change per hour
+        between consecutive rows (of one test, or across into a test that
+        carries the state of the one before; see
+        :class:`~greyml.dynamic.InputEnvelope`). :meth:`outside_envelope`
+        tells the rows beyond it, and :meth:`predict_interval` widens there.
+        None for a model saved before it existed.
     normal_gram_, normal_rhs_, normal_weight_ : ndarray, ndarray, float
         The normal equations of the final solve (the raw Gram matrix of the
         chosen columns, its right-hand side, the weight of the rows), which
@@ -715,6 +725,7 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
         if [tuple(t) for t in self.terms_] != [tuple(t) for t in self._terms()]:
             raise ValueError(f"{name}: terms_ disagree with the fitted blocks and gains.")
         self._check_interval_state(name)
+        self._check_envelope_state(name)
         self._check_selection_state(name)
         self._check_normal_equations(name, width + (0 if self.reference_ == "start" else 1))
 
@@ -857,6 +868,7 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
         self.time_constants_ = np.asarray(bank.taus, dtype=float)
         self.driver_time_constants_ = np.asarray(bank.driver_taus, dtype=float)
         self.gap_limit_s_ = float(data.gap_limit)
+        self.input_envelope_ = self._envelope(data)
         self.interval_calibration_ = self._calibrate(
             data, bank, reference, y_fit, folds, settings.alphas
         )
@@ -1547,6 +1559,14 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
         tests like the training tests, held out whole; it says nothing about
         a test unlike all of them.
 
+        Where an input leaves what training saw (its range or its fastest
+        change, ``input_envelope_``), the half-width grows by ``Σ_i |Δ_i|``,
+        the model's own response to the part of each input beyond the
+        envelope: ``Δ_i = predict(X) − predict(X̃_i)`` with input ``i``
+        replaced by its follower (see :meth:`outside_envelope`), summed in
+        absolute value so that two inputs' responses never cancel. Rows inside
+        it keep the calibrated half-width exactly.
+
         Parameters
         ----------
         X : DataFrame of shape (n_samples, n_features)
@@ -1569,7 +1589,139 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
         steps = self._timeline(X, segments, self.gap_limit_s_, self.nominal_step_s_)
         bounds = [(s.start, s.stop) for s in segments]
         half = q * self.interval_calibration_.scale(elapsed_hours(steps.dt, bounds))
+        half = half + self._envelope_widening(X, initial_displacement)
         return np.column_stack([pred, pred - half, pred + half])
+
+    # -- inputs outside the training envelope ------------------------------------
+
+    def _used_inputs(self):
+        """The inputs the model reads: its drivers, then its selected sensors."""
+        return [*map(str, self.drivers_), *map(str, self.selected_sensors_)]
+
+    def _envelope(self, data):
+        """The :class:`InputEnvelope` of the inputs the model reads, from the rows of
+        positive weight (see :mod:`greyml.dynamic._envelope`)."""
+        used = self._used_inputs()
+        columns = [data.names.index(c) for c in used]
+        return envelope_of(
+            data.X[:, columns], data.steps.dt, data.bounds, data.w, used, data.steps.carried
+        )
+
+    def _followed(self, X):
+        """``(Xa, followed, columns, segments)``: the rows of ``X`` as an array, the
+        follower of each enveloped input (the envelope's order), its columns in ``Xa``."""
+        X = self._with_unused_columns(X)
+        Xa, _, segments = validate_sequences(self, X, reset=False)
+        names = column_names(self, Xa.shape[1])
+        steps = self._timeline(X, segments, self.gap_limit_s_, self.nominal_step_s_)
+        bounds = [(s.start, s.stop) for s in segments]
+        env = self.input_envelope_
+        columns = [names.index(c) for c in env.names]
+        followed = follow(Xa[:, columns], steps.dt, bounds, env, carry=steps.carried)
+        return Xa, followed, columns, segments
+
+    def _envelope_widening(self, X, initial_displacement=None):
+        """``Σ_i |Δ_i|`` of every row: the model's own response to each input's excess.
+
+        Δ_i = predict(X) − predict(X with input i replaced by its follower),
+        through :meth:`predict` itself (the same lags, reference and
+        ``initial_displacement``), summed in absolute value over the inputs, so
+        that the responses to two inputs' excesses never cancel: exactly 0 on
+        rows whose inputs never left the envelope since the test's start.
+        """
+        X = self._with_unused_columns(X)
+        env = vars(self).get("input_envelope_")
+        if env is None:
+            return 0.0
+        Xa, followed, columns, _ = self._followed(X)
+        widening = np.zeros(Xa.shape[0])
+        with warnings.catch_warnings():
+            # predict_interval's own predict has already warned of a warm start
+            warnings.simplefilter("ignore", WarmStartWarning)
+            pred = None
+            for j, k in enumerate(columns):
+                if np.array_equal(followed[:, j], Xa[:, k]):
+                    continue  # never outside: no response
+                if pred is None:
+                    pred = self.predict(X, initial_displacement)
+                if isinstance(X, pd.DataFrame):
+                    inside = X.copy()
+                    inside.isetitem(k, followed[:, j])
+                else:
+                    inside = np.array(Xa, dtype=float)
+                    inside[:, k] = followed[:, j]
+                widening += np.abs(pred - self.predict(inside, initial_displacement))
+        return widening
+
+    def outside_envelope(self, X):
+        """How far each input the model reads is outside its training envelope, row by row.
+
+        The envelope (``input_envelope_``) is each input's range and fastest
+        change over the training rows with a positive weight. The excess of a
+        row is the input minus its *follower*, the nearest signal that never
+        leaves the envelope (clipped to the range, moving at most the largest
+        rate; see :mod:`greyml.dynamic._envelope`): 0 inside, signed and in the
+        input's own unit outside. :meth:`predict_interval` widens its interval
+        by the model's response to these excesses.
+
+        Parameters
+        ----------
+        X : DataFrame of shape (n_samples, n_features)
+            As for :meth:`predict`.
+
+        Returns
+        -------
+        excess : DataFrame of shape (n_samples, n_used_inputs)
+            One column per input the model reads (a term with a weight, in the
+            envelope's order: the inputs :meth:`greyml.Compensator.from_model`
+            streams), on ``X``'s index when ``X`` is a DataFrame. A row is
+            outside where any value is not 0.
+
+        Examples
+        --------
+        >>> import numpy as np
+        >>> import pandas as pd
+        >>> from greyml import ThermalTransferFunction, make_test_index
+        >>> t = np.arange(0.0, 6 * 3600, 60.0)
+        >>> temp = 20.0 + np.minimum(t / 3600.0, 2.0)  # 20 to 22 °C at 1 K/h
+        >>> index = make_test_index(["I"] * t.size, t)
+        >>> X = pd.DataFrame({"T1_C": temp}, index=index)
+        >>> model = ThermalTransferFunction().fit(X, 3.0 * (temp - 20.0))
+        >>> hot = pd.DataFrame({"T1_C": temp + 1.0}, index=index)  # 1 K above training
+        >>> float(model.outside_envelope(hot)["T1_C"].iloc[-1])
+        1.0
+        """
+        check_is_fitted(self)
+        env = vars(self).get("input_envelope_")
+        if env is None:
+            raise ValueError(
+                f"{type(self).__name__} was saved by an earlier greyml, without its input "
+                "envelope; fit it again to tell the rows outside it."
+            )
+        Xa, followed, columns, _ = self._followed(X)
+        index = X.index if isinstance(X, pd.DataFrame) else None
+        excess = pd.DataFrame(Xa[:, columns] - followed, columns=list(env.names), index=index)
+        read = {name for name, _, _, _ in self.terms_}  # a selected sensor may have no weight
+        return excess[[c for c in env.names if c in read]]
+
+    def _check_envelope_state(self, name):
+        """``input_envelope_``: None (saved before it existed), or an envelope in its
+        domain over exactly the inputs the terms read."""
+        env = vars(self).setdefault("input_envelope_", None)
+        if env is None:
+            return
+        if not isinstance(env, InputEnvelope):
+            raise ValueError(
+                f"{name}: input_envelope_ must be an InputEnvelope or None; "
+                f"got {type(env).__name__}."
+            )
+        env = env.check(name)
+        if list(env.names) != self._used_inputs():
+            raise ValueError(
+                f"{name}: input_envelope_ names {', '.join(env.names) or 'no input'}, not the "
+                f"inputs its terms read ({', '.join(self._used_inputs()) or 'none'})."
+            )
+        self.input_envelope_ = env
 
     # -- partial_fit -------------------------------------------------------------
 
@@ -1660,6 +1812,12 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
         self.intercept_ = 0.0 if self.reference_ == "start" else float(coef[n_cols])
         self.terms_ = self._terms()
         self._keep_normal_equations(G, b, weight, cols, self._normal_pen_, lam)
+        if vars(self).get("input_envelope_") is not None:  # what the new tests saw, too
+            names = column_names(self, Xa.shape[1])
+            env = self.input_envelope_
+            columns = [names.index(c) for c in env.names]
+            seen = envelope_of(Xa[:, columns], steps.dt, bounds, w, env.names, steps.carried)
+            self.input_envelope_ = union(env, seen)
         return self
 
     # -- what a fitted model says -------------------------------------------------

@@ -31,7 +31,7 @@ from sklearn.preprocessing import (
 )
 
 from greyml.controller import Compensator, Uncertainty
-from greyml.dynamic import IntervalCalibration
+from greyml.dynamic import InputEnvelope, IntervalCalibration
 from greyml.optimize import CuckooSearch, ParticleSwarm
 from greyml.selection import TrainOnOneTest
 from greyml.utils.discovery import all_estimators
@@ -76,6 +76,7 @@ ALLOWED_CLASSES = MappingProxyType(
         "greyml.Compensator": Compensator,
         # the records a fitted model or a compensator holds
         "greyml.controller.Uncertainty": Uncertainty,
+        "greyml.dynamic.InputEnvelope": InputEnvelope,
         "greyml.dynamic.IntervalCalibration": IntervalCalibration,
         "greyml.optimize.CuckooSearch": CuckooSearch,
         "greyml.optimize.ParticleSwarm": ParticleSwarm,

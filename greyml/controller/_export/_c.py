@@ -17,7 +17,7 @@ import math
 import textwrap
 from string import Template
 
-from greyml.controller._export._program import CHANGE_KINDS, STATUS_CODES
+from greyml.controller._export._program import ARRAYS, CHANGE_KINDS, STATUS_CODES
 from greyml.controller._output import QUANTA_MAX, QUANTUM_TOLERANCE
 
 __all__ = ["write_c"]
@@ -84,6 +84,7 @@ def header_lines(p, language, call, found=""):
             if p.trust is not None
             else "none (the model has no calibration)."
         ),
+        *(() if p.envelope is None else p.envelope.lines(p.inputs, "Structured" in language)),
         "Status codes (update, observe):",
         *(f"  {code:2d} {key}: {meaning}." for key, (code, meaning) in STATUS_CODES.items()),
         "Not safety-certified. Validate it on the machine before it moves an axis.",
@@ -97,7 +98,7 @@ _KINDS = {"real": "double", "int": "long", "bool": "int"}
 def _struct(p):
     members = []
     for v in p.state:
-        size = f"[{max(v.length, 1)}]" if v.length > 1 or v.name == "lag" else ""
+        size = f"[{max(v.length, 1)}]" if v.length > 1 or v.name in ARRAYS else ""
         unit = f" ({v.unit})" if v.unit else ""
         members.append(f"    {_KINDS[v.kind]} {v.name}{size}; /* {v.meaning}{unit} */")
     return "\n".join(members)
@@ -109,7 +110,7 @@ _TEMPLATE = Template(
 
 #define ${M}_N_INPUTS ${n_inputs}
 #define ${M}_N_TERMS ${n_terms}
-#define ${M}_N_LAGS ${n_lags}
+#define ${M}_N_LAGS ${n_lags}${env_macros}
 ${status_macros}
 ${input_macros}
 
@@ -127,7 +128,7 @@ static const double ${P}_power[${n_terms_1}] = ${powers};
 static const int ${P}_fractional[${n_terms_1}] = ${fractional};
 static const double ${P}_weight[${n_terms_1}] = ${weights};
 static const double ${P}_tau[${n_lags_1}] = ${taus};
-static const int ${P}_idle[${n_lags_1}] = ${idle};
+static const int ${P}_idle[${n_lags_1}] = ${idle};${env_tables}
 
 void ${P}_init(${P}_state *s)
 {
@@ -167,7 +168,7 @@ int ${P}_update(${P}_state *s, double time_s, const double x[${M}_N_INPUTS], dou
 {
     double v[${n_terms_1}], lag[${n_terms_1}];
     double dt = 0.0, shift = 0.0, total = 0.0, value;
-    int k, j, has_dt = 0;
+    int k, j, has_dt = 0;${env_locals}
     *output_um = s->output_um; /* what a refused or held row leaves on the axis */
     /* (1) a negative input to a fractional power */
     for (k = 0; k < ${M}_N_TERMS; k++) {
@@ -201,7 +202,7 @@ ${restart}
         }
         total += ${P}_weight[k] * lag[k];
     }
-    if (!isfinite(total)) return ${P}_refuse(s, time_s, x);
+    if (!isfinite(total)) return ${P}_refuse(s, time_s, x);${env_step}
     /* (5) the reference */
     if (!s->started) {
         if (s->has_initial) {
@@ -212,7 +213,7 @@ ${restart}
             s->start = ${relative} ? total : 0.0;
         }
     }
-    for (k = 0; k < ${M}_N_TERMS; k++) s->lag[k] = lag[k];
+    for (k = 0; k < ${M}_N_TERMS; k++) s->lag[k] = lag[k];${env_store}
     if (s->has_start) total -= s->start;
     /* (6) the model's correction, and the probe filter's */
     value = ${intercept} + total;
@@ -313,7 +314,7 @@ double ${P}_half_width(const ${P}_state *s)
         hph = (P[0] + P[3]) + (P[1] + P[4]); /* H P H' with H = (1, 1, 0) */
         var = (hph > 0.0 ? hph : 0.0) + ${white_var};
     }
-    return ${quantile} * sqrt(var);
+    return ${quantile} * sqrt(var)${widening};
 }
 
 int ${P}_trusted(const ${P}_state *s)
@@ -541,8 +542,84 @@ int ${P}_observe(${P}_state *s, double time_s, double measured_um)
         ),
         max_correction=_real(p.max_correction_um),
         tolerance=tolerance,
+        widening="" if p.envelope is None else " + s->widening_um",
     )
     return declarations, body
+
+
+def _envelope_c(p):
+    """The envelope's macros, tables, locals, step and store (update), or '' each."""
+    names = ("env_macros", "env_tables", "env_locals", "env_step", "env_store")
+    e = p.envelope
+    if e is None:
+        return dict.fromkeys(names, "")
+    P, M, n = p.name, p.name.upper(), len(e.input)
+    step = Template(
+        r"""
+    /* (4b) the envelope: each enveloped input's follower, and the excess bank */
+    for (j = 0; j < ${M}_N_INPUTS; j++) xt[j] = x[j];
+    for (j = 0; j < ${M}_N_ENV; j++) {
+        double xi = x[${P}_env_input[j]], f = xi, lo = ${P}_env_low[j], hi = ${P}_env_high[j];
+        if (s->started) {
+            double reach = ${P}_env_rate[j] * (dt / 3600.0) * (1.0 + ${M}_RATE_SLACK);
+            double down = s->ef[j] - reach, up = s->ef[j] + reach;
+            lo = down < lo ? lo : down;
+            hi = up > hi ? hi : up;
+        }
+        if (f < lo) f = lo;
+        if (f > hi) f = hi;
+        ef[j] = f;
+        ex[j] = xi - f;
+        xt[${P}_env_input[j]] = f;
+        if (outside == 0 && ex[j] != 0.0) outside = ${P}_env_input[j] + 1;
+    }
+    for (j = 0; j < ${M}_N_ENV; j++) din[j] = 0.0;
+    for (k = 0; k < ${M}_N_TERMS; k++) {
+        double w = ${P}_power[k] == 1.0 ? xt[${P}_input[k]] : pow(xt[${P}_input[k]], ${P}_power[k]);
+        double e = v[k] - w;
+        if (!s->started) {
+            elag[k] = (k < ${M}_N_LAGS && ${P}_idle[k < ${M}_N_LAGS ? k : 0]) ? 0.0 : e;
+        } else if (k < ${M}_N_LAGS) {
+            double a = exp(-dt / ${P}_tau[k]);
+            elag[k] = (1.0 - a) * e + a * s->elag[k];
+        } else {
+            elag[k] = e;
+        }
+        if (${P}_env_slot[k] >= 0) din[${P}_env_slot[k]] += ${P}_weight[k] * elag[k];
+    }"""
+    ).substitute(P=P, M=M)
+    store = Template(
+        r"""
+    /* the envelope's state; the half-width widens by the model's response to the excess */
+    s->has_estart = s->started ? s->has_estart : s->has_start;
+    s->widening_um = 0.0;
+    for (j = 0; j < ${M}_N_ENV; j++) {
+        if (!s->started) s->estart[j] = s->has_start ? din[j] : 0.0;
+        s->widening_um += fabs(s->has_estart ? din[j] - s->estart[j] : din[j]);
+        s->ef[j] = ef[j];
+        s->ex[j] = ex[j];
+    }
+    for (k = 0; k < ${M}_N_TERMS; k++) s->elag[k] = elag[k];
+    s->outside = outside;"""
+    ).substitute(P=P, M=M)
+    return {
+        "env_macros": f"\n#define {M}_N_ENV {n}\n#define {M}_RATE_SLACK {_real(e.rate_slack)}",
+        "env_tables": (
+            f"\nstatic const int {P}_env_input[{n}] = {_array(e.input, str, 16)};"
+            f"\nstatic const double {P}_env_low[{n}] = {_array(e.low)};"
+            f"\nstatic const double {P}_env_high[{n}] = {_array(e.high)};"
+            f"\nstatic const double {P}_env_rate[{n}] = {_array(e.max_rate_per_h)};"
+            f"\nstatic const int {P}_env_slot[{max(len(p.terms), 1)}] = "
+            f"{_array(e.term_slot, str, 16)};"
+        ),
+        "env_locals": (
+            f"\n    double ef[{M}_N_ENV], ex[{M}_N_ENV], xt[{M}_N_INPUTS];"
+            f"\n    double elag[{max(len(p.terms), 1)}], din[{M}_N_ENV];"
+            "\n    int outside = 0;"
+        ),
+        "env_step": step,
+        "env_store": store,
+    }
 
 
 def _record_c(p):
@@ -693,6 +770,7 @@ def write_c(p):
         relative=int(p.relative_to_start),
         record=_record_c(p),
         stage=stage,
+        **_envelope_c(p),
     )
     call = (
         f"{p.name}_init once, {p.name}_update at every row (time_s and the inputs), "

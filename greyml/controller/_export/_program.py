@@ -25,6 +25,7 @@ from dataclasses import dataclass
 
 from greyml.controller._compensator import HISTORY
 from greyml.controller._output import QUANTA_MAX, QUANTUM_TOLERANCE
+from greyml.dynamic._envelope import RATE_SLACK
 from greyml.dynamic._observer import KINDS, WINDOW, glr_threshold
 
 __all__ = [
@@ -199,6 +200,44 @@ class Trust:
 
 
 @dataclass(frozen=True)
+class Envelope:
+    """The input envelope (:class:`~greyml.dynamic.InputEnvelope`): per enveloped input,
+    its position among the inputs, its range and its largest rate of change per hour."""
+
+    input: tuple
+    low: tuple
+    high: tuple
+    max_rate_per_h: tuple
+    rate_slack: float
+    #: each term's enveloped input (its position in ``input``), -1 for none
+    term_slot: tuple
+
+    def lines(self, inputs, structured_text=False):
+        """The header's lines: what training saw of each input, and how to read the flag
+        (named as the C state or the Structured Text outputs name it)."""
+        out = [
+            "Envelope (what training saw; outside it the half-width widens by the model's "
+            "response to the excess):"
+        ]
+        for j, lo, hi, rate in zip(self.input, self.low, self.high, self.max_rate_per_h):
+            v = inputs[j]
+            out.append(
+                f"  {j:3d}  {v.identifier:<32s} [{lo:.6g}, {hi:.6g}] {v.unit}, at most "
+                f"{rate:.6g} per hour"
+            )
+        flag, excess, widening = ("outside", "ex", "widening_um")
+        if structured_text:
+            flag, excess, widening = ("Outside", "st_ex", "WideningUm")
+        out.append(
+            f"{flag}: 0 inside the envelope; else 1 + the position (above) of the first "
+            f"input outside it at the last row; {excess} holds each enveloped input's excess "
+            f"(the input minus its follower, in its own unit), {widening} what the "
+            "half-width adds."
+        )
+        return out
+
+
+@dataclass(frozen=True)
 class Program:
     """Everything an export writes: numbers, policies, state layout and safe names."""
 
@@ -220,6 +259,7 @@ class Program:
     trust: Trust | None
     state: tuple
     greyml_version: str
+    envelope: Envelope | None = None
 
     @property
     def reference(self):
@@ -255,6 +295,21 @@ class Program:
 
     def to_dict(self):
         """The JSON export (strict JSON: no NaN or infinity)."""
+        out = self._dict()
+        if self.envelope is not None:  # (a compensator without one exports as before)
+            e = self.envelope
+            out["envelope"] = {
+                "inputs": list(e.input),
+                "low": list(e.low),
+                "high": list(e.high),
+                "max_rate_per_h": list(e.max_rate_per_h),
+                "rate_slack": e.rate_slack,
+                "term_slot": list(e.term_slot),
+            }
+            out["algorithm"] = [*out["algorithm"], ENVELOPE_ALGORITHM]
+        return out
+
+    def _dict(self):
         trust = None
         if self.trust is not None:
             trust = {k: _bound(getattr(self.trust, k)) for k in self.trust.__dataclass_fields__}
@@ -369,7 +424,24 @@ ALGORITHM = [
 ]
 
 
-def _state_layout(n_inputs, n_terms, trust):
+#: What the envelope adds to update (the JSON carries it with an envelope).
+ENVELOPE_ALGORITHM = (
+    "envelope (in update, after (4), before the state is written): for each enveloped "
+    "input i (position input_i): reach = max_rate_per_h_i (dt / 3600) (1 + rate_slack); "
+    "f_i = x[input_i] clipped to [max(ef_i - reach, low_i), min(ef_i + reach, high_i)] "
+    "([low_i, high_i] at the first row); ex_i = x[input_i] - f_i; xt = x with xt[input_i] "
+    "= f_i; e_k = v_k - xt[input_k] ** power_k; elag_k as lag_k with e_k for v_k; d_i = "
+    "sum of weight_k elag_k over the terms of input i (term_slot_k = i); at the first row "
+    "estart_i = d_i when start is subtracted; d_i -= estart_i; widening_um = sum |d_i|; "
+    "outside = 1 + input_i of the first i with ex_i != 0, else 0. half_width = quantile "
+    "sqrt(variance) + widening_um."
+)
+
+#: State variables that are arrays whatever their length.
+ARRAYS = ("lag", "ef", "ex", "elag", "estart")
+
+
+def _state_layout(n_inputs, n_terms, trust, n_envelope=0):
     """The running state, in the order the C struct and the ST variables declare it."""
     rows = [
         ("started", "bool", 1, "", "a row was taken since init or reset"),
@@ -414,6 +486,16 @@ def _state_layout(n_inputs, n_terms, trust):
             ("hm", "real", trust.history, "um", "the model's correction at those rows"),
             ("hpos", "int", 1, "", "where the next row is written in the ring"),
             ("hcount", "int", 1, "", "how many rows the ring holds"),
+        ]
+    if n_envelope:
+        rows += [
+            ("ef", "real", n_envelope, "as the input", "each enveloped input's follower"),
+            ("ex", "real", n_envelope, "as the input", "each one's excess at the last row"),
+            ("elag", "real", n_terms, "as the term", "each term's lag of the excess"),
+            ("has_estart", "bool", 1, "", "estart is subtracted"),
+            ("estart", "real", n_envelope, "um", "each input's response at the first row"),
+            ("widening_um", "real", 1, "um", "the half-width's widening at the last row"),
+            ("outside", "int", 1, "", "0 inside, else 1 + the first input outside"),
         ]
     return tuple(StateVar(*row) for row in rows)
 
@@ -481,6 +563,18 @@ def describe(comp, *, name="greyml_compensator", description=None):
             window=WINDOW,
             history=HISTORY,
         )
+    envelope = None
+    if plan.envelope is not None:
+        e = plan.envelope
+        slot_of = {int(position): i for i, position in enumerate(e.take)}
+        envelope = Envelope(
+            input=tuple(int(j) - 1 for j in e.take),
+            low=tuple(float(v) for v in e.low),
+            high=tuple(float(v) for v in e.high),
+            max_rate_per_h=tuple(float(v) for v in e.max_rate_per_h),
+            rate_slack=RATE_SLACK,
+            term_slot=tuple(slot_of.get(int(position), -1) for position in plan.index),
+        )
     limits = plan.limits
     clamp, quantum, rate = limits.clamp_um, limits.quantum_um, limits.rate_limit_um_s
     max_step = plan.max_step
@@ -503,6 +597,7 @@ def describe(comp, *, name="greyml_compensator", description=None):
         max_correction_um=float(comp.max_correction_um),
         tolerance_um=None if comp.tolerance_um is None else float(comp.tolerance_um),
         trust=trust,
-        state=_state_layout(len(inputs), n, trust),
+        state=_state_layout(len(inputs), n, trust, 0 if envelope is None else len(envelope.input)),
         greyml_version=comment_text(__version__, 30),
+        envelope=envelope,
     )

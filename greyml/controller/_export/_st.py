@@ -17,7 +17,7 @@ import math
 from string import Template
 
 from greyml.controller._export._c import header_lines, wrap
-from greyml.controller._export._program import STATUS_CODES
+from greyml.controller._export._program import ARRAYS, STATUS_CODES
 from greyml.controller._output import QUANTA_MAX, QUANTUM_TOLERANCE
 
 __all__ = ["write_st"]
@@ -348,7 +348,7 @@ ${propagate}
         END_IF;
         variance := hph + WHITE_VAR;
     END_IF;
-    HalfWidthUm := ${quantile} * SQRT(variance);
+    HalfWidthUm := ${quantile} * SQRT(variance)${widening};
     Trusted := Plausible AND ${tolerance};
 END_IF;
 Changes := st_changes;
@@ -363,6 +363,7 @@ Innovation := st_innovation;
         quantile=literal(t.interval_quantile),
         propagate=_propagate_st("        "),
         tolerance=tolerance,
+        widening="" if p.envelope is None else " + st_widening_um",
     )
 
 
@@ -385,7 +386,7 @@ def _state_declarations(p):
     lines = []
     for v in p.state:
         kind = _TYPES[v.kind]
-        if v.length > 1 or v.name == "lag":
+        if v.length > 1 or v.name in ARRAYS:
             kind = f"ARRAY[0..{max(v.length, 1) - 1}] OF {kind}"
         unit = f" ({v.unit})" if v.unit else ""
         lines.append(f"    st_{v.name} : {kind}; (* {v.meaning}{unit} *)")
@@ -399,7 +400,7 @@ def _reset_body(p):
     for v in p.state:
         if v.name in ("output_um", "last"):
             continue
-        if v.length > 1 or v.name == "lag":
+        if v.length > 1 or v.name in ARRAYS:
             lines += [
                 f"    FOR k := 0 TO {max(v.length, 1) - 1} DO",
                 f"        st_{v.name}[k] := {zero[v.kind]};",
@@ -600,7 +601,7 @@ ${restart}${gap}
         IF NOT ${finite_total} THEN
             refuse := TRUE;
         END_IF;
-    END_IF;
+    END_IF;${env_step}
     IF refuse THEN
         IF NOT ${finite_time} THEN
             code := ERR_TIME;
@@ -625,7 +626,7 @@ ${missing}
         END_IF;
         FOR k := 0 TO N_TERMS - 1 DO
             st_lag[k] := lagNew[k];
-        END_FOR;
+        END_FOR;${env_store}
         IF st_has_start THEN
             total := total - st_start;
         END_IF;
@@ -645,10 +646,104 @@ OutputUm := st_output_um;
 CorrectionUm := st_correction_um;
 Held := st_held;
 Started := st_started;
-Plausible := st_started AND ABS(st_correction_um) <= ${max_correction};
+Plausible := st_started AND ABS(st_correction_um) <= ${max_correction};${env_outputs}
 ${status_outputs}
 """
 )
+
+
+def _envelope_st(p):
+    """The envelope's step and store (Execute) and its outputs, or '' each."""
+    if p.envelope is None:
+        return {"env_step": "", "env_store": "", "env_outputs": ""}
+    step = r"""
+    (* (4b) the envelope: each enveloped input's follower, and the excess bank *)
+    IF NOT refuse AND code = 0 THEN
+        outsideNew := 0;
+        FOR j := 0 TO N_INPUTS - 1 DO
+            xt[j] := xin[j];
+        END_FOR;
+        FOR j := 0 TO N_ENV - 1 DO
+            fi := xin[ENV_INPUT[j]];
+            lo := ENV_LOW[j];
+            hi := ENV_HIGH[j];
+            IF st_started THEN
+                reach := ENV_RATE[j] * (dt / 3600.0) * (1.0 + RATE_SLACK);
+                IF st_ef[j] - reach >= lo THEN
+                    lo := st_ef[j] - reach;
+                END_IF;
+                IF st_ef[j] + reach <= hi THEN
+                    hi := st_ef[j] + reach;
+                END_IF;
+            END_IF;
+            IF fi < lo THEN
+                fi := lo;
+            END_IF;
+            IF fi > hi THEN
+                fi := hi;
+            END_IF;
+            efNew[j] := fi;
+            exNew[j] := xin[ENV_INPUT[j]] - fi;
+            xt[ENV_INPUT[j]] := fi;
+            IF outsideNew = 0 AND exNew[j] <> 0.0 THEN
+                outsideNew := ENV_INPUT[j] + 1;
+            END_IF;
+        END_FOR;
+        FOR j := 0 TO N_ENV - 1 DO
+            din[j] := 0.0;
+        END_FOR;
+        FOR k := 0 TO N_TERMS - 1 DO
+            IF POWER[k] = 1.0 THEN
+                w := xt[INPUT[k]];
+            ELSE
+                w := EXPT(xt[INPUT[k]], POWER[k]);
+            END_IF;
+            e := v[k] - w;
+            IF NOT st_started THEN
+                elagNew[k] := e;
+                IF k < N_LAGS THEN
+                    IF IDLE[k] THEN
+                        elagNew[k] := 0.0;
+                    END_IF;
+                END_IF;
+            ELSIF k < N_LAGS THEN
+                a := EXP(-dt / TAU[k]);
+                elagNew[k] := (1.0 - a) * e + a * st_elag[k];
+            ELSE
+                elagNew[k] := e;
+            END_IF;
+            IF ENV_SLOT[k] >= 0 THEN
+                din[ENV_SLOT[k]] := din[ENV_SLOT[k]] + WEIGHT[k] * elagNew[k];
+            END_IF;
+        END_FOR;
+    END_IF;"""
+    store = r"""
+        (* the envelope's state; the half-width widens by the model's response to the excess *)
+        IF NOT st_started THEN
+            st_has_estart := st_has_start;
+        END_IF;
+        st_widening_um := 0.0;
+        FOR j := 0 TO N_ENV - 1 DO
+            IF NOT st_started THEN
+                st_estart[j] := 0.0;
+                IF st_has_start THEN
+                    st_estart[j] := din[j];
+                END_IF;
+            END_IF;
+            IF st_has_estart THEN
+                st_widening_um := st_widening_um + ABS(din[j] - st_estart[j]);
+            ELSE
+                st_widening_um := st_widening_um + ABS(din[j]);
+            END_IF;
+            st_ef[j] := efNew[j];
+            st_ex[j] := exNew[j];
+        END_FOR;
+        FOR k := 0 TO N_TERMS - 1 DO
+            st_elag[k] := elagNew[k];
+        END_FOR;
+        st_outside := outsideNew;"""
+    outputs = "\nOutside := st_outside;\nWideningUm := st_widening_um;"
+    return {"env_step": step, "env_store": store, "env_outputs": outputs}
 
 
 def _declarations(p):
@@ -682,6 +777,12 @@ def _declarations(p):
         "    Started : BOOL; (* a row was taken since the start or Reset *)",
         "    Plausible : BOOL; (* CorrectionUm within max_correction_um *)",
     ]
+    env = p.envelope
+    if env is not None:
+        outputs += [
+            "    Outside : DINT; (* 0 inside the envelope, else 1 + the first input outside *)",
+            "    WideningUm : LREAL; (* what the half-width adds for the excess, um *)",
+        ]
     if trust:
         outputs += [
             "    ProbeStatus : DINT; (* of the last reading: 0 taken, -4 refused *)",
@@ -713,6 +814,22 @@ def _declarations(p):
         "    d : LREAL;",
         "    allowed : LREAL;",
     ]
+    if env is not None:
+        n_env = len(env.input)
+        scratch += [
+            f"    xt : ARRAY[0..{n_inputs - 1 if n_inputs else 0}] OF LREAL;",
+            f"    efNew : ARRAY[0..{n_env - 1}] OF LREAL;",
+            f"    exNew : ARRAY[0..{n_env - 1}] OF LREAL;",
+            f"    elagNew : ARRAY[0..{max(n_terms, 1) - 1}] OF LREAL;",
+            f"    din : ARRAY[0..{n_env - 1}] OF LREAL;",
+            "    outsideNew : DINT;",
+            "    fi : LREAL;",
+            "    lo : LREAL;",
+            "    hi : LREAL;",
+            "    reach : LREAL;",
+            "    w : LREAL;",
+            "    e : LREAL;",
+        ]
     if trust:
         scratch += [
             "    dh : LREAL;",
@@ -784,6 +901,21 @@ def _declarations(p):
         + _list([t.idle for t in lags], _bool, 8)
         + ";",
     ]
+    if env is not None:
+        n_env = len(env.input)
+        constants += [
+            f"    N_ENV : DINT := {n_env};",
+            f"    RATE_SLACK : LREAL := {literal(env.rate_slack)};",
+            f"    ENV_INPUT : ARRAY[0..{n_env - 1}] OF DINT := {_list(env.input, str, 16)};",
+            f"    ENV_LOW : ARRAY[0..{n_env - 1}] OF LREAL := {_list(env.low, literal)};",
+            f"    ENV_HIGH : ARRAY[0..{n_env - 1}] OF LREAL := {_list(env.high, literal)};",
+            f"    ENV_RATE : ARRAY[0..{n_env - 1}] OF LREAL := "
+            + _list(env.max_rate_per_h, literal)
+            + ";",
+            f"    ENV_SLOT : ARRAY[0..{max(n_terms, 1) - 1}] OF DINT := "
+            + _list(env.term_slot, str, 16)
+            + ";",
+        ]
     if trust:
         constants += [
             f"    HISTORY : DINT := {p.trust.history};",
@@ -856,6 +988,7 @@ def write_st(p):
         observe=observe,
         max_correction=literal(p.max_correction_um),
         status_outputs=status,
+        **_envelope_st(p),
     )
     call = (
         f"call {p.name} every cycle; set Execute on a cycle that brings a new row (time_s "
