@@ -13,6 +13,7 @@ from greyml.dynamic._observer import (
     glr_change,
     glr_reset,
     glr_threshold,
+    innovation_memory,
     observer_noise,
     replay,
     transition,
@@ -103,7 +104,8 @@ def test_the_noise_chosen_follows_a_random_walk():
     for _ in range(6):
         walk = np.cumsum(rng.normal(0.0, math.sqrt(step_h), hours.size))
         series.append((hours, walk + rng.normal(0.0, 0.01, hours.size)))
-    qb, qr, scale = observer_noise(series, lambda h: 1e-4 + h, 1e-4, 1e-3, 1e-4)
+    qb, qr, scale, glr_scale = observer_noise(series, lambda h: 1e-4 + h, 1e-4, 1e-3, 1e-4)
+    assert glr_scale >= 1.0
     assert 0.1 <= qb <= 10.0
     z = np.concatenate(
         [
@@ -113,3 +115,13 @@ def test_the_noise_chosen_follows_a_random_walk():
         ]
     )
     assert np.mean(z**2) == pytest.approx(scale)
+
+
+def test_innovation_memory_by_hand():
+    # innovations that repeat themselves: a sum of m of them is m times one, its square
+    # m² times, so m (the longest window that fits: 4) times independent ones
+    assert innovation_memory([np.ones(4)]) == pytest.approx(4.0)
+    # alternating ones cancel in pairs: never more than independent ones
+    assert innovation_memory([np.array([1.0, -1.0, 1.0, -1.0])]) == 1.0
+    # two runs: windows never cross from one run into the next
+    assert innovation_memory([np.ones(2), -np.ones(2)]) == pytest.approx(2.0)

@@ -25,7 +25,9 @@ innovations there have a mean square of 1).
 A change the random walks are too slow for (a step, a ramp that starts) is
 found by a generalised likelihood ratio test (Willsky and Jones, 1976) over
 the last readings, which fires at most ``false_alarm_rate`` times per
-reading on unchanged Gaussian innovations (one in 1,000 by default); on
+reading on unchanged Gaussian, independent innovations (one in 1,000 by
+default; the threshold is raised by their memory on the training tests,
+``glr_scale``); on
 firing, the change it estimated is added to the states and
 :attr:`Compensator.status` says which (``change_kind``) and when it began
 (``change_start_s``). The user can open the bias and the rate to a known
@@ -187,6 +189,9 @@ class Uncertainty:
         The bias rate's random walk, µm² per hour³ (≥ 0).
     scale : float, default=1.0
         What the filter multiplies every variance by (> 0).
+    glr_scale : float, default=1.0
+        What the change detector's threshold is multiplied by (≥ 1): the
+        innovations' memory on the training tests.
 
     Examples
     --------
@@ -211,10 +216,11 @@ class Uncertainty:
     bias_var_per_h: float = 0.0
     rate_var_per_h3: float = 0.0
     scale: float = 1.0
+    glr_scale: float = 1.0
 
 
 #: No uncertainty: what the filter's arithmetic assumes without one.
-_CERTAIN = Uncertainty(0.0, 0.0, 0.0, 0.0, math.inf, 0.0, 0.0, 1.0)
+_CERTAIN = Uncertainty(0.0, 0.0, 0.0, 0.0, math.inf, 0.0, 0.0, 1.0, 1.0)
 
 
 @dataclass(frozen=True)
@@ -1296,6 +1302,7 @@ class Compensator:
                 bias_var_per_h=calibration.bias_var_per_h,
                 rate_var_per_h3=calibration.rate_var_per_h3,
                 scale=calibration.filter_scale,
+                glr_scale=calibration.glr_scale,
             )
         return cls(
             **params,
@@ -1646,17 +1653,18 @@ class Compensator:
             values = [getattr(u, f, math.nan) for f in Uncertainty.__dataclass_fields__]
             values = [v if real(v) else math.nan for v in values]
         if (
-            len(values) != 8
+            len(values) != 9
             or not all(map(math.isfinite, values))
             or min(values) < 0
             or values[4] <= 0
             or values[7] <= 0
+            or values[8] < 1
         ):
             raise ValueError(
-                "The 'uncertainty' parameter of Compensator must be an Uncertainty of eight "
+                "The 'uncertainty' parameter of Compensator must be an Uncertainty of nine "
                 "finite numbers (offset_var, growth_var_per_h, noise_var, memory_var >= 0, "
-                "memory_h > 0, bias_var_per_h, rate_var_per_h3 >= 0 and scale > 0); "
-                f"got {u!r}."
+                "memory_h > 0, bias_var_per_h, rate_var_per_h3 >= 0, scale > 0 and "
+                f"glr_scale >= 1); got {u!r}."
             )
         return Uncertainty(*(float(v) for v in values))
 
@@ -1961,7 +1969,7 @@ class Compensator:
             self._glr, F, K, innovation, S, time_s / 3600.0, previous / 3600.0
         )
         kind_name, start = self._found[0], self._found[1]
-        if stat > glr_threshold(self.false_alarm_rate):
+        if stat > glr_threshold(self.false_alarm_rate) * u.glr_scale:
             dx, dP, size, start_h = glr_change(self._glr, kind, slot, time_s / 3600.0)
             # a few readings cannot tell a step from a ramp: the bias and the rate
             # are opened by the size found (its effect here, and that per hour since

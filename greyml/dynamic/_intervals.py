@@ -225,6 +225,11 @@ class IntervalCalibration:
     rate_var_per_h3 : float
         The variance per hour of the bias's rate, a random walk (≥ 0;
         µm²/h³): the filter follows a drifting machine with it.
+    glr_scale : float
+        What the change detector's threshold is multiplied by (≥ 1): how much
+        more sums of the filter's innovations on the training tests varied
+        than independent innovations would
+        (:func:`~greyml.dynamic._observer.innovation_memory`).
 
     Examples
     --------
@@ -269,6 +274,7 @@ class IntervalCalibration:
     filter_scale: float = 1.0
     bias_var_per_h: float = 0.0
     rate_var_per_h3: float = 0.0
+    glr_scale: float = 1.0
 
     def scale(self, hours):
         """``s(t)`` at ``hours`` since the displacement was last known."""

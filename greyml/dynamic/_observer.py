@@ -49,6 +49,7 @@ __all__ = [
     "glr_change",
     "glr_reset",
     "glr_threshold",
+    "innovation_memory",
     "observer_noise",
     "replay",
     "transition",
@@ -201,7 +202,8 @@ RATE_SHARES = (0.0, 1e-4, 1e-3, 1e-2, 1e-1)
 
 
 def observer_noise(series, prior, noise, memory_h, memory_var):
-    """``(bias_var_per_h, rate_var_per_h3, scale)`` of the filter, chosen on ``series``.
+    """``(bias_var_per_h, rate_var_per_h3, scale, glr_scale)`` of the filter, chosen on
+    ``series``.
 
     ``series`` is a list of ``(hours since the test's first row, held-out
     residual)`` arrays, one per training test; ``prior(h)`` the offset's
@@ -215,11 +217,13 @@ def observer_noise(series, prior, noise, memory_h, memory_var):
     with readings every 15 min, 1 h and 4 h from each test's first row, every
     variance multiplied by the common scale that maximises it; that scale (the
     innovations' mean square) is returned with them, so that the filter's
-    innovations on the training tests have a mean square of 1.
+    innovations on the training tests have a mean square of 1, and so is
+    :func:`innovation_memory` of those innovations (what the likelihood test's
+    threshold is multiplied by).
     """
     series = [(h, r) for h, r in series if r.size]
     if not series:
-        return 0.0, 0.0, 1.0
+        return 0.0, 0.0, 1.0, 1.0
     e2 = float(np.mean(np.concatenate([r for _, r in series]) ** 2)) or 1.0
     best = None
     for fb in BIAS_SHARES:
@@ -232,10 +236,39 @@ def observer_noise(series, prior, noise, memory_h, memory_var):
             ]
             z = np.concatenate([run[0] for run in runs])
             if z.size == 0:
-                return 0.0, 0.0, 1.0
+                return 0.0, 0.0, 1.0, 1.0
             logs = np.concatenate([run[1] for run in runs])
             scale = max(float(np.mean(z**2)), 1e-12)
             loglik = -0.5 * (float(np.sum(logs)) + z.size * math.log(scale))
             if best is None or loglik > best[0] + 1e-9 * abs(best[0]):
-                best = (loglik, qb, qr, scale)
-    return best[1], best[2], best[3]
+                best = (loglik, qb, qr, scale, runs)
+    _, qb, qr, scale, runs = best
+    return qb, qr, scale, innovation_memory([run[0] / math.sqrt(scale) for run in runs])
+
+
+def innovation_memory(runs, window=WINDOW):
+    """How much more a sum of consecutive standardised innovations varies than
+    independent ones would: the largest, over ``m`` = 1 … ``window``, of the mean
+    of ``(z_k + … + z_{k+m−1})² / m`` over every run (each an array of one
+    test's innovations), relative to ``m = 1``; at least 1.
+
+    The likelihood test's statistics are such sums squared: with innovations
+    that remember each other (a model error slower than the filter assumes)
+    they are this many times larger than a χ²₁ under no change, so the
+    threshold is raised by it (a long-run variance correction, as Newey and
+    West, 1987, make for a sum of correlated terms).
+    """
+    runs = [np.asarray(z, dtype=float) for z in runs if len(z)]
+    if not runs:
+        return 1.0
+    base = float(np.mean(np.concatenate(runs) ** 2))
+    if not base > 0:
+        return 1.0
+    worst = 1.0
+    for m in range(2, window + 1):
+        sums = [np.convolve(z, np.ones(m), mode="valid") for z in runs if z.size >= m]
+        if not sums:
+            break
+        sums = np.concatenate(sums)
+        worst = max(worst, float(np.mean(sums**2)) / m / base)
+    return worst

@@ -1497,7 +1497,7 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
         def prior(h):  # the offset's variance before the first reading, h hours in
             return a - noise + b * h
 
-        qb, qr, scale = observer_noise(series, prior, noise, memory_h, s2)
+        qb, qr, scale, glr_scale = observer_noise(series, prior, noise, memory_h, s2)
         scores = np.abs(residuals) / scale_of(hours, a, b)
         order = np.argsort(scores, kind="stable")
         return IntervalCalibration(
@@ -1512,6 +1512,7 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
             filter_scale=float(scale),
             bias_var_per_h=float(qb),
             rate_var_per_h3=float(qr),
+            glr_scale=float(glr_scale),
         )
 
     def interval_half_width(self, hours, coverage=0.9):

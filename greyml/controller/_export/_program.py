@@ -176,7 +176,8 @@ class Trust:
     ``reading_var`` (``scale·noise_var + probe_noise_um²``, the variance of a
     reading's white part) and ``white_var`` (``scale·noise_var``, what no
     reading removes) are computed here as Python computes them, and
-    ``glr_threshold`` is the χ²₁ quantile of ``false_alarm_rate / (2·window)``
+    ``glr_threshold`` is the χ²₁ quantile of ``false_alarm_rate / (2·window)``,
+    times the uncertainty's ``glr_scale``
     (:func:`greyml.dynamic._observer.glr_threshold`): the exports write the
     numbers, not the arithmetic.
     """
@@ -559,7 +560,7 @@ def describe(comp, *, name="greyml_compensator", description=None):
             reading_var=u.scale * u.noise_var + probe_noise**2,
             white_var=u.scale * u.noise_var,
             false_alarm_rate=rate,
-            glr_threshold=glr_threshold(rate),
+            glr_threshold=glr_threshold(rate) * u.glr_scale,  # as observe compares it
             window=WINDOW,
             history=HISTORY,
         )
