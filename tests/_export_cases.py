@@ -190,6 +190,7 @@ def script(nominal):
         ("update", 30.0, [21.1, 21.0, 1000.0], 0),
         ("reset", None),
         ("update", 100.0, [21.0, 21.0, 1000.0], 0),
+        ("recalibrate",),  # before the test's first reading: it counts at that reading
         ("update", 115.0, [21.0, 21.2, 1500.0], 0),
         ("observe", 115.0, 1.0, 0),
     ]

@@ -61,6 +61,18 @@ def test_the_slow_part_forgets_itself_with_its_memory():
     assert comp.status.half_width == pytest.approx(Q90 * math.sqrt(4.0 * (1 - math.exp(-2))))
 
 
+def test_a_recalibration_before_the_first_reading_counts():
+    # recalibrate(2 µm) opens the bias and the rate (variance 4 each) before any
+    # reading; the first reading then splits between the offset (4) and the bias (4):
+    # S = 4 + 4 + 1, gains 4/9 each
+    comp = _comp()
+    comp.update(_row(0.0, 2.0))  # model 4
+    comp.recalibrate(2.0)
+    status = comp.observe(0.0, 9.0)  # innovation 5
+    np.testing.assert_allclose(comp._fx, [20 / 9, 20 / 9, 0.0])
+    assert status.correction == pytest.approx(4.0 + 40 / 9)
+
+
 def test_a_late_reading_is_placed_between_rows():
     comp = _comp(
         uncertainty=Uncertainty(1.0, 0.0, 0.0, 1.0, 1e6)

@@ -1959,9 +1959,11 @@ class Compensator:
         x, P, dh = self._propagated(time_s)
         if not self._adjusted:
             # the first reading: the batch variance there, all in the offset (the
-            # bias and its rate walk from here on)
+            # bias and its rate walk from here on, uncertain only where recalibrate
+            # opened them)
             x = np.zeros(3)
-            P = np.diag([u.scale * (u.offset_var + u.growth_var_per_h * dh), 0.0, 0.0])
+            P = self._fP.copy()
+            P[0, 0] = u.scale * (u.offset_var + u.growth_var_per_h * dh)
         F, _ = self._transition(dh)
         R = u.scale * u.noise_var + self.probe_noise_um**2
         x, P, innovation, S, K = update(x, P, z - m, R)

@@ -448,7 +448,7 @@ int ${P}_observe(${P}_state *s, double time_s, double measured_um)
         dh = (time_s - s->ft0) / 3600.0;
         if (dh < 0.0) dh = 0.0;
         for (i = 0; i < 3; i++) x[i] = 0.0;
-        for (i = 0; i < 9; i++) P[i] = 0.0;
+        for (i = 0; i < 9; i++) P[i] = s->fp[i]; /* open only where recalibrate opened it */
         P[0] = ${scale} * (${offset_var} + ${growth_var} * dh);
     }
     /* the Kalman update, H = (1, 1, 0), Joseph form */

@@ -97,7 +97,7 @@ ${propagate}
                 fx[k] := 0.0;
             END_FOR;
             FOR k := 0 TO 8 DO
-                fp[k] := 0.0;
+                fp[k] := st_fp[k]; (* open only where Recalibrate opened it *)
             END_FOR;
             fp[0] := SCALE * (${offset_var} + ${growth_var} * dh);
         END_IF;
