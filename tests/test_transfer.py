@@ -254,7 +254,12 @@ def test_step_response_and_describe(data, capsys):
     # one line per input, the driver first, then the sensors in the order selected
     assert capsys.readouterr().out == text + "\n"
     lines = text.splitlines()
-    assert [line.split(":")[0] for line in lines[:-1]] == ["spindle_rpm", *model.selected_sensors_]
+    assert [line.split(":")[0] for line in lines[:-2]] == ["spindle_rpm", *model.selected_sensors_]
+    # how far to trust it: four tests, so the Gaussian quantile
+    assert (
+        lines[-2].startswith("90 % interval: ±")
+        and "(from 4 held-out tests; gaussian)" in lines[-2]
+    )
     # and how the training tests started: each on a clock of its own, not at rest
     assert lines[-1] == "training tests without history, their lags assumed at rest: t0, t1, t2, t3"
     assert model.selected_sensors_ == ["T2_C", "T1_C"]

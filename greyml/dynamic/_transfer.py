@@ -33,6 +33,7 @@ lives in :mod:`greyml.controller` and is built from the fitted attributes
 
 from __future__ import annotations
 
+import math
 import numbers
 import warnings
 from collections.abc import Mapping
@@ -1915,7 +1916,9 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
         return pd.Series(out, index=pd.Index(times, name=TIME_LEVEL), name=input)
 
     def describe(self, unit="µm", *, file=None):
-        """Print one line per input: its step response in words.
+        """Print one line per input: its step response in words; then how far to trust
+        the model (its 90 % interval and probe filter, when calibrated) and how the
+        training tests started.
 
         Parameters
         ----------
@@ -1951,10 +1954,31 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
                 f"{name}: {final:.3g} {unit} per {per} at steady state, {at_once:.3g} {unit} "
                 f"at once, {at45:.3g} {unit} after 45 min; {within}"
             )
+        lines.append(self._trust_line(unit))
         lines.append(self._starts_line())
         text = "\n".join(line for line in lines if line)
         print(text, file=file)
         return text
+
+    def _trust_line(self, unit):
+        """One line: the 90 % interval's calibration and the probe filter's, or ''."""
+        cal = vars(self).get("interval_calibration_")
+        if cal is None:
+            return ""
+        where = (
+            f"where the displacement was last known, its variance growing "
+            f"{cal.growth_var_per_h:.3g} {unit}² per hour since"
+            if cal.growth_var_per_h > 0
+            else "at every row"
+        )
+        n = cal.n_tests or "the"
+        return (
+            f"90 % interval: ±{self.interval_half_width(0.0, 0.9):.3g} {unit} {where} "
+            f"(from {n} held-out tests; "
+            f"{cal.promise(0.9)}); probe filter: innovations' RMS "
+            f"{math.sqrt(cal.filter_scale):.2f} on them before calibration, change "
+            f"detector's threshold ×{cal.glr_scale:.2f} for their memory"
+        )
 
     def _starts_line(self):
         """One line: which training tests carried their state, started at rest, or were assumed."""
