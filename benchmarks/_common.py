@@ -5,6 +5,7 @@ from __future__ import annotations
 import json
 import os
 import platform
+import re
 import sys
 from importlib import metadata
 from pathlib import Path
@@ -74,3 +75,45 @@ def find_data(path=None):
         print(f"CAIVIAC data not found at {', '.join(str(p) for p in files)}; skipping")
         return None
     return found[0]
+
+
+def replace_generated(text, block, begin, end):
+    """``text`` with the generated block from the line ``begin`` to ``end`` replaced by
+    ``block`` (lines); an error when it has none."""
+    pattern = re.compile(re.escape(begin) + r".*?" + re.escape(end), re.S)
+    if not pattern.search(text):
+        raise ValueError(f"no generated block (a line {begin[:40]!r}... to {end!r}) in the page")
+    return pattern.sub(lambda _: "\n".join(block), text, count=1)
+
+
+def check_docs_flags(parser, args, write_docs):
+    """``--write-docs`` needs ``--json`` or ``--from-json``; with ``--from-json`` the docs
+    are written from that file (``write_docs(data)``) and True is returned: run nothing."""
+    if args.write_docs and not (args.json or args.from_json):
+        parser.error(
+            "--write-docs needs --json or --from-json (the docs are written from the file)"
+        )
+    if args.from_json:
+        if not args.write_docs:
+            parser.error("--from-json goes with --write-docs")
+        write_docs(json.loads(Path(args.from_json).read_text(encoding="utf-8")))
+        return True
+    return False
+
+
+def chosen_units(parser, args, probes, quick_probes, machines, quick_machines):
+    """The CAIVIAC probes and fleet machines of ``--probes`` / ``--machines`` (all, or the
+    ``--quick`` subsets), each checked against what there is."""
+    chosen_probes = (
+        args.probes if args.probes is not None else (quick_probes if args.quick else probes)
+    )
+    bad = [p for p in chosen_probes if p not in probes]
+    if bad:
+        parser.error(f"--probes: {bad} are not CAIVIAC probes; choose from {list(probes)}")
+    chosen_machines = (
+        args.machines if args.machines is not None else (quick_machines if args.quick else machines)
+    )
+    bad = [m for m in chosen_machines if m not in machines]
+    if bad:
+        parser.error(f"--machines: {bad} are not fleet machines; choose from {list(machines)}")
+    return chosen_probes, chosen_machines

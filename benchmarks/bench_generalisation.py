@@ -44,7 +44,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import re
 import sys
 import time
 import warnings
@@ -53,7 +52,7 @@ from pathlib import Path
 
 import bench_dynamic_peers as peers
 import numpy as np
-from _common import find_data, write_json
+from _common import check_docs_flags, chosen_units, find_data, replace_generated, write_json
 
 PROBES = ("ch1_um", "ch2_um", "ch3_um", "ch4_um", "ch5_um")
 QUICK_PROBES = ("ch1_um", "ch3_um")
@@ -560,10 +559,7 @@ def docs_block(data, page):
 
 def replace_block(text, block):
     """``text`` with its generated block replaced by ``block`` (lines); an error when it has none."""
-    pattern = re.compile(re.escape(BEGIN) + r".*?" + re.escape(END), re.S)
-    if not pattern.search(text):
-        raise ValueError(f"no generated block (a line {BEGIN[:40]!r}... to {END!r}) in the page")
-    return pattern.sub(lambda _: "\n".join(block), text, count=1)
+    return replace_generated(text, block, BEGIN, END)
 
 
 def write_docs(data):
@@ -644,25 +640,9 @@ def main(argv=None):
     args = parser.parse_args(argv)
     if args.peer_step < 1:
         parser.error("--peer-step must be at least 1")
-    if args.write_docs and not (args.json or args.from_json):
-        parser.error(
-            "--write-docs needs --json or --from-json (the docs are written from the file)"
-        )
-    if args.from_json:
-        if not args.write_docs:
-            parser.error("--from-json goes with --write-docs")
-        write_docs(json.loads(Path(args.from_json).read_text(encoding="utf-8")))
+    if check_docs_flags(parser, args, write_docs):
         return 0
-    probes = args.probes if args.probes is not None else (QUICK_PROBES if args.quick else PROBES)
-    bad = [p for p in probes if p not in PROBES]
-    if bad:
-        parser.error(f"--probes: {bad} are not CAIVIAC probes; choose from {list(PROBES)}")
-    machines = (
-        args.machines if args.machines is not None else (QUICK_MACHINES if args.quick else names())
-    )
-    bad = [m for m in machines if m not in names()]
-    if bad:
-        parser.error(f"--machines: {bad} are not fleet machines; choose from {names()}")
+    probes, machines = chosen_units(parser, args, PROBES, QUICK_PROBES, names(), QUICK_MACHINES)
     print(LEGEND)
     results, summary, checks, elapsed = run(args.data, probes, machines, args.peer_step, args.quick)
     for part, tables in results.items():

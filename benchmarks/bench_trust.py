@@ -69,7 +69,6 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import re
 import sys
 import time
 import warnings
@@ -78,7 +77,7 @@ from pathlib import Path
 
 import bench_dynamic_peers as peers
 import numpy as np
-from _common import find_data, write_json
+from _common import check_docs_flags, chosen_units, find_data, replace_generated, write_json
 from bench_generalisation import fmt
 from scipy.stats import norm
 
@@ -1061,10 +1060,7 @@ def docs_block(data):
 
 def replace_block(text, block):
     """``text`` with its generated block replaced by ``block`` (lines); an error when it has none."""
-    pattern = re.compile(re.escape(BEGIN) + r".*?" + re.escape(END), re.S)
-    if not pattern.search(text):
-        raise ValueError(f"no generated block (a line {BEGIN[:40]!r}... to {END!r}) in the page")
-    return pattern.sub(lambda _: "\n".join(block), text, count=1)
+    return replace_generated(text, block, BEGIN, END)
 
 
 def write_docs(data, path=DOCS):
@@ -1133,25 +1129,9 @@ def main(argv=None):
         help="with --write-docs: take the numbers from this earlier run's JSON, run nothing",
     )
     args = parser.parse_args(argv)
-    if args.write_docs and not (args.json or args.from_json):
-        parser.error(
-            "--write-docs needs --json or --from-json (the docs are written from the file)"
-        )
-    if args.from_json:
-        if not args.write_docs:
-            parser.error("--from-json goes with --write-docs")
-        write_docs(json.loads(Path(args.from_json).read_text(encoding="utf-8")))
+    if check_docs_flags(parser, args, write_docs):
         return 0
-    probes = args.probes if args.probes is not None else (QUICK_PROBES if args.quick else PROBES)
-    bad = [p for p in probes if p not in PROBES]
-    if bad:
-        parser.error(f"--probes: {bad} are not CAIVIAC probes; choose from {list(PROBES)}")
-    machines = (
-        args.machines if args.machines is not None else (QUICK_MACHINES if args.quick else names())
-    )
-    bad = [m for m in machines if m not in names()]
-    if bad:
-        parser.error(f"--machines: {bad} are not fleet machines; choose from {names()}")
+    probes, machines = chosen_units(parser, args, PROBES, QUICK_PROBES, names(), QUICK_MACHINES)
     with warnings.catch_warnings():  # the folds' fit warnings are not the subject here
         warnings.simplefilter("ignore")
         results, elapsed = run(args.data, probes, machines, not args.no_changes)

@@ -1808,30 +1808,19 @@ class Compensator:
         """:class:`Status` of the last update: correction, half-width, trust."""
         u = self._plan_or_build().uncertainty
         kind, start, innovation = self._found
-        if self._time is None or self._corr is None:
-            return Status(
-                self._time,
-                None,
-                math.nan,
-                False,
-                False,
-                self._changes,
-                self._output,
-                self._held,
-                innovation,
-                kind,
-                start,
-                (),
+        corr, half, trusted, plausible, outside = None, math.nan, False, False, ()
+        if self._time is not None and self._corr is not None:
+            corr = self._corr
+            plausible = abs(corr) <= self.max_correction_um
+            if u is not None:
+                half = self.interval_quantile * math.sqrt(
+                    self._variance_at(self._time, self._model)
+                )
+            half += self._widening
+            trusted = plausible and (
+                self.tolerance_um is None or (math.isfinite(half) and half <= self.tolerance_um)
             )
-        corr = self._corr
-        plausible = abs(corr) <= self.max_correction_um
-        half = math.nan
-        if u is not None:
-            half = self.interval_quantile * math.sqrt(self._variance_at(self._time, self._model))
-        half += self._widening
-        trusted = plausible and (
-            self.tolerance_um is None or (math.isfinite(half) and half <= self.tolerance_um)
-        )
+            outside = self._outside()
         return Status(
             self._time,
             corr,
@@ -1844,7 +1833,7 @@ class Compensator:
             innovation,
             kind,
             start,
-            self._outside(),
+            outside,
         )
 
     # -- readings -------------------------------------------------------------
