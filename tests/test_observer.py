@@ -9,6 +9,7 @@ from scipy.stats import chi2
 
 from greyml.dynamic._observer import (
     WINDOW,
+    _innovations,
     glr_advance,
     glr_change,
     glr_reset,
@@ -115,6 +116,26 @@ def test_the_noise_chosen_follows_a_random_walk():
         ]
     )
     assert np.mean(z**2) == pytest.approx(scale)
+
+
+def test_innovations_of_every_test_and_pair_at_once_equal_one_replay_each():
+    """The batched recursion that chooses the filter's noise runs, for tests of
+    different lengths (one read never, one once) and several noise pairs, exactly
+    what :func:`replay` runs for one test and one pair."""
+    rng = np.random.default_rng(3)
+    prior = lambda h: 0.5 + 0.1 * h  # noqa: E731
+    series = [
+        (np.arange(0, n) * 0.1, rng.normal(0.0, 1.0, n)) for n in (3, 12, 57, 120)
+    ]  # 0.3 h: never read at 0.5 h; 1.2 h: read twice
+    qb, qr = np.array([0.0, 0.2, 1.0]), np.array([0.0, 0.05, 0.0])
+    for memory_h in (2.0, math.inf):
+        z, logs = _innovations(series, 0.5, prior, 0.05, memory_h, 0.3, qb, qr)
+        for t, (h, r) in enumerate(series):
+            for c in range(qb.size):
+                zt, lt, _, _ = replay(h, r, 0.5, prior, 0.05, memory_h, 0.3, qb[c], qr[c])
+                np.testing.assert_allclose(z[t][:, c], zt, rtol=1e-12, atol=1e-14)
+                np.testing.assert_allclose(logs[t][:, c], lt, rtol=1e-12, atol=1e-14)
+    assert [a.shape[0] for a in z] == [0, 2, 11, 23]
 
 
 def test_innovation_memory_by_hand():

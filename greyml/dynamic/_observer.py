@@ -172,9 +172,7 @@ def replay(hours, resid, every_h, prior, noise, memory_h, memory_var, qb, qr):
     readings would leave), and the first row a reading reached (rows before
     it are corrected by nothing).
     """
-    at = np.arange(every_h, hours[-1] + 1e-9, every_h)
-    rows = np.searchsorted(hours, at - 1e-9)
-    rows = rows[rows < hours.size]
+    rows = _reading_rows(hours, every_h)
     corrected = resid.astype(float).copy()
     z, logs = np.empty(rows.size), np.empty(rows.size)
     x, P, last = np.zeros(3), np.zeros((3, 3)), 0.0
@@ -201,6 +199,65 @@ BIAS_SHARES = (0.0, 1e-3, 1e-2, 1e-1, 1.0)
 RATE_SHARES = (0.0, 1e-4, 1e-3, 1e-2, 1e-1)
 
 
+def _reading_rows(hours, every_h):
+    """The rows of one test read every ``every_h`` hours from its first row."""
+    at = np.arange(every_h, hours[-1] + 1e-9, every_h)
+    rows = np.searchsorted(hours, at - 1e-9)
+    return rows[rows < hours.size]
+
+
+def _innovations(series, every_h, prior, noise, memory_h, memory_var, qb, qr):
+    """:func:`replay`'s innovations for every test of ``series`` and every pair
+    ``(qb[c], qr[c])`` at once: ``(z, logs)``, each a list (one per test) of arrays
+    (n_readings, n_pairs).
+
+    The same recursion as :func:`replay` (which is its reference), run over the
+    k-th reading of every test together, vectorised over tests and pairs:
+    the cost is the longest test's readings in Python steps, not the sum of
+    every test's readings times the pairs.
+    """
+    qb, qr = np.asarray(qb, dtype=float), np.asarray(qr, dtype=float)
+    rows = [_reading_rows(h, every_h) for h, _ in series]
+    T, C = len(series), qb.size
+    n_read = np.array([r.size for r in rows])
+    K = int(n_read.max(initial=0))
+    hr, zr = np.zeros((T, K)), np.zeros((T, K))
+    for t, ((h, r), i) in enumerate(zip(series, rows)):
+        hr[t, : i.size], zr[t, : i.size] = h[i], r[i]
+    z, logs = np.zeros((T, K, C)), np.zeros((T, K, C))
+    x, P = np.zeros((T, C, 3)), np.zeros((T, C, 3, 3))
+    eye = np.eye(3)
+    if K:  # the first reading: the batch variance there, all in the offset
+        P[:, :, 0, 0] = np.array([prior(v) for v in hr[:, 0]])[:, None]
+    for k in range(K):
+        t = np.flatnonzero(n_read > k)  # the tests read a k-th time
+        xt, Pt = x[t], P[t]
+        if k > 0:
+            dh = hr[t, k] - hr[t, k - 1]
+            phi = np.exp(-dh / memory_h) if math.isfinite(memory_h) else np.ones(t.size)
+            F = np.zeros((t.size, 1, 3, 3))
+            F[:, 0, 0, 0], F[:, 0, 1, 1], F[:, 0, 2, 2], F[:, 0, 1, 2] = phi, 1.0, 1.0, dh
+            Q = np.zeros((t.size, C, 3, 3))
+            Q[:, :, 0, 0] = (memory_var * (1.0 - phi * phi))[:, None]
+            Q[:, :, 1, 1] = qb * dh[:, None] + qr * dh[:, None] ** 3 / 3.0
+            Q[:, :, 1, 2] = Q[:, :, 2, 1] = qr * dh[:, None] ** 2 / 2.0
+            Q[:, :, 2, 2] = qr * dh[:, None]
+            xt = (F @ xt[..., None])[..., 0]
+            Pt = F @ Pt @ np.swapaxes(F, -1, -2) + Q
+        nu = zr[t, k, None] - (xt @ H)
+        PH = Pt @ H
+        S = PH @ H + noise
+        S = np.where(S <= 0, np.finfo(float).tiny, S)
+        gain = PH / S[..., None]
+        IKH = eye - gain[..., :, None] * H
+        Pt = IKH @ Pt @ np.swapaxes(IKH, -1, -2) + gain[..., :, None] * gain[..., None, :] * noise
+        P[t] = 0.5 * (Pt + np.swapaxes(Pt, -1, -2))
+        x[t] = xt + gain * nu[..., None]
+        z[t, k] = nu / np.sqrt(S)
+        logs[t, k] = np.log(S)
+    return [z[t, : n_read[t]] for t in range(T)], [logs[t, : n_read[t]] for t in range(T)]
+
+
 def observer_noise(series, prior, noise, memory_h, memory_var):
     """``(bias_var_per_h, rate_var_per_h3, scale, glr_scale)`` of the filter, chosen on
     ``series``.
@@ -219,31 +276,32 @@ def observer_noise(series, prior, noise, memory_h, memory_var):
     innovations' mean square) is returned with them, so that the filter's
     innovations on the training tests have a mean square of 1, and so is
     :func:`innovation_memory` of those innovations (what the likelihood test's
-    threshold is multiplied by).
+    threshold is multiplied by). Every pair and test is run at once
+    (:func:`_innovations`), as :func:`replay` runs one.
     """
     series = [(h, r) for h, r in series if r.size]
     if not series:
         return 0.0, 0.0, 1.0, 1.0
     e2 = float(np.mean(np.concatenate([r for _, r in series]) ** 2)) or 1.0
-    best = None
-    for fb in BIAS_SHARES:
-        for fr in RATE_SHARES:
-            qb, qr = fb * e2, fr * e2
-            runs = [
-                replay(h, r, every, prior, noise, memory_h, memory_var, qb, qr)
-                for every in READING_HOURS
-                for h, r in series
-            ]
-            z = np.concatenate([run[0] for run in runs])
-            if z.size == 0:
-                return 0.0, 0.0, 1.0, 1.0
-            logs = np.concatenate([run[1] for run in runs])
-            scale = max(float(np.mean(z**2)), 1e-12)
-            loglik = -0.5 * (float(np.sum(logs)) + z.size * math.log(scale))
-            if best is None or loglik > best[0] + 1e-9 * abs(best[0]):
-                best = (loglik, qb, qr, scale, runs)
-    _, qb, qr, scale, runs = best
-    return qb, qr, scale, innovation_memory([run[0] / math.sqrt(scale) for run in runs])
+    pairs = [(fb * e2, fr * e2) for fb in BIAS_SHARES for fr in RATE_SHARES]
+    qb, qr = np.array(pairs).T
+    runs = [
+        _innovations(series, every, prior, noise, memory_h, memory_var, qb, qr)
+        for every in READING_HOURS
+    ]
+    z = np.concatenate([a for zs, _ in runs for a in zs])
+    if z.shape[0] == 0:
+        return 0.0, 0.0, 1.0, 1.0
+    logs = np.concatenate([a for _, ls in runs for a in ls])
+    scales = np.maximum(np.mean(z**2, axis=0), 1e-12)
+    logliks = -0.5 * (np.sum(logs, axis=0) + z.shape[0] * np.log(scales))
+    best = 0
+    for c in range(1, len(pairs)):  # the first of equal likelihoods, as the grid is ordered
+        if logliks[c] > logliks[best] + 1e-9 * abs(logliks[best]):
+            best = c
+    scale = float(scales[best])
+    chosen = [a[:, best] / math.sqrt(scale) for zs, _ in runs for a in zs]
+    return float(qb[best]), float(qr[best]), scale, innovation_memory(chosen)
 
 
 def innovation_memory(runs, window=WINDOW):
