@@ -2,6 +2,7 @@
 held-out scores exact, terms that stream, clear messages for bad input."""
 
 import io
+from types import SimpleNamespace
 
 import numpy as np
 import pandas as pd
@@ -450,22 +451,15 @@ def test_held_out_spread_is_the_standard_error_of_the_refits(data):
     noisy = y + 0.05 * np.sin(np.arange(len(y)))
     model = _model(max_sensors=None, alphas=[1e-2], selection="forward").fit(X, noisy)
     rmses = _refit_rmses(X, noisy)
-    F = model._design(
-        X.to_numpy(),
-        model._timeline(X, __import__("greyml")._sequences.segments_by_test(X), model.gap_limit_s_),
-        [(i * 360, (i + 1) * 360) for i in range(4)],
-        model._spec_,
-        model._groups_,
-        "start",
+    bounds = [(i * 360, (i + 1) * 360) for i in range(4)]
+    steps = model._timeline(
+        X, __import__("greyml")._sequences.segments_by_test(X), model.gap_limit_s_
     )
     y0 = noisy.groupby(level="test", sort=False).transform("first")
-    grams, pen = model._grams(
-        F,
-        (noisy - y0).to_numpy(),
-        np.ones(len(y)),
-        [(i * 360, (i + 1) * 360) for i in range(4)],
-        "start",
+    data = SimpleNamespace(
+        X=X.to_numpy(), steps=steps, bounds=bounds, w=np.ones(len(y)), fold_tests=None
     )
+    grams, pen = model._grams(data, model._spec_, model._groups_, (noisy - y0).to_numpy(), "start")
     cols = _cols_all(model._col_group_, list(range(5)), grams.n_columns)
     spread = held_out_spread(grams, cols, 1e-2, pen, [0, 1, 2, 3])
     assert spread == pytest.approx(np.std(rmses, ddof=1) / 2.0, rel=1e-6)

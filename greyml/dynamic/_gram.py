@@ -17,8 +17,13 @@ from scipy.linalg import LinAlgError, cho_factor, cho_solve
 from greyml.dynamic._kernels import lag_filter
 
 __all__ = [
+    "CHUNK_ROWS",
+    "DesignRows",
     "GramBlocks",
+    "MAX_FOLDS",
     "design",
+    "fold_groups",
+    "grams_of_rows",
     "held_out_errors",
     "held_out_rmse",
     "held_out_scores",
@@ -33,6 +38,47 @@ __all__ = [
 _RESOLUTION = 1e-6
 
 
+#: Rows of lag features computed at a time: the design's memory is this many rows
+#: times its columns (8 bytes each), however many rows the tests have.
+CHUNK_ROWS = 1 << 15
+#: Held-out scores come from at most this many folds of whole tests: one test
+#: each up to this many tests, consecutive tests together beyond (ten folds, the
+#: compromise of bias and variance Hastie, Tibshirani and Friedman, 2009,
+#: §7.10.1, recommend), so that the nested choices cost the same however finely
+#: a recording is cut into tests.
+MAX_FOLDS = 10
+
+
+def _design_part(x, dt, bounds, spec, carry, idle, initial):
+    """``(F, final)``: the design of rows ``x`` and the lag state after them
+    (a dict keyed by the blocks' taus), continuing from ``initial`` (such a dict)."""
+    n = x.shape[0]
+    widths = [1 + len(taus) for _, _, taus in spec]
+    F = np.empty((n, int(sum(widths))))
+    offsets = np.concatenate(([0], np.cumsum(widths)))
+    by_taus = {}
+    for b, (_col, _power, taus) in enumerate(spec):
+        by_taus.setdefault(tuple(taus), []).append(b)
+    final = {}
+    for taus, blocks in by_taus.items():
+        cols = np.column_stack([x[:, spec[b][0]] ** spec[b][1] for b in blocks])
+        for k, b in enumerate(blocks):
+            F[:, offsets[b]] = cols[:, k]
+        if taus:
+            lags, final[taus] = lag_filter(
+                cols,
+                dt,
+                np.asarray(taus),
+                bounds,
+                carry=carry,
+                idle=np.isin(blocks, idle),
+                initial=None if initial is None else initial[taus],
+            )
+            for k, b in enumerate(blocks):
+                F[:, offsets[b] + 1 : offsets[b + 1]] = lags[:, k, :]
+    return F, final
+
+
 def design(x, dt, bounds, spec, carry, idle=()):
     """Design columns for inputs ``x`` (n, q) given ``spec``.
 
@@ -43,24 +89,63 @@ def design(x, dt, bounds, spec, carry, idle=()):
     test), ``idle`` the blocks whose lags start at 0 in a test without history.
     Returns ``F`` of shape (n, n_columns).
     """
-    n = x.shape[0]
-    widths = [1 + len(taus) for _, _, taus in spec]
-    F = np.empty((n, int(sum(widths))))
-    offsets = np.concatenate(([0], np.cumsum(widths)))
-    by_taus = {}
-    for b, (_col, _power, taus) in enumerate(spec):
-        by_taus.setdefault(tuple(taus), []).append(b)
-    for taus, blocks in by_taus.items():
-        cols = np.column_stack([x[:, spec[b][0]] ** spec[b][1] for b in blocks])
-        for k, b in enumerate(blocks):
-            F[:, offsets[b]] = cols[:, k]
-        if taus:
-            lags, _ = lag_filter(
-                cols, dt, np.asarray(taus), bounds, carry=carry, idle=np.isin(blocks, idle)
-            )
-            for k, b in enumerate(blocks):
-                F[:, offsets[b] + 1 : offsets[b + 1]] = lags[:, k, :]
-    return F
+    return _design_part(x, dt, bounds, spec, carry, idle, None)[0]
+
+
+class DesignRows:
+    """The design of consecutive row ranges, each continuing the lags of the one before.
+
+    ``DesignRows(dt, bounds, spec, carry, idle, start_rows)`` then
+    ``rows(r0, x)`` for the rows ``r0 : r0 + len(x)`` (``x`` their inputs,
+    ``dt`` and ``bounds`` in the whole data's row numbers), called in order
+    from row 0: the same rows of :func:`design` (each test's rows less its
+    first row's with ``start_rows``), to rounding, in memory proportional to
+    the rows asked for. How the rows are cut does not matter: a test may
+    begin, end or run through a range.
+    """
+
+    def __init__(self, dt, bounds, spec, carry, idle=(), start_rows=False):
+        self.dt, self.bounds, self.spec, self.idle = dt, list(bounds), spec, idle
+        self.carry = np.broadcast_to(np.asarray(carry, dtype=bool), (len(self.bounds),))
+        self.start_rows = start_rows
+        self.starts = np.array([a for a, _ in self.bounds], dtype=int)
+        self.state, self.next_row, self.firsts = None, 0, {}
+
+    def pieces(self, r0, r1):
+        """``(test, start, stop)`` of every test's rows within ``r0 : r1``."""
+        first = max(int(np.searchsorted(self.starts, r0, side="right")) - 1, 0)
+        out = []
+        for i in range(first, len(self.bounds)):
+            a, b = self.bounds[i]
+            if a >= r1:
+                break
+            if b > r0:
+                out.append((i, max(a, r0), min(b, r1)))
+        return out
+
+    def rows(self, r0, x):
+        if r0 != self.next_row:
+            raise ValueError(f"the design's rows are asked from row {r0}, not {self.next_row}.")
+        r1 = r0 + x.shape[0]
+        parts = self.pieces(r0, r1)
+        local = [(a - r0, b - r0) for _, a, b in parts]
+        i0, a0, _ = parts[0]
+        # the first piece continues the state unless it is a test's first row at rest
+        at_rest = a0 == self.bounds[i0][0] and (i0 == 0 or not self.carry[i0])
+        initial = None if (at_rest or self.state is None) else self.state
+        link = [True] + [bool(self.carry[i]) for i, _, _ in parts[1:]]
+        F, self.state = _design_part(x, self.dt[r0:r1], local, self.spec, link, self.idle, initial)
+        if self.start_rows:
+            for i, a, b in parts:
+                if a == self.bounds[i][0]:
+                    self.firsts[i] = F[a - r0].copy()
+                F[a - r0 : b - r0] -= self.firsts[i]
+            # a test's rows only need its first row's while they last
+            done = [i for i in self.firsts if self.bounds[i][1] <= r1]
+            for i in done:
+                del self.firsts[i]
+        self.next_row = r1
+        return F
 
 
 @dataclass(frozen=True)
@@ -92,6 +177,19 @@ class GramBlocks:
         """``p``, the columns of the design."""
         return self.G.shape[1]
 
+    def grouped(self, groups):
+        """One block per group of tests (lists of test indices): the sum of theirs."""
+        return GramBlocks(
+            np.stack([self.G[g].sum(axis=0) for g in groups]),
+            np.stack([self.b[g].sum(axis=0) for g in groups]),
+            np.array([self.yy[g].sum() for g in groups]),
+            np.array([self.sw[g].sum() for g in groups]),
+        )
+
+    def columns(self, cols):
+        """The blocks of the design's columns ``cols`` only."""
+        return replace(self, G=self.G[:, cols][:, :, cols], b=self.b[:, cols])
+
     def without(self, k):
         """The same blocks with test ``k``'s set to 0 (a copy)."""
         blocks = {}
@@ -113,6 +211,35 @@ def grams_by_test(A, y, w, bounds):
         yy.append(float(t @ (v * t)))
         sw.append(float(v.sum()))
     return GramBlocks(np.array(G), np.array(b), np.array(yy), np.array(sw))
+
+
+def grams_of_rows(rows, chunks, y, w, intercept):
+    """:func:`grams_by_test` of the design :class:`DesignRows` ``rows`` gives for the
+    inputs ``chunks`` (``(r0, x)`` in order, covering every row), a ones column
+    last with ``intercept``: the design is never held whole."""
+    width = sum(1 + len(taus) for _, _, taus in rows.spec) + bool(intercept)
+    T = len(rows.bounds)
+    G, b = np.zeros((T, width, width)), np.zeros((T, width))
+    for r0, x in chunks:
+        F = rows.rows(r0, x)
+        A = np.column_stack([F, np.ones(len(F))]) if intercept else F
+        del F
+        for i, start, stop in rows.pieces(r0, r0 + x.shape[0]):
+            a = A[start - r0 : stop - r0]
+            av = a * w[start:stop, None]
+            G[i] += av.T @ a
+            b[i] += av.T @ y[start:stop]
+    yy = np.array([float(y[s:e] @ (w[s:e] * y[s:e])) for s, e in rows.bounds])
+    sw = np.array([float(w[s:e].sum()) for s, e in rows.bounds])
+    return GramBlocks(G, b, yy, sw)
+
+
+def fold_groups(scored, max_folds=MAX_FOLDS):
+    """The scored tests in at most ``max_folds`` groups of consecutive tests
+    (one test each when there are no more)."""
+    n = len(scored)
+    k = min(n, max_folds)
+    return [list(scored[(j * n) // k : ((j + 1) * n) // k]) for j in range(k)]
 
 
 def _ridge(G, b, alpha, penalised):

@@ -60,11 +60,13 @@ from greyml._validation import (
 )
 from greyml.dynamic._envelope import InputEnvelope, envelope_of, follow, union
 from greyml.dynamic._gram import (
+    CHUNK_ROWS,
+    DesignRows,
     GramBlocks,
     _cols_all,
     _score,
-    design,
-    grams_by_test,
+    fold_groups,
+    grams_of_rows,
     held_out_rmse,
     held_out_scores,
     select_sensors,
@@ -72,7 +74,6 @@ from greyml.dynamic._gram import (
 )
 from greyml.dynamic._intervals import (
     IntervalCalibration,
-    held_out_predictions,
     scale_fit,
     scale_of,
     variogram_fit,
@@ -123,6 +124,8 @@ class Data:
     sensors: list
     steps: Timeline
     gap_limit: float
+    #: the tests of each fold where several share one (None: one test per fold)
+    fold_tests: list | None = None
 
 
 @dataclass(frozen=True)
@@ -809,33 +812,56 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
                 y_fit[start:stop] -= data.y[start]
         scored = [i for i, s in enumerate(data.segments) if data.w[s.slice].sum() > 0]
         folds = scored if len(scored) >= 3 else None
+        if folds is not None and len(scored) > len(fold_groups(scored)):
+            # more tests than folds: each fold's Grams are its tests' summed
+            data = replace(data, fold_tests=fold_groups(scored))
+            folds = list(range(len(data.fold_tests)))
         n_driver_columns = (
             len(data.drivers) * len(settings.powers) * (1 + len(settings.driver_taus))
         )
         self._check_enough_rows(data, settings, n_driver_columns, reference)
+        longer = []
+        if settings.extend and folds is not None:
+            longer = longer_banks(settings.taus, settings.driver_taus, span(data))
+        # every bank's Grams from the longest's (each bank's lags are a prefix of its)
+        widest = self._spec(
+            data.drivers,
+            data.sensors,
+            data.names,
+            settings.powers,
+            *(longer[-1] if longer else (settings.taus, settings.driver_taus)),
+        )
+        grams_of = self._bank_grams(data, widest[0], widest[1], y_fit, reference)
         base = self._fit_bank(
-            data, settings, y_fit, folds, reference, settings.taus, settings.driver_taus
+            data,
+            settings,
+            y_fit,
+            folds,
+            reference,
+            settings.taus,
+            settings.driver_taus,
+            grams_of=grams_of,
         )
         fits = [base]
-        if settings.extend and folds is not None:
-            # the sensors chosen on the bank, then the bank made longer for them
-            fits += [
-                replace(
-                    self._fit_bank(
-                        data,
-                        settings,
-                        y_fit,
-                        folds,
-                        reference,
-                        *b,
-                        base.chosen,
-                        base.method,
-                        base.lam,
-                    ),
-                    path=base.path,
-                )
-                for b in longer_banks(settings.taus, settings.driver_taus, span(data))
-            ]
+        # the sensors chosen on the bank, then the bank made longer for them
+        fits += [
+            replace(
+                self._fit_bank(
+                    data,
+                    settings,
+                    y_fit,
+                    folds,
+                    reference,
+                    *b,
+                    base.chosen,
+                    base.method,
+                    base.lam,
+                    grams_of=grams_of,
+                ),
+                path=base.path,
+            )
+            for b in longer
+        ]
         bank = min(fits, key=lambda f: f.score)  # the first of equal scores: the shortest
         if settings.fit_taus and folds is not None:
             chosen_names = [data.sensors[k] for k in bank.chosen]
@@ -902,19 +928,23 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
         chosen=None,
         method=None,
         lam=None,
+        grams_of=None,
     ):
         """Lag features on one bank, the sensors and penalty chosen on held-out tests.
 
         With ``chosen`` (and the ``method`` that chose them) the sensors are
         kept and only the ridge penalty is chosen (the group lasso keeps its
-        penalty ``lam``).
+        penalty ``lam``). ``grams_of(spec)`` gives the bank's Grams from a
+        wider bank's (by default they are computed).
         """
         spec, groups, labels = self._spec(
             data.drivers, data.sensors, data.names, settings.powers, taus, driver_taus
         )
         col_group = np.repeat(groups, [1 + len(b[2]) for b in spec])
-        F = self._design(data.X, data.steps, data.bounds, spec, groups, reference)
-        grams, pen = self._grams(F, y, data.w, data.bounds, reference)
+        if grams_of is None:
+            grams, pen = self._grams(data, spec, groups, y, reference)
+        else:
+            grams, pen = grams_of(spec)
         bank = partial(
             Bank, np.asarray(taus, dtype=float), np.asarray(driver_taus, dtype=float), spec
         )
@@ -1095,8 +1125,16 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
         if not (self.feature_coef_ != 0).any():
             pred = np.full(Xa.shape[0], self.intercept_)
         else:
-            F = self._design(Xa, steps, bounds, self._spec_, self._groups_, self.reference_)
-            pred = F @ self.feature_coef_ + self.intercept_
+            coef = np.append(self.feature_coef_, self.intercept_)
+            pred = self._predictions(
+                Xa,
+                steps,
+                bounds,
+                self._spec_,
+                self._groups_,
+                "start" if self.reference_ == "start" else "recording",
+                dict.fromkeys(range(len(bounds)), coef),
+            )
         for i, seg in enumerate(segments):
             if i in given:
                 pred[seg.slice] += given[i] - pred[seg.start]
@@ -1395,24 +1433,61 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
             labels.append((s, 1))
         return spec, groups, labels
 
-    def _design(self, x, steps, bounds, spec, groups, reference):
-        """Lag features of the blocks ``spec``; drivers (group -1) start idle without history."""
+    @staticmethod
+    def _design_rows(steps, bounds, spec, groups, reference):
+        """The :class:`DesignRows` of the blocks ``spec``; drivers (group -1) start idle
+        without history; each test's first row's subtracted in the "start" reference."""
         idle = [b for b, g in enumerate(groups) if g == -1]
-        F = design(x, steps.dt, bounds, spec, steps.carried, idle)
-        if reference == "start":
-            for start, stop in bounds:
-                F[start:stop] -= F[start].copy()
-        return F
+        return DesignRows(
+            steps.dt, bounds, spec, steps.carried, idle, start_rows=reference == "start"
+        )
 
     @staticmethod
-    def _grams(F, y, w, bounds, reference):
-        """Per-test raw Grams of the design (a ones column last in the recording reference)."""
+    def _chunks(x):
+        """``(r0, rows)`` of ``x`` in pieces of :data:`CHUNK_ROWS`."""
+        return ((r0, x[r0 : r0 + CHUNK_ROWS]) for r0 in range(0, x.shape[0], CHUNK_ROWS))
+
+    def _grams(self, data, spec, groups, y, reference):
+        """Per-test raw Grams of the design of ``spec`` (a ones column last in the
+        recording reference), summed by fold where several tests share one."""
         relative = reference == "start"
-        A = F if relative else np.column_stack([F, np.ones(len(F))])
-        pen = np.ones(A.shape[1])
+        rows = self._design_rows(data.steps, data.bounds, spec, groups, reference)
+        grams = grams_of_rows(rows, self._chunks(data.X), y, data.w, not relative)
+        if data.fold_tests is not None:
+            grams = grams.grouped(data.fold_tests)
+        pen = np.ones(grams.n_columns)
         if not relative:
             pen[-1] = 0.0
-        return grams_by_test(A, y, w, bounds), pen
+        return grams, pen
+
+    def _bank_grams(self, data, spec, groups, y, reference):
+        """``grams_of(spec)``: the Grams of any bank whose lags are a prefix of
+        ``spec``'s, from ``spec``'s computed once."""
+        wide, pen = self._grams(data, spec, groups, y, reference)
+        offsets = np.concatenate(([0], np.cumsum([1 + len(b[2]) for b in spec])))
+
+        def grams_of(sub):
+            cols = [offsets[k] + np.arange(1 + len(b[2])) for k, b in enumerate(sub)]
+            if reference != "start":
+                cols.append([offsets[-1]])
+            cols = np.concatenate(cols).astype(int)
+            return wide.columns(cols), pen[cols]
+
+        return grams_of
+
+    def _predictions(self, x, steps, bounds, spec, groups, reference, coefs):
+        """Each row's prediction by the coefficients ``coefs[test]`` of its test (a
+        ones column last in the recording reference); rows of other tests 0."""
+        rows = self._design_rows(steps, bounds, spec, groups, reference)
+        pred = np.zeros(x.shape[0])
+        for r0, chunk in self._chunks(x):
+            F = rows.rows(r0, chunk)
+            for i, start, stop in rows.pieces(r0, r0 + chunk.shape[0]):
+                if i in coefs:
+                    c = coefs[i]
+                    part = F[start - r0 : stop - r0] @ c[: F.shape[1]]
+                    pred[start:stop] = part + (c[F.shape[1]] if c.size > F.shape[1] else 0.0)
+        return pred
 
     def _fit_time_constants(self, data, chosen_names, settings, y, folds, reference):
         """Variable projection: Nelder–Mead over the log time constants, gains solved inside.
@@ -1432,8 +1507,7 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
             spec, groups, _ = self._spec(
                 data.drivers, chosen_names, data.names, settings.powers, ts, td
             )
-            F = self._design(data.X, data.steps, data.bounds, spec, groups, reference)
-            grams, pen = self._grams(F, y, data.w, data.bounds, reference)
+            grams, pen = self._grams(data, spec, groups, y, reference)
             cols = np.arange(grams.n_columns)
             return float(held_out_scores(grams, cols, settings.alphas, pen, folds).min())
 
@@ -1458,27 +1532,29 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
         """
         if folds is None:
             return None
-        F = self._design(data.X, data.steps, data.bounds, bank.spec, bank.groups, reference)
-        A = F if reference == "start" else np.column_stack([F, np.ones(len(F))])
-
         # the sensors and the penalty are chosen again without each test, the
         # penalty on every other value of the grid (half the cost; the residuals
         # of a choice that saw the test would be too small)
         grid = np.asarray(alphas, dtype=float)[::2]
 
-        def choose(k, grams, other_folds):
+        def choose(k):
             if bank.without is not None:  # computed when the candidates were compared
                 return bank.without[k]
             return self._selection_without(bank, data.sensors, grid, k, folds)
 
-        preds = held_out_predictions(A, bank.grams, folds, data.bounds, choose)
+        # each held-out test predicted by the model chosen and solved without its fold
+        tests = {k: [k] if data.fold_tests is None else data.fold_tests[k] for k in folds}
+        coefs = {t: coef for k in folds for coef in [choose(k)] for t in tests[k]}
+        pred = self._predictions(
+            data.X, data.steps, data.bounds, bank.spec, bank.groups, reference, coefs
+        )
         hours_all = elapsed_hours(data.steps.dt, data.bounds)
         hours, residuals = [], []
-        for k, pred in preds.items():
-            start, stop = data.bounds[k]
+        for t in (t for k in folds for t in tests[k]):
+            start, stop = data.bounds[t]
             used = data.w[start:stop] > 0
             hours.append(hours_all[start:stop][used])
-            residuals.append((y[start:stop] - pred)[used])
+            residuals.append((y[start:stop] - pred[start:stop])[used])
         series = [(h, r) for h, r in zip(hours, residuals) if r.size]
         # the white part: what decorrelates faster than the shortest reading
         # interval the filter is chosen for (15 min)
@@ -1794,13 +1870,14 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
         if self.reference_ == "start":
             for start, stop in bounds:
                 y_fit[start:stop] -= ya[start]
-        F = self._design(Xa, steps, bounds, self._spec_, self._groups_, self.reference_)
-        new, _ = self._grams(F, y_fit, w, bounds, self.reference_)
+        rows = self._design_rows(steps, bounds, self._spec_, self._groups_, self.reference_)
+        new = grams_of_rows(rows, self._chunks(Xa), y_fit, w, self.reference_ != "start")
+        n_cols = len(self._col_group_)
         cols = self._normal_cols_
         G = forgetting * self.normal_gram_ + new.G.sum(axis=0)[np.ix_(cols, cols)]
         b = forgetting * self.normal_rhs_ + new.b.sum(axis=0)[cols]
         weight = forgetting * self.normal_weight_ + float(new.sw.sum())
-        coef = np.zeros(F.shape[1] + (0 if self.reference_ == "start" else 1))
+        coef = np.zeros(n_cols + (0 if self.reference_ == "start" else 1))
         lam = vars(self).get("_normal_lambda_")
         if lam is None:
             coef[cols] = solve_all(G, b, weight, [self.alpha_], self._normal_pen_)[:, 0]
@@ -1809,7 +1886,6 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
             coef[cols] = group_lasso_at(
                 G, b, weight, self._normal_pen_, self._col_group_[inside], lam
             )
-        n_cols = F.shape[1]
         self.feature_coef_ = coef[:n_cols]
         self.intercept_ = 0.0 if self.reference_ == "start" else float(coef[n_cols])
         self.terms_ = self._terms()
