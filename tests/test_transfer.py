@@ -456,8 +456,9 @@ def test_held_out_spread_is_the_standard_error_of_the_refits(data):
         X, __import__("greyml")._sequences.segments_by_test(X), model.gap_limit_s_
     )
     y0 = noisy.groupby(level="test", sort=False).transform("first")
+    rows = SimpleNamespace(chunks=lambda: model._chunks(X.to_numpy()))
     data = SimpleNamespace(
-        X=X.to_numpy(), steps=steps, bounds=bounds, w=np.ones(len(y)), fold_tests=None
+        steps=steps, bounds=bounds, w=np.ones(len(y)), fold_tests=None, rows=rows
     )
     grams, pen = model._grams(data, model._spec_, model._groups_, (noisy - y0).to_numpy(), "start")
     cols = _cols_all(model._col_group_, list(range(5)), grams.n_columns)

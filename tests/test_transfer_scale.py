@@ -16,6 +16,7 @@ from greyml.dynamic._gram import (
     grams_by_test,
     grams_of_rows,
 )
+from greyml.io import TestFiles
 
 
 def _cut(n, sizes):
@@ -127,3 +128,90 @@ def test_the_nested_choices_cost_the_same_for_ten_or_forty_tests(monkeypatch):
     assert m10.interval_calibration_.n_tests == 10
     assert m40.interval_calibration_.n_tests == 40
     assert len(m40.fitted_tests_) == 40
+
+
+def _same_model(a, b):
+    """Two fits equal: gains, sensors, interval record, envelope and starts, bit for bit."""
+    assert a.selected_sensors_ == b.selected_sensors_
+    np.testing.assert_array_equal(a.feature_coef_, b.feature_coef_)
+    assert a.intercept_ == b.intercept_
+    ca, cb = a.interval_calibration_, b.interval_calibration_
+    for field in ca.__dataclass_fields__:
+        np.testing.assert_array_equal(getattr(ca, field), getattr(cb, field))
+    for field in ("low", "high", "max_rate_per_h"):
+        np.testing.assert_array_equal(
+            getattr(a.input_envelope_, field), getattr(b.input_envelope_, field)
+        )
+    assert a.test_starts_ == b.test_starts_
+    assert a.sensor_resolution_ == b.sensor_resolution_
+    assert a.step_sizes_ == b.step_sizes_
+
+
+@pytest.fixture(scope="module")
+def recording():
+    X, y = _tiled(6, hours=48.0)
+    return X, y, ThermalTransferFunction(drivers=["spindle_rpm"]).fit(X, y)
+
+
+@pytest.mark.parametrize("cut", [997, 1440, 2880])
+def test_a_fit_from_pieces_equals_the_fit_of_all_rows(recording, monkeypatch, cut):
+    """Pieces cut through tests, at test boundaries, and smaller than the design's
+    own pieces: the same model, bit for bit."""
+    monkeypatch.setattr(_gram, "CHUNK_ROWS", 1000)  # the rows' own pieces cut, too
+    X, y, _ = recording
+    whole = ThermalTransferFunction(drivers=["spindle_rpm"]).fit(X, y)
+    edges = [*range(0, len(y), cut), len(y)]
+    pieces = [(X.iloc[a:b], y[a:b]) for a, b in zip(edges[:-1], edges[1:])]
+    _same_model(whole, ThermalTransferFunction(drivers=["spindle_rpm"]).fit_chunks(pieces))
+
+
+def test_files_read_piece_by_piece_give_the_fit_of_all_rows(recording, tmp_path):
+    """Parquet files of a recording (tests running on from file to file) and CSV
+    files of one test each: the model ``fit`` gives on the rows read whole."""
+    pytest.importorskip("pyarrow")
+    X, y, whole = recording
+    frame = X.reset_index().assign(dx_um=y)
+    for k, (a, b) in enumerate([(0, 1000), (1000, 2500), (2500, len(y))]):
+        frame.iloc[a:b].to_parquet(tmp_path / f"part{k}.parquet")
+    files = TestFiles(tmp_path, "dx_um", each="recording", rows=700)
+    _same_model(whole, ThermalTransferFunction(drivers=["spindle_rpm"]).fit_chunks(files))
+    one = tmp_path / "one"
+    one.mkdir()
+    for label, part in frame.groupby("test", sort=False):
+        part.drop(columns="test").to_csv(one / f"{label}.csv", index=False)
+    files = TestFiles(sorted(one.glob("*.csv")), "dx_um", rows=500)
+    _same_model(whole, ThermalTransferFunction(drivers=["spindle_rpm"]).fit_chunks(files))
+
+
+def test_pieces_that_cannot_be_one_recording_are_refused(recording):
+    X, y, _ = recording
+    model = ThermalTransferFunction(drivers=["spindle_rpm"])
+    pieces = [(X.iloc[:100], y[:100]), (X.iloc[100:200], y[100:200])]
+    with pytest.raises(ValueError, match="not a generator"):
+        model.fit_chunks(iter(pieces))
+    back = [(X.iloc[:1000], y[:1000]), (X.iloc[1000:1100], y[1000:1100]), (X.iloc[:10], y[:10])]
+    with pytest.raises(ValueError, match="appears again in piece 2"):
+        model.fit_chunks(back)
+    with pytest.raises(ValueError, match=r"strictly increase.*piece 1"):
+        model.fit_chunks([(X.iloc[:100], y[:100]), (X.iloc[50:150], y[50:150])])
+    with pytest.raises(ValueError, match="T2_C"):
+        model.fit_chunks([(X.iloc[:100], y[:100]), (X.iloc[100:200].drop(columns="T2_C"), y[:100])])
+
+
+class _Changing:
+    """Pieces that are not the same the second time they are read."""
+
+    def __init__(self, X, y):
+        self.X, self.y, self.reads = X, y, 0
+
+    def __iter__(self):
+        self.reads += 1
+        n = 2000 if self.reads == 1 else 1900
+        yield self.X.iloc[:n], self.y[:n]
+        yield self.X.iloc[2000:4000], self.y[2000:4000]
+
+
+def test_data_that_change_between_reads_are_refused(recording):
+    X, y, _ = recording
+    with pytest.raises(ValueError, match="changed during the fit"):
+        ThermalTransferFunction(drivers=["spindle_rpm"]).fit_chunks(_Changing(X, y))

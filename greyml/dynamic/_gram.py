@@ -24,6 +24,7 @@ __all__ = [
     "design",
     "fold_groups",
     "grams_of_rows",
+    "row_pieces",
     "held_out_errors",
     "held_out_rmse",
     "held_out_scores",
@@ -92,6 +93,20 @@ def design(x, dt, bounds, spec, carry, idle=()):
     return _design_part(x, dt, bounds, spec, carry, idle, None)[0]
 
 
+def row_pieces(starts, bounds, r0, r1):
+    """``(test, start, stop)`` of every test's rows within ``r0 : r1`` (``starts``
+    the tests' first rows, ``bounds`` their ranges, in order)."""
+    first = max(int(np.searchsorted(starts, r0, side="right")) - 1, 0)
+    out = []
+    for i in range(first, len(bounds)):
+        a, b = bounds[i]
+        if a >= r1:
+            break
+        if b > r0:
+            out.append((i, max(a, r0), min(b, r1)))
+    return out
+
+
 class DesignRows:
     """The design of consecutive row ranges, each continuing the lags of the one before.
 
@@ -113,15 +128,7 @@ class DesignRows:
 
     def pieces(self, r0, r1):
         """``(test, start, stop)`` of every test's rows within ``r0 : r1``."""
-        first = max(int(np.searchsorted(self.starts, r0, side="right")) - 1, 0)
-        out = []
-        for i in range(first, len(self.bounds)):
-            a, b = self.bounds[i]
-            if a >= r1:
-                break
-            if b > r0:
-                out.append((i, max(a, r0), min(b, r1)))
-        return out
+        return row_pieces(self.starts, self.bounds, r0, r1)
 
     def rows(self, r0, x):
         if r0 != self.next_row:

@@ -38,6 +38,7 @@ __all__ = [
     "check_time_constants",
     "gap_message",
     "timeline",
+    "timeline_of",
 ]
 
 #: The values of the ``state`` parameter of the dynamic models.
@@ -157,6 +158,17 @@ def timeline(X, segments, *, owner, tau_max, state, nominal=None, default_step=N
     Timeline
     """
     t, clocked = _times(X, segments, owner, default_step)
+    index = X.index if isinstance(X, (pd.DataFrame, pd.Series)) else None
+    labelled = index is not None and TEST_LEVEL in (index.names or [])
+    return timeline_of(
+        t, clocked, labelled, segments, owner=owner, tau_max=tau_max, state=state, nominal=nominal
+    )
+
+
+def timeline_of(t, clocked, labelled, segments, *, owner, tau_max, state, nominal=None):
+    """:func:`timeline` of the times ``t`` of every row (``clocked``: from a
+    ``time_s`` level; ``labelled``: whose tests' times were checked with their
+    labels), however the rows were read."""
     n = t.size
     dt = np.empty(n)
     if n:
@@ -165,8 +177,7 @@ def timeline(X, segments, *, owner, tau_max, state, nominal=None, default_step=N
     starts = np.array([s.start for s in segments], dtype=int)
     inner = np.ones(n, dtype=bool)
     inner[starts] = False
-    index = X.index if isinstance(X, (pd.DataFrame, pd.Series)) else None
-    if clocked and TEST_LEVEL not in (index.names or []):
+    if clocked and not labelled:
         # with a test level, segments_by_test has checked the time already
         bad = np.flatnonzero(~np.isfinite(t) | (inner & ~(dt > 0)))
         if bad.size:

@@ -58,9 +58,9 @@ from greyml._validation import (
     require_y,
     validate_sequences,
 )
+from greyml.dynamic import _gram
 from greyml.dynamic._envelope import InputEnvelope, envelope_of, follow, union
 from greyml.dynamic._gram import (
-    CHUNK_ROWS,
     DesignRows,
     GramBlocks,
     _cols_all,
@@ -69,6 +69,7 @@ from greyml.dynamic._gram import (
     grams_of_rows,
     held_out_rmse,
     held_out_scores,
+    row_pieces,
     select_sensors,
     solve_all,
 )
@@ -80,8 +81,16 @@ from greyml.dynamic._intervals import (
     weights_by_test,
 )
 from greyml.dynamic._observer import READING_HOURS, observer_noise
+from greyml.dynamic._rows import Rows, read_rows
 from greyml.dynamic._sparse import RIDGE, group_lasso_at, group_lasso_select
-from greyml.dynamic._time import MAX_TERMS, STATES, Timeline, check_time_constants, timeline
+from greyml.dynamic._time import (
+    MAX_TERMS,
+    STATES,
+    Timeline,
+    check_time_constants,
+    timeline,
+    timeline_of,
+)
 from greyml.exceptions import UnderdeterminedWarning, WarmStartWarning
 
 __all__ = ["DEFAULT_ALPHAS", "DEFAULT_TIME_CONSTANTS", "MAX_INPUT", "ThermalTransferFunction"]
@@ -114,7 +123,7 @@ class Settings:
 class Data:
     """The checked training data of one fit."""
 
-    X: np.ndarray
+    X: np.ndarray | None
     y: np.ndarray
     w: np.ndarray
     segments: list
@@ -126,6 +135,8 @@ class Data:
     gap_limit: float
     #: the tests of each fold where several share one (None: one test per fold)
     fold_tests: list | None = None
+    #: the rows as read (:class:`~greyml.dynamic._rows.Rows`): their inputs piece by piece
+    rows: Rows | None = None
 
 
 @dataclass(frozen=True)
@@ -223,14 +234,20 @@ START_STATES = ("carried", "at rest", "assumed at rest")
 
 
 def sensor_resolution(x, bounds):
-    """The resolution of one sensor's readings: its quantum or its noise, the larger.
-
-    The quantum is the smallest change between successive readings; the noise
-    the robust spread of those changes (a random walk's step, so divided by
-    √2). A reading that never changes has resolution 0.
-    """
+    """The resolution of one sensor's readings ``x`` in the tests ``bounds``:
+    :func:`resolution_of_changes` of its changes within the tests."""
     parts = [np.diff(x[a:b]) for a, b in bounds if b - a > 1]
-    d = np.concatenate(parts) if parts else np.zeros(0)
+    return resolution_of_changes(np.concatenate(parts) if parts else np.zeros(0))
+
+
+def resolution_of_changes(d):
+    """The resolution of one sensor's readings: its quantum or its noise, the larger,
+    from ``d``, its changes between successive readings.
+
+    The quantum is the smallest change; the noise the robust spread of the
+    changes (a random walk's step, so divided by √2). A reading that never
+    changes has resolution 0.
+    """
     moved = np.abs(d[d != 0])
     if not moved.size:
         return 0.0
@@ -737,20 +754,46 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
 
     def _data(self, X, y, sample_weight, settings):
         """Validated training data: arrays, tests, inputs, weights and time."""
-        Xa, ya, segments = validate_sequences(self, X, y, reset=True)
-        # the inputs' values first (a NaN weight is reported as such), then their layout
-        w = self._sample_weights(sample_weight, Xa.shape[0], segments)
-        names = column_names(self, Xa.shape[1])
-        check_magnitudes(self, Xa, names, segments)
-        check_magnitudes(self, ya[:, None], ["the target y"], segments)
+        return self._data_of([(X, y, sample_weight)], settings, keep=True)
+
+    def _data_of(self, pieces, settings, keep):
+        """:meth:`_data` of rows given in pieces (held in memory with ``keep``)."""
+        rows = read_rows(
+            self,
+            pieces,
+            weights=partial(self._sample_weights, whole=False),
+            default_step=self.sample_interval,
+            keep=keep,
+        )
+        names = rows.names
         drivers, sensors = self._inputs(names)
         self._check_max_sensors(sensors, names)
         tau_max = settings.taus.max()
         if drivers:
             tau_max = max(tau_max, settings.driver_taus.max())
-        steps = self._timeline(X, segments, tau_max)
-        bounds = [(s.start, s.stop) for s in segments]
-        return Data(Xa, ya, w, segments, bounds, names, drivers, sensors, steps, float(tau_max))
+        steps = timeline_of(
+            rows.t,
+            rows.clocked,
+            rows.labelled,
+            rows.segments,
+            owner=type(self).__name__,
+            tau_max=tau_max,
+            state=self.state,
+        )
+        bounds = [(s.start, s.stop) for s in rows.segments]
+        return Data(
+            rows.X,
+            rows.y,
+            rows.w,
+            rows.segments,
+            bounds,
+            names,
+            drivers,
+            sensors,
+            steps,
+            float(tau_max),
+            rows=rows,
+        )
 
     @staticmethod
     def _choose_reference(asked, data):
@@ -794,6 +837,47 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
         -------
         self : ThermalTransferFunction
         """
+        self._check_drivers_given()
+        self._validate_params()
+        require_y(self, y)
+        settings = self._check_params()
+        return self._fit_data(self._data(X, y, sample_weight, settings), settings)
+
+    def fit_chunks(self, chunks):
+        """Fit on rows given in pieces, as ``fit`` on all of them stacked.
+
+        For data larger than memory: the pieces are read once to check them
+        and keep each row's time, target and weight (24 bytes a row), then
+        again for the Grams and again for the held-out predictions of the
+        intervals (more often with ``time_constants="fit"``); the lag
+        features are never held whole. The result equals ``fit`` on the
+        stacked rows to rounding (the same sums, cut at other places).
+
+        Parameters
+        ----------
+        chunks : sequence of (X, y) or (X, y, sample_weight)
+            The pieces in the order of the rows, each as ``fit`` takes them;
+            a test may run on from one piece into the next (the same label,
+            its time running on), but not come back after another test. It is
+            iterated at every pass, so it must give the same pieces each time:
+            a list, or :class:`greyml.io.TestFiles` to read files piece by
+            piece; a generator (read once) is refused.
+
+        Returns
+        -------
+        self : ThermalTransferFunction
+        """
+        if iter(chunks) is chunks:
+            raise ValueError(
+                f"{type(self).__name__}.fit_chunks reads its pieces more than once; give a "
+                "sequence (a list, or greyml.io.TestFiles), not a generator or iterator."
+            )
+        self._check_drivers_given()
+        self._validate_params()
+        settings = self._check_params()
+        return self._fit_data(self._data_of(chunks, settings, keep=False), settings)
+
+    def _check_drivers_given(self):
         if isinstance(self.drivers, str):
             # before the constraints, which would only say "an array-like"
             raise ValueError(
@@ -801,10 +885,9 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
                 f"column names, e.g. [{self.drivers!r}]. Got the string {self.drivers!r} "
                 "instead."
             )
-        self._validate_params()
-        require_y(self, y)
-        settings = self._check_params()
-        data = self._data(X, y, sample_weight, settings)
+
+    def _fit_data(self, data, settings):
+        """The fit proper, on checked :class:`Data`."""
         reference = self._choose_reference(settings.reference, data)
         y_fit = data.y.copy()
         if reference == "start":
@@ -901,10 +984,11 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
         )
         columns = [data.names.index(c) for c in data.sensors]
         self.sensor_resolution_ = max(
-            (sensor_resolution(data.X[:, k], data.bounds) for k in columns), default=0.0
+            (resolution_of_changes(data.rows.changes[:, k]) for k in columns), default=0.0
         )
+        firsts = [(i, i + 1) for i in range(len(data.bounds))]
         states = start_states(
-            data.X, data.bounds, data.steps.carried, columns, self.sensor_resolution_
+            data.rows.first_rows, firsts, data.steps.carried, columns, self.sensor_resolution_
         )
         self.test_starts_ = {
             ("" if seg.label is None else str(seg.label)): state
@@ -1075,8 +1159,7 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
         self.terms_ = self._terms()
         self.step_sizes_ = {s: 1.0 for s in data.sensors}
         for d in data.drivers:
-            col = data.X[:, data.names.index(d)]
-            self.step_sizes_[d] = _round_step(float(np.abs(col).max()))
+            self.step_sizes_[d] = _round_step(float(data.rows.peaks[data.names.index(d)]))
         self.step_sizes_ = {c: self.step_sizes_[c] for c in data.drivers + data.sensors}
 
     # -- predict --------------------------------------------------------------
@@ -1127,7 +1210,8 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
         else:
             coef = np.append(self.feature_coef_, self.intercept_)
             pred = self._predictions(
-                Xa,
+                self._chunks(Xa),
+                Xa.shape[0],
                 steps,
                 bounds,
                 self._spec_,
@@ -1228,7 +1312,7 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
         relative = reference == "start"
         n_coef += 0 if relative else 1
         n_eq = int((data.w > 0).sum()) - (len(data.segments) if relative else 0)
-        n = data.X.shape[0]
+        n = data.y.shape[0]
         rows = (
             f"{n} sample{'' if n == 1 else 's'} in {len(data.segments)} test(s) give "
             f"{n_eq} equation{'' if n_eq == 1 else 's'}"
@@ -1246,8 +1330,9 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
                 UnderdeterminedWarning,
             )
 
-    def _sample_weights(self, sample_weight, n, segments):
-        """``sample_weight`` as finite weights >= 0, not all 0 (ones without it)."""
+    def _sample_weights(self, sample_weight, n, segments, whole=True):
+        """``sample_weight`` as finite weights >= 0, not all 0 (ones without it);
+        the rows of one piece of the data (which may all be 0) unless ``whole``."""
         if sample_weight is None:
             return np.ones(n)
         w = np.asarray(sample_weight, dtype=float).reshape(-1)
@@ -1263,7 +1348,7 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
                 f"{type(self).__name__}: sample_weight of row {r} ({test}) is "
                 f"{value}; weights must be finite and >= 0."
             )
-        if w.sum() <= 0:
+        if whole and w.sum() <= 0:
             raise ValueError(
                 f"{type(self).__name__}: every sample_weight is zero; give some rows a "
                 "positive weight."
@@ -1445,14 +1530,15 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
     @staticmethod
     def _chunks(x):
         """``(r0, rows)`` of ``x`` in pieces of :data:`CHUNK_ROWS`."""
-        return ((r0, x[r0 : r0 + CHUNK_ROWS]) for r0 in range(0, x.shape[0], CHUNK_ROWS))
+        rows = _gram.CHUNK_ROWS
+        return ((r0, x[r0 : r0 + rows]) for r0 in range(0, x.shape[0], rows))
 
     def _grams(self, data, spec, groups, y, reference):
         """Per-test raw Grams of the design of ``spec`` (a ones column last in the
         recording reference), summed by fold where several tests share one."""
         relative = reference == "start"
         rows = self._design_rows(data.steps, data.bounds, spec, groups, reference)
-        grams = grams_of_rows(rows, self._chunks(data.X), y, data.w, not relative)
+        grams = grams_of_rows(rows, data.rows.chunks(), y, data.w, not relative)
         if data.fold_tests is not None:
             grams = grams.grouped(data.fold_tests)
         pen = np.ones(grams.n_columns)
@@ -1475,12 +1561,13 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
 
         return grams_of
 
-    def _predictions(self, x, steps, bounds, spec, groups, reference, coefs):
-        """Each row's prediction by the coefficients ``coefs[test]`` of its test (a
-        ones column last in the recording reference); rows of other tests 0."""
+    def _predictions(self, chunks, n, steps, bounds, spec, groups, reference, coefs):
+        """Each of the ``n`` rows' prediction (their inputs ``chunks``, as
+        :meth:`Rows.chunks` gives them) by the coefficients ``coefs[test]`` of its
+        test (a ones column last); rows of other tests 0."""
         rows = self._design_rows(steps, bounds, spec, groups, reference)
-        pred = np.zeros(x.shape[0])
-        for r0, chunk in self._chunks(x):
+        pred = np.zeros(n)
+        for r0, chunk in chunks:
             F = rows.rows(r0, chunk)
             for i, start, stop in rows.pieces(r0, r0 + chunk.shape[0]):
                 if i in coefs:
@@ -1546,7 +1633,14 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
         tests = {k: [k] if data.fold_tests is None else data.fold_tests[k] for k in folds}
         coefs = {t: coef for k in folds for coef in [choose(k)] for t in tests[k]}
         pred = self._predictions(
-            data.X, data.steps, data.bounds, bank.spec, bank.groups, reference, coefs
+            data.rows.chunks(),
+            data.y.size,
+            data.steps,
+            data.bounds,
+            bank.spec,
+            bank.groups,
+            reference,
+            coefs,
         )
         hours_all = elapsed_hours(data.steps.dt, data.bounds)
         hours, residuals = [], []
@@ -1678,12 +1772,31 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
 
     def _envelope(self, data):
         """The :class:`InputEnvelope` of the inputs the model reads, from the rows of
-        positive weight (see :mod:`greyml.dynamic._envelope`)."""
+        positive weight (see :mod:`greyml.dynamic._envelope`), the rows read piece by
+        piece (each piece with the last row of the one before, so that the change
+        between them counts)."""
         used = self._used_inputs()
         columns = [data.names.index(c) for c in used]
-        return envelope_of(
-            data.X[:, columns], data.steps.dt, data.bounds, data.w, used, data.steps.carried
-        )
+        dt, w, carried = data.steps.dt, data.w, data.steps.carried
+        starts = np.array([a for a, _ in data.bounds], dtype=int)
+        env, last = None, None
+        for r0, x in data.rows.chunks():
+            r1 = r0 + x.shape[0]
+            parts = row_pieces(starts, data.bounds, r0, r1)
+            lo = r0 - (last is not None)
+            local = [(a - lo, b - lo) for _, a, b in parts]
+            links = [bool(carried[i]) for i, _, _ in parts]
+            rows = x[:, columns]
+            if last is not None:
+                rows = np.vstack([last, rows])
+                if parts[0][1] > data.bounds[parts[0][0]][0]:  # the test runs on
+                    local[0] = (0, local[0][1])
+                else:
+                    local, links = [(0, 1), *local], [False, *links]
+            seen = envelope_of(rows, dt[lo:r1], local, w[lo:r1], used, links)
+            env = seen if env is None else union(env, seen)
+            last = x[-1:, columns]
+        return env
 
     def _followed(self, X):
         """``(Xa, followed, columns, segments)``: the rows of ``X`` as an array, the
