@@ -50,34 +50,51 @@ CHUNK_ROWS = 1 << 15
 MAX_FOLDS = 10
 
 
-def _design_part(x, dt, bounds, spec, carry, idle, initial):
-    """``(F, final)``: the design of rows ``x`` and the lag state after them
-    (a dict keyed by the blocks' taus), continuing from ``initial`` (such a dict)."""
-    n = x.shape[0]
+def _layout(spec):
+    """``(groups, order, starts)``: the blocks of each set of taus; the design's
+    columns in the order they are computed (``order[i]``, the column of ``spec``'s
+    layout that computed row ``i`` is): every block's static column, then each set
+    of taus' lags, block by block, so that the lag filter writes them in place;
+    and where each set's lags begin."""
     widths = [1 + len(taus) for _, _, taus in spec]
-    F = np.empty((n, int(sum(widths))))
-    offsets = np.concatenate(([0], np.cumsum(widths)))
-    by_taus = {}
+    offsets = np.concatenate(([0], np.cumsum(widths))).astype(int)
+    groups = {}
     for b, (_col, _power, taus) in enumerate(spec):
-        by_taus.setdefault(tuple(taus), []).append(b)
+        groups.setdefault(tuple(taus), []).append(b)
+    order = [offsets[b] for b in range(len(spec))]
+    starts = {}
+    for taus, blocks in groups.items():
+        starts[taus] = len(order)
+        order += [offsets[b] + 1 + j for b in blocks for j in range(len(taus))]
+    return groups, np.asarray(order, dtype=int), starts
+
+
+def _design_part(x, dt, bounds, spec, carry, idle, initial, layout=None):
+    """``(FT, final)``: the design of rows ``x``, transposed, its rows in
+    :func:`_layout`'s order, and the lag state after them (a dict keyed by the
+    blocks' taus), continuing from ``initial`` (such a dict)."""
+    groups, order, starts = _layout(spec) if layout is None else layout
+    n = x.shape[0]
+    FT = np.empty((order.size, n))
+    for b, (col, power, _taus) in enumerate(spec):
+        FT[b] = x[:, col] ** power
     final = {}
-    for taus, blocks in by_taus.items():
-        cols = np.column_stack([x[:, spec[b][0]] ** spec[b][1] for b in blocks])
-        for k, b in enumerate(blocks):
-            F[:, offsets[b]] = cols[:, k]
-        if taus:
-            lags, final[taus] = lag_filter(
-                cols,
-                dt,
-                np.asarray(taus),
-                bounds,
-                carry=carry,
-                idle=np.isin(blocks, idle),
-                initial=None if initial is None else initial[taus],
-            )
-            for k, b in enumerate(blocks):
-                F[:, offsets[b] + 1 : offsets[b + 1]] = lags[:, k, :]
-    return F, final
+    for taus, blocks in groups.items():
+        if not taus:
+            continue
+        m = len(taus)
+        store = FT[starts[taus] : starts[taus] + len(blocks) * m].reshape(len(blocks), m, n)
+        _, final[taus] = lag_filter(
+            FT[blocks].T,
+            dt,
+            np.asarray(taus),
+            bounds,
+            carry=carry,
+            idle=np.isin(blocks, idle),
+            initial=None if initial is None else initial[taus],
+            out=store,
+        )
+    return FT, final
 
 
 def design(x, dt, bounds, spec, carry, idle=()):
@@ -90,7 +107,10 @@ def design(x, dt, bounds, spec, carry, idle=()):
     test), ``idle`` the blocks whose lags start at 0 in a test without history.
     Returns ``F`` of shape (n, n_columns).
     """
-    return _design_part(x, dt, bounds, spec, carry, idle, None)[0]
+    FT, _ = _design_part(x, dt, bounds, spec, carry, idle, None)
+    F = np.empty((x.shape[0], FT.shape[0]))
+    F[:, _layout(spec)[1]] = FT.T
+    return F
 
 
 def row_pieces(starts, bounds, r0, r1):
@@ -114,9 +134,10 @@ class DesignRows:
     ``rows(r0, x)`` for the rows ``r0 : r0 + len(x)`` (``x`` their inputs,
     ``dt`` and ``bounds`` in the whole data's row numbers), called in order
     from row 0: the same rows of :func:`design` (each test's rows less its
-    first row's with ``start_rows``), to rounding, in memory proportional to
-    the rows asked for. How the rows are cut does not matter: a test may
-    begin, end or run through a range.
+    first row's with ``start_rows``), transposed, the columns in the order
+    ``order`` (row ``i`` is :func:`design`'s column ``order[i]``), in memory
+    proportional to the rows asked for. How the rows are cut does not matter:
+    a test may begin, end or run through a range.
     """
 
     def __init__(self, dt, bounds, spec, carry, idle=(), start_rows=False):
@@ -125,6 +146,8 @@ class DesignRows:
         self.start_rows = start_rows
         self.starts = np.array([a for a, _ in self.bounds], dtype=int)
         self.state, self.next_row, self.firsts = None, 0, {}
+        self.layout = _layout(spec)
+        self.order = self.layout[1]
 
     def pieces(self, r0, r1):
         """``(test, start, stop)`` of every test's rows within ``r0 : r1``."""
@@ -141,18 +164,20 @@ class DesignRows:
         at_rest = a0 == self.bounds[i0][0] and (i0 == 0 or not self.carry[i0])
         initial = None if (at_rest or self.state is None) else self.state
         link = [True] + [bool(self.carry[i]) for i, _, _ in parts[1:]]
-        F, self.state = _design_part(x, self.dt[r0:r1], local, self.spec, link, self.idle, initial)
+        FT, self.state = _design_part(
+            x, self.dt[r0:r1], local, self.spec, link, self.idle, initial, self.layout
+        )
         if self.start_rows:
             for i, a, b in parts:
                 if a == self.bounds[i][0]:
-                    self.firsts[i] = F[a - r0].copy()
-                F[a - r0 : b - r0] -= self.firsts[i]
+                    self.firsts[i] = FT[:, a - r0].copy()
+                FT[:, a - r0 : b - r0] -= self.firsts[i][:, None]
             # a test's rows only need its first row's while they last
             done = [i for i in self.firsts if self.bounds[i][1] <= r1]
             for i in done:
                 del self.firsts[i]
         self.next_row = r1
-        return F
+        return FT
 
 
 @dataclass(frozen=True)
@@ -224,18 +249,33 @@ def grams_of_rows(rows, chunks, y, w, intercept):
     """:func:`grams_by_test` of the design :class:`DesignRows` ``rows`` gives for the
     inputs ``chunks`` (``(r0, x)`` in order, covering every row), a ones column
     last with ``intercept``: the design is never held whole."""
-    width = sum(1 + len(taus) for _, _, taus in rows.spec) + bool(intercept)
+    width = rows.order.size
     T = len(rows.bounds)
     G, b = np.zeros((T, width, width)), np.zeros((T, width))
+    ones, yw = np.zeros((T, width)), np.zeros(T)
     for r0, x in chunks:
-        F = rows.rows(r0, x)
-        A = np.column_stack([F, np.ones(len(F))]) if intercept else F
-        del F
+        FT = rows.rows(r0, x)
         for i, start, stop in rows.pieces(r0, r0 + x.shape[0]):
-            a = A[start - r0 : stop - r0]
-            av = a * w[start:stop, None]
-            G[i] += av.T @ a
-            b[i] += av.T @ y[start:stop]
+            a = FT[:, start - r0 : stop - r0]
+            v = w[start:stop]
+            av = a if (v == 1.0).all() else a * v
+            G[i] += av @ a.T
+            b[i] += av @ y[start:stop]
+            ones[i] += av.sum(axis=1)
+    # back to design()'s column order, a ones column last with the intercept
+    back = np.argsort(rows.order)
+    G, b, ones = G[:, back][:, :, back], b[:, back], ones[:, back]
+    if intercept:
+        sw = np.array([w[s:e].sum() for s, e in rows.bounds])
+        yw = np.array([w[s:e] @ y[s:e] for s, e in rows.bounds])
+        G = np.concatenate(
+            [
+                np.concatenate([G, ones[:, None, :]], axis=1),
+                np.concatenate([ones, sw[:, None]], axis=1)[:, :, None],
+            ],
+            axis=2,
+        )
+        b = np.concatenate([b, yw[:, None]], axis=1)
     yy = np.array([float(y[s:e] @ (w[s:e] * y[s:e])) for s, e in rows.bounds])
     sw = np.array([float(w[s:e].sum()) for s, e in rows.bounds])
     return GramBlocks(G, b, yy, sw)

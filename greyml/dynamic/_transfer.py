@@ -1567,13 +1567,17 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
         test (a ones column last); rows of other tests 0."""
         rows = self._design_rows(steps, bounds, spec, groups, reference)
         pred = np.zeros(n)
+        width = rows.order.size
+        inner = {}  # each test's coefficients in the order the rows compute the columns
         for r0, chunk in chunks:
-            F = rows.rows(r0, chunk)
+            FT = rows.rows(r0, chunk)
             for i, start, stop in rows.pieces(r0, r0 + chunk.shape[0]):
                 if i in coefs:
                     c = coefs[i]
-                    part = F[start - r0 : stop - r0] @ c[: F.shape[1]]
-                    pred[start:stop] = part + (c[F.shape[1]] if c.size > F.shape[1] else 0.0)
+                    if i not in inner:
+                        inner[i] = (c[:width][rows.order], c[width] if c.size > width else 0.0)
+                    ci, c0 = inner[i]
+                    pred[start:stop] = ci @ FT[:, start - r0 : stop - r0] + c0
         return pred
 
     def _fit_time_constants(self, data, chosen_names, settings, y, folds, reference):
