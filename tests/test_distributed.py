@@ -16,7 +16,9 @@ import joblib
 import numpy as np
 import pandas as pd
 import pytest
+from _recordings import tiled
 from distributed import Client, LocalCluster, get_task_stream
+from sklearn.base import clone
 from sklearn.exceptions import FitFailedWarning
 from sklearn.model_selection import GridSearchCV, LeaveOneGroupOut
 from sklearn.pipeline import Pipeline
@@ -28,9 +30,12 @@ from greyml import (
     GreyInfluenceSelector,
     MLPBaseline,
     RelativeToStart,
+    ThermalTransferFunction,
     groups_of,
 )
 from greyml.datasets import load_vmc_tests
+from greyml.fleet import Partitions, fit_fleet
+from greyml.io import TestFiles
 from greyml.metrics import get_scorer
 
 # the variables dask's nanny sets to 1 before it spawns a worker process
@@ -309,3 +314,43 @@ def test_validate_withheld_on_dask_equals_the_sequential_run(client):
     # every outcome identical, only the wall time differs
     columns = [c for c in sequential.columns if c != "seconds"]
     pd.testing.assert_frame_equal(distributed[columns], sequential[columns])
+
+
+def test_a_fleet_on_dask_equals_each_machine_fitted_alone(client, tmp_path):
+    """Three machines, each its own Parquet files read by the worker that fits it:
+    every model equals the machine's sequential fit, bit for bit."""
+    pytest.importorskip("pyarrow")
+    machines = {}
+    for k in range(3):
+        X, y = tiled(3, hours=12.0, seed=k)
+        folder = tmp_path / f"machine{k}"
+        folder.mkdir()
+        flat = X.reset_index().assign(dx_um=y)
+        flat.iloc[:300].to_parquet(folder / "a.parquet")
+        flat.iloc[300:].to_parquet(folder / "b.parquet")
+        machines[f"vmc-{k}"] = TestFiles(folder, "dx_um", each="recording", rows=500)
+    model = ThermalTransferFunction(drivers=["spindle_rpm"])
+    alone = fit_fleet(model, machines)
+    with get_task_stream(client) as stream:
+        on_cluster = fit_fleet(model, machines, client=client)
+    assert {task["worker"] for task in stream.data} - {None}  # ran on the workers
+    assert list(on_cluster) == ["vmc-0", "vmc-1", "vmc-2"]
+    for name, fitted in on_cluster.items():
+        np.testing.assert_array_equal(fitted.feature_coef_, alone[name].feature_coef_)
+        assert fitted.selected_sensors_ == alone[name].selected_sensors_
+        np.testing.assert_array_equal(
+            fitted.interval_calibration_.scores, alone[name].interval_calibration_.scores
+        )
+
+
+def test_one_model_from_a_dask_dataframes_partitions_equals_fit(client):
+    import dask.dataframe as dd
+
+    X, y = tiled(5, hours=30.0)
+    flat = X.reset_index().assign(dx_um=y)
+    frame = dd.from_pandas(flat, npartitions=4, sort=False)
+    model = ThermalTransferFunction(drivers=["spindle_rpm"])
+    whole = clone(model).fit(X, y)
+    parts = clone(model).fit_chunks(Partitions(frame, "dx_um"))
+    np.testing.assert_array_equal(parts.feature_coef_, whole.feature_coef_)
+    assert parts.selected_sensors_ == whole.selected_sensors_

@@ -22,7 +22,7 @@ import pandas as pd
 
 from greyml._sequences import make_test_index
 
-__all__ = ["MAX_FILE_COLUMNS", "TestFiles"]
+__all__ = ["MAX_FILE_COLUMNS", "TestFiles", "piece_of"]
 
 #: The most columns a file read piece by piece may have (checked on its header
 #: before any row is read): a thermal test logs tens of sensors, not thousands.
@@ -108,19 +108,35 @@ class TestFiles:
             yield self._piece(frame, path, label)
 
     def _piece(self, frame, path, label):
-        time = pd.to_numeric(frame["time_s"], errors="coerce").to_numpy(dtype=float)
-        if np.isnan(time).any():
-            row = int(np.flatnonzero(np.isnan(time))[0])
-            raise ValueError(f"TestFiles: {path}: 'time_s' is not a number at data row {row}.")
-        if self.each == "recording":
-            tests = frame[self.test_column].astype(str).to_numpy()
-        else:
-            tests = np.full(len(frame), label, dtype=object)
-        drop = ["time_s", self.target] + ([self.test_column] if self.each == "recording" else [])
-        X = frame.drop(columns=drop)
-        X.index = make_test_index(tests, time * _UNITS[self.time_unit])
-        y = frame[self.target].to_numpy()
-        return X, y
+        return piece_of(
+            frame,
+            target=self.target,
+            test_column=self.test_column if self.each == "recording" else None,
+            time_unit=self.time_unit,
+            where=path,
+            label=label,
+        )
+
+
+def piece_of(frame, *, target, test_column, time_unit="s", where="the frame", label=None):
+    """``(X, y)`` in greyml's layout from a flat ``frame`` of columns ``time_s``,
+    ``target``, the inputs, and the test labels ``test_column`` (or, without one,
+    every row of the test ``label``)."""
+    for column in ("time_s", target, test_column):
+        if column is not None and column not in frame.columns:
+            raise ValueError(f"{where} has no column {column!r}.")
+    time = pd.to_numeric(frame["time_s"], errors="coerce").to_numpy(dtype=float)
+    if np.isnan(time).any():
+        row = int(np.flatnonzero(np.isnan(time))[0])
+        raise ValueError(f"{where}: 'time_s' is not a number at data row {row}.")
+    if test_column is not None:
+        tests = frame[test_column].astype(str).to_numpy()
+    else:
+        tests = np.full(len(frame), label, dtype=object)
+    drop = ["time_s", target] + ([test_column] if test_column is not None else [])
+    X = frame.drop(columns=drop)
+    X.index = make_test_index(tests, time * _UNITS[time_unit])
+    return X, frame[target].to_numpy()
 
 
 def _files(paths):
