@@ -66,7 +66,12 @@ Examples:
 
 def _add_fit_parser(subparsers):
     parser = flags._subparser(subparsers, "fit", _FIT_EPILOG)
-    parser.add_argument("data", metavar="DATA.csv", help="training tests (CSV)")
+    parser.add_argument(
+        "data",
+        metavar="DATA.csv",
+        help="training tests (CSV); for transfer-function also a folder or a glob of CSV and "
+        "Parquet files, read piece by piece",
+    )
     flags._add_target(parser)
     parser.add_argument("--out", required=True, metavar="MODEL.file", help="model file to write")
     add_model_flags(parser)
@@ -162,6 +167,10 @@ def run_fit(
     )
     dynamic, drivers = choice.dynamic, choice.drivers
     path = _check_output_file(out, force)
+    if _many_files(data):
+        return _fit_files(
+            data, target, choice, path, force, csv_options, quiet, train_tests, sensors, rises
+        )
     with _progress(4, quiet) as progress:
         progress.step(f"reading {os.fspath(data)!r}")
         frame, columns = _load_training(
@@ -240,6 +249,87 @@ def run_fit(
     print(
         f"  on the training rows: RMSE {fit_scores['RMSE']:.3g}, ±res {fit_scores['band']:.3g}, "
         f"R {fit_scores['R']:.3f} (score each test held out with greyml validate)"
+    )
+    print(f"saved to {os.fspath(saved)!r}")
+    return 0
+
+
+def _many_files(data):
+    """Whether ``data`` names many files: a folder, or a glob pattern."""
+    text = os.fspath(data)
+    return os.path.isdir(text) or (not os.path.exists(text) and any(c in text for c in "*?["))
+
+
+def _fit_files(data, target, choice, path, force, csv_options, quiet, train_tests, sensors, rises):
+    """``greyml fit`` on a folder or a glob of files: read piece by piece, never whole."""
+    import pandas as pd
+
+    from greyml._cli._files import _candidates
+    from greyml._seeds import make_model
+    from greyml.io import TestFiles
+    from greyml.persist import save_model
+
+    where = os.fspath(data)
+    if not choice.dynamic:
+        raise ValueError(
+            f"{where!r} names many files: only --model transfer-function reads files piece by "
+            "piece; give the other models one CSV file."
+        )
+    for flag, given in (("--train-tests", train_tests), ("--rises", rises)):
+        if given:
+            raise ValueError(
+                f"{flag} is not taken with many files; put the tests to train on in their own "
+                "folder."
+            )
+    options = csv_options or {}
+    if options.get("sep") or options.get("decimal"):
+        raise ValueError(
+            "--sep and --decimal are for one CSV file; many files are read as CSV "
+            "with commas and dots, or Parquet."
+        )
+    test_column = options.get("test_column") or "test"
+    files = TestFiles(
+        data, target, test_column=test_column, time_unit=options.get("time_unit") or "s"
+    )
+    header = [c for c in files.columns() if c not in (test_column, "time_s")]
+    if target not in header:
+        raise ValueError(f"--target: {files.paths[0]!r} has no column {target!r}.")
+    columns = _candidates(pd.DataFrame(columns=header), target, sensors, files.paths[0])
+    columns = choice.drivers + [c for c in columns if c not in choice.drivers]
+    files.inputs = columns
+    estimator, settings = make_model(
+        choice.model,
+        random_state=choice.random_state,
+        drivers=choice.drivers,
+        max_sensors=choice.max_sensors,
+        **choice.transfer,
+    )
+    with _progress(2, quiet) as progress:
+        progress.step(f"fitting {MODEL_NAMES[choice.model]} on {len(files.paths)} files")
+        seconds, fit_messages = _fit_quietly(estimator, files, None, chunks=True)
+        estimator.target_name_ = str(target)
+        progress.step(f"saving {os.fspath(path)!r}")
+        saved = save_model(estimator, path, overwrite=force)
+    _warn("fit", fit_messages)
+    print(f"trained {MODEL_NAMES[choice.model]} ({settings}) in {seconds:.1f} s")
+    print(
+        f"  data: {len(estimator.fitted_tests_)} tests in {len(files.paths)} files of "
+        f"{where!r}, target {printable(target)!r}"
+    )
+    kept = ", ".join(map(printable, estimator.selected_sensors_)) or "none"
+    print(
+        f"  inputs: drivers {', '.join(map(printable, choice.drivers)) or 'none'}; sensors "
+        f"{kept} (chosen inside the fit on held-out whole tests from "
+        f"{len(columns) - len(choice.drivers)})"
+    )
+    buffer = io.StringIO()
+    estimator.describe(file=buffer)
+    for line in buffer.getvalue().splitlines():
+        print(f"  {line}")
+    print(f"  displacement {_REFERENCE_WORDS[_reference(estimator)]}")
+    print(
+        "  (files read piece by piece: no scores on the training rows; "
+        "score held-out tests with greyml validate)"
     )
     print(f"saved to {os.fspath(saved)!r}")
     return 0

@@ -21,17 +21,25 @@ def _distinct_warnings(caught):
     return list(dict.fromkeys(f"{x.category.__name__}: {x.message}" for x in caught))
 
 
-def _fit_quietly(estimator, X, y, **params):
-    """Fit ``estimator`` (``params``: fit parameters such as ``sample_weight``); return the
-    seconds taken and the distinct warnings raised."""
+def _fit_quietly(estimator, X, y, *, chunks=False, **params):
+    """Fit ``estimator`` (``params``: fit parameters such as ``sample_weight``; with
+    ``chunks``, ``fit_chunks(X)``); return the seconds taken and the distinct warnings
+    raised."""
     from threadpoolctl import threadpool_limits
 
     # one BLAS thread: the products are small, and on a busy machine more
-    # threads only wait for each other (see greyml._threads)
-    with threadpool_limits(limits=1, user_api="blas"), warnings.catch_warnings(record=True) as w:
+    # threads only wait for each other (see greyml._threads); files read piece
+    # by piece are many rows, whose products are not small
+    with (
+        threadpool_limits(limits=None if chunks else 1, user_api="blas"),
+        warnings.catch_warnings(record=True) as w,
+    ):
         warnings.simplefilter("always")
         start = time.perf_counter()
-        estimator.fit(X, y, **params)
+        if chunks:
+            estimator.fit_chunks(X)
+        else:
+            estimator.fit(X, y, **params)
         seconds = time.perf_counter() - start
     return seconds, _distinct_warnings(w)
 

@@ -30,7 +30,7 @@ MAX_FILE_COLUMNS = 10_000
 #: The longest header line read (bytes).
 _MAX_HEADER_BYTES = 1 << 20
 _UNITS = {"s": 1.0, "min": 60.0, "h": 3600.0}
-_EACH = ("test", "recording")
+_EACH = ("auto", "test", "recording")
 
 
 class TestFiles:
@@ -45,16 +45,21 @@ class TestFiles:
     target : str
         The displacement column (e.g. ``"dx_um"``); every other column but
         the test's and ``time_s`` is an input.
-    each : {"test", "recording"}, default="test"
+    each : {"auto", "test", "recording"}, default="auto"
         ``"test"``: every file is one test, labelled by the file's name
         (without its suffix); ``"recording"``: the column ``test_column``
-        labels the tests of a file (a test may run on into the next file).
+        labels the tests of a file (a test may run on into the next file);
+        ``"auto"``: a file with the column ``test_column`` is a recording, one
+        without it a test.
     test_column : str, default="test"
         The column that labels the tests, with ``each="recording"``.
     time_unit : {"s", "min", "h"}, default="s"
         The unit of the ``time_s`` column.
     rows : int, default=100_000
         Rows read at a time (the memory of one piece).
+    inputs : list of str, optional
+        The input columns, in this order; by default every column but the
+        test's, ``time_s`` and the target.
 
     Examples
     --------
@@ -67,10 +72,20 @@ class TestFiles:
     __test__ = False  # a data source, not a pytest test class
 
     def __init__(
-        self, paths, target, *, each="test", test_column="test", time_unit="s", rows=100_000
+        self,
+        paths,
+        target,
+        *,
+        each="auto",
+        test_column="test",
+        time_unit="s",
+        rows=100_000,
+        inputs=None,
     ):
         if each not in _EACH:
-            raise ValueError(f"TestFiles: each must be 'test' or 'recording'; got {each!r}.")
+            raise ValueError(
+                f"TestFiles: each must be 'auto', 'test' or 'recording'; got {each!r}."
+            )
         if time_unit not in _UNITS:
             raise ValueError(f"TestFiles: time_unit must be 's', 'min' or 'h'; got {time_unit!r}.")
         if isinstance(rows, bool) or not isinstance(rows, int) or rows < 1:
@@ -81,6 +96,7 @@ class TestFiles:
         self.test_column = str(test_column)
         self.time_unit = time_unit
         self.rows = rows
+        self.inputs = None if inputs is None else [str(c) for c in inputs]
 
     def __repr__(self):
         return f"TestFiles({len(self.paths)} files, target={self.target!r}, each={self.each!r})"
@@ -91,31 +107,37 @@ class TestFiles:
 
     def _pieces(self, path):
         columns = _header(path)
-        needed = ["time_s", self.target] + ([self.test_column] if self.each == "recording" else [])
+        each = self.each
+        if each == "auto":
+            each = "recording" if self.test_column in columns else "test"
+        needed = ["time_s", self.target] + ([self.test_column] if each == "recording" else [])
+        needed += self.inputs or []
         missing = [c for c in needed if c not in columns]
         if missing:
             raise ValueError(
                 f"TestFiles: {path} has no column {missing[0]!r} (its columns: "
                 f"{', '.join(map(repr, columns[:20]))}{', …' if len(columns) > 20 else ''})."
             )
-        if self.each == "test" and self.test_column in columns:
+        if each == "test" and self.test_column in columns:
             raise ValueError(
                 f"TestFiles: {path} has a {self.test_column!r} column; read it with "
                 "each='recording' (its tests labelled by that column)."
             )
         label = Path(path).stem
         for frame in _frames(path, self.rows, self.test_column):
-            yield self._piece(frame, path, label)
+            X, y = piece_of(
+                frame,
+                target=self.target,
+                test_column=self.test_column if each == "recording" else None,
+                time_unit=self.time_unit,
+                where=path,
+                label=label,
+            )
+            yield (X if self.inputs is None else X[self.inputs]), y
 
-    def _piece(self, frame, path, label):
-        return piece_of(
-            frame,
-            target=self.target,
-            test_column=self.test_column if self.each == "recording" else None,
-            time_unit=self.time_unit,
-            where=path,
-            label=label,
-        )
+    def columns(self):
+        """The columns of the first file, read from its header."""
+        return _header(self.paths[0])
 
 
 def piece_of(frame, *, target, test_column, time_unit="s", where="the frame", label=None):
