@@ -12,6 +12,7 @@ runtime :class:`Compensator`, and the helpers of the test layout
   sets, CSV files and the thermal simulator;
 - :mod:`greyml.persist`: model files read without pickle;
 - :mod:`greyml.gap`: the sim-to-real gap diagnosis;
+- :mod:`greyml.fleet`: a fleet's models on a Dask cluster;
 - :mod:`greyml.metrics`: accuracy measures and scorers;
 - :mod:`greyml.optimize`: the population optimisers of the grey models;
 - :mod:`greyml.exceptions`: every warning and error;

@@ -56,6 +56,18 @@ def fit_fleet(estimator, machines, *, client=None):
     models : dict of str to fitted estimator
         In the order of ``machines``. A machine whose data are refused raises
         its error here, naming it.
+
+    Examples
+    --------
+    >>> from distributed import Client, LocalCluster  # doctest: +SKIP
+    >>> from greyml import ThermalTransferFunction
+    >>> from greyml.fleet import fit_fleet
+    >>> from greyml.io import TestFiles
+    >>> names = ("vmc-1", "vmc-2")
+    >>> machines = {m: TestFiles(f"logs/{m}/", "dx_um") for m in names}  # doctest: +SKIP
+    >>> with Client(LocalCluster(n_workers=2)) as client:  # doctest: +SKIP
+    ...     models = fit_fleet(ThermalTransferFunction(drivers=["spindle_rpm"]), machines,
+    ...                        client=client)
     """
     if not isinstance(machines, Mapping) or not machines:
         raise ValueError("fit_fleet: machines must be a non-empty mapping of name to pieces.")
@@ -103,6 +115,15 @@ class Partitions:
     Each iteration computes the partitions in order on the frame's cluster,
     the next while the current one is used, and gives ``(X, y)`` in greyml's
     layout; one partition is held here at a time.
+
+    Examples
+    --------
+    >>> import dask.dataframe as dd  # doctest: +SKIP
+    >>> from greyml import ThermalTransferFunction
+    >>> from greyml.fleet import Partitions
+    >>> frame = dd.read_parquet("logs/plant/*.parquet")  # doctest: +SKIP
+    >>> model = ThermalTransferFunction(drivers=["spindle_rpm"]).fit_chunks(
+    ...     Partitions(frame, "dx_um"))  # doctest: +SKIP
     """
 
     def __init__(self, frame, target, *, test_column="test", time_unit="s"):

@@ -30,6 +30,7 @@ MODULES = [
     "gap_harness",  # benchmarks/gap_harness: the gap validation, outside the package
     "greyml.controller",
     "greyml.dynamic",
+    "greyml.fleet",
     "greyml.exceptions",
     "greyml.utils.discovery",
 ]
