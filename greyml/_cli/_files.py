@@ -80,22 +80,28 @@ def _read(path, csv_options=None):
 
 def _check_magnitudes(frame, path):
     """One line for a cell beyond :data:`MAX_INPUT` (a unit or logging error),
-    naming its column and line, before any command computes with it."""
+    naming its column and line, before any command computes with it.
+
+    One pass over the numbers (no loop over columns): the first column in the
+    file's order that holds such a cell (``time_s`` first), at its first row."""
     import numpy as np
 
     from greyml._validation import MAX_INPUT
 
-    columns = [("time_s", frame.index.get_level_values("time_s").to_numpy())]
-    columns += [(c, frame[c].to_numpy()) for c in frame.columns if frame[c].dtype.kind in "fiu"]
-    for name, values in columns:
-        with np.errstate(invalid="ignore"):
-            rows = np.flatnonzero(np.abs(values.astype(float)) > MAX_INPUT)
-        if rows.size:
-            row = int(rows[0])
-            raise ValueError(
-                f"Column {name!r} holds {float(values[row]):g} at {_where(frame, row, path)}, "
-                f"beyond {MAX_INPUT:g}, which no measurement reaches; check its unit."
-            )
+    numbers = frame.select_dtypes(include=[np.floating, np.integer])
+    time = frame.index.get_level_values("time_s").to_numpy(dtype=float)
+    values = np.column_stack([time, numbers.to_numpy(dtype=float)])
+    with np.errstate(invalid="ignore"):
+        beyond = np.abs(values) > MAX_INPUT
+    columns = np.flatnonzero(beyond.any(axis=0))
+    if columns.size:
+        at = int(columns[0])
+        row = int(np.flatnonzero(beyond[:, at])[0])
+        name = "time_s" if at == 0 else numbers.columns[at - 1]
+        raise ValueError(
+            f"Column {name!r} holds {float(values[row, at]):g} at {_where(frame, row, path)}, "
+            f"beyond {MAX_INPUT:g}, which no measurement reaches; check its unit."
+        )
 
 
 def _where(frame, row, path):
