@@ -568,3 +568,37 @@ def test_every_command_refuses_a_too_wide_file_in_one_line(tmp_path, capsys, too
         "of tests, one sample per line and one column per sensor?\n"
     )
     assert sorted(p.name for p in tmp_path.iterdir()) == []
+
+
+# -- a name with a character no one sees is shown with its escapes (issue 41, finding 6) --
+
+INVISIBLE = ["\u200bch1_um", "\ufeffch1_um", "ch1\x07_um", "ch1_um "]
+
+
+@pytest.mark.parametrize("name", INVISIBLE)
+def test_a_column_name_with_an_invisible_character_is_shown_escaped(tmp_path, capsys, name):
+    """It read "'ch1_um' is not a column (its columns: ..., ch1_um, ...)"."""
+    from greyml.cli import main
+
+    quoted = '"' + name + '"' if name != name.strip() else name
+    rows = "".join(f"A,{60 * k},{20 + k},{k}\n" for k in range(4))
+    path = write(tmp_path, f"test,time_s,T1_C,{quoted}\n" + rows)
+    assert read_tests_csv(path).columns[1] == name
+    capsys.readouterr()
+    assert main(["select", str(path), "--target", "ch1_um"]) == 2
+    out, err = capsys.readouterr()
+    assert err == (
+        f"greyml select: error: --target names 'ch1_um', not a column of {str(path)!r} (its "
+        f"columns: T1_C, {name!r}).\n"
+    )
+    assert "\\" in repr(name) or name != name.strip()  # what the line shows is visible
+
+
+def test_shown_names():
+    from greyml._validation import shown_name, shown_names
+
+    assert shown_name("T1_C") == "T1_C" and shown_name("t1(°C)") == "t1(°C)"
+    assert shown_name("\u200bch1_um") == "'\\u200bch1_um'"
+    assert shown_name("\ufeffT1") == "'\\ufeffT1'" and shown_name("a\tb") == "'a\\tb'"
+    assert shown_name("") == "''" and shown_name(3) == "3"
+    assert shown_names(["a", "b", "c"], 2) == "a, b, ..." and shown_names(["a", " b"]) == "a, ' b'"

@@ -118,7 +118,9 @@ def _test_labels(frame):
 def _require_columns(frame, columns, path, flag):
     missing = [c for c in columns if c not in frame.columns]
     if missing:
-        have = ", ".join(map(str, frame.columns[:12])) + (", ..." if frame.shape[1] > 12 else "")
+        from greyml._validation import shown_names
+
+        have = shown_names(frame.columns, 12)
         raise ValueError(
             f"{flag} names {', '.join(repr(c) for c in missing)}, not a column of "
             f"{os.fspath(path)!r} (its columns: {have})."

@@ -336,11 +336,12 @@ def run_predict(
         inputs, used = _model_inputs(estimator, model)
         missing = [c for c in used if c not in frame.columns]
         if missing:
-            have = [str(c) for c in frame.columns]
-            shown = ", ".join(have[:12]) + (", ..." if len(have) > 12 else "")
+            from greyml._validation import shown_names
+
+            shown = shown_names(frame.columns, 12)
             raise ValueError(
                 f"the model {os.fspath(model)!r} needs the sensor column(s) "
-                f"{', '.join(missing)}, which {os.fspath(data)!r} lacks (its columns: "
+                f"{shown_names(missing)}, which {os.fspath(data)!r} lacks (its columns: "
                 f"{shown or 'none, 0 features'})."
             )
         _require_values(frame, used, data, "sensor")
