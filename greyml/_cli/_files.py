@@ -11,6 +11,12 @@ import os
 from pathlib import Path
 
 from greyml._atomic import refusal
+from greyml._cli._printing import _unfiltered
+
+#: The ``--out`` or ``--json`` that means standard output, for a command that writes
+#: one file: the file goes there, whole, and what the command prints goes to
+#: standard error (:func:`greyml._cli._flags._call`).
+STDOUT = "-"
 
 #: Columns that are operating inputs, not sensors: left out of the candidate
 #: sensors unless named with ``--sensors``.
@@ -39,6 +45,8 @@ def _check_output_folder(out, force):
 def _check_output_file(path, force, what="--out"):
     """Refuse an existing ``path`` without ``force``, anything but a regular file at
     ``path`` even with it, or a folder that does not exist."""
+    if os.fspath(path) == STDOUT:
+        return STDOUT
     path = Path(path)
     name = os.fspath(path)
     if path.is_dir():
@@ -56,6 +64,49 @@ def _check_output_file(path, force, what="--out"):
     if not os.access(parent, os.W_OK | os.X_OK):
         raise ValueError(f"cannot write {what} {name!r}: its folder is not writable.")
     return path
+
+
+def _refuse_binary_terminal(stdout, what="--out"):
+    """Refuse to print a binary file (a model) to a terminal."""
+    if _unfiltered(stdout).isatty():
+        raise ValueError(
+            f"{what} - would print a binary model file to the terminal; send standard "
+            "output to a file or a pipe, or give a file name."
+        )
+
+
+def _write_stdout(stdout, content):
+    """Write ``content`` (text, or the bytes of a model file), made whole in memory
+    first, to the command's standard output ``stdout`` (``--out -``).
+
+    Text goes through the terminal filter only when ``stdout`` is a terminal; to
+    a pipe or a file it goes as it is, so the output is the file, byte for byte.
+    """
+    raw = _unfiltered(stdout)
+    if isinstance(content, bytes):
+        _refuse_binary_terminal(stdout)
+        raw.flush()
+        raw.buffer.write(content)
+        raw.buffer.flush()
+        return
+    (stdout if raw.isatty() else raw).write(content)
+    raw.flush()
+
+
+def _output_name(path):
+    """How a message names an output: ``'file.csv'``, or ``standard output`` for ``-``."""
+    return "standard output" if os.fspath(path) == STDOUT else repr(os.fspath(path))
+
+
+def _csv_text(frame):
+    """``frame`` as :func:`greyml.io.write_tests_csv` writes it, as text."""
+    import io
+
+    from greyml.io._csv import _csv_writer
+
+    text = io.StringIO(newline="")
+    _csv_writer(frame)(text)
+    return text.getvalue()
 
 
 def _write_text(path, text, force):

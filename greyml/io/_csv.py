@@ -204,6 +204,15 @@ def write_tests_csv(frame, path, *, overwrite=False):
     """
     check_test_frame(frame)
     path = Path(path)
+    write = _csv_writer(frame)
+    # written to a file beside path, then renamed: a failure leaves no partial file
+    write_atomic(path, write, overwrite=overwrite, newline="")
+    return path
+
+
+def _csv_writer(frame):
+    """The function that writes ``frame`` (checked) as :func:`write_tests_csv` does to
+    the text handle it is given; every refusal is raised before it is returned."""
     out = frame.copy()
     for c, dtype in zip(out.columns, out.dtypes):
         if pd.api.types.is_float_dtype(dtype) and dtype != np.float64:
@@ -227,9 +236,7 @@ def write_tests_csv(frame, path, *, overwrite=False):
             labels = cells[start : start + _WRITE_ROWS]
             fh.writelines(f"{t},{r}\n" for t, r in zip(labels, rows.split("\n")))
 
-    # written to a file beside path, then renamed: a failure leaves no partial file
-    write_atomic(path, write, overwrite=overwrite, newline="")
-    return path
+    return write
 
 
 def _csv_cell(text):
