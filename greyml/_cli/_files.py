@@ -8,6 +8,7 @@ column or test; the command line prints it as one line.
 from __future__ import annotations
 
 import os
+import sys
 from pathlib import Path
 
 from greyml._atomic import refusal
@@ -68,7 +69,7 @@ def _check_output_file(path, force, what="--out"):
 
 def _refuse_binary_terminal(stdout, what="--out"):
     """Refuse to print a binary file (a model) to a terminal."""
-    if _unfiltered(stdout).isatty():
+    if _unfiltered(sys.stdout if stdout is None else stdout).isatty():
         raise ValueError(
             f"{what} - would print a binary model file to the terminal; send standard "
             "output to a file or a pipe, or give a file name."
@@ -82,6 +83,7 @@ def _write_stdout(stdout, content):
     Text goes through the terminal filter only when ``stdout`` is a terminal; to
     a pipe or a file it goes as it is, so the output is the file, byte for byte.
     """
+    stdout = sys.stdout if stdout is None else stdout
     raw = _unfiltered(stdout)
     if isinstance(content, bytes):
         _refuse_binary_terminal(stdout)
