@@ -29,6 +29,8 @@ __all__ = [
     "param_error",
     "real_values",
     "segment_of",
+    "shown_name",
+    "shown_names",
     "require_y",
     "standard_scaling",
 ]
@@ -40,6 +42,27 @@ def column_names(estimator, n_features: int) -> list[str]:
     if names is not None and len(names) == n_features:
         return [str(c) for c in names]
     return [f"x{j}" for j in range(n_features)]
+
+
+def shown_name(name) -> str:
+    """A column name as a message shows it: as written, or quoted with its escapes
+    (``repr``) when it holds a character a reader cannot see (a zero-width space, a
+    byte-order mark, a control character) or white space at an end.
+
+    >>> print(shown_name("ch1_um"), shown_name("\u200bch1_um"), shown_name(" T1"))
+    ch1_um '\\u200bch1_um' ' T1'
+    """
+    text = str(name)
+    if text and text.isprintable() and text == text.strip():
+        return text
+    return repr(text)
+
+
+def shown_names(names, limit=None) -> str:
+    """The names (:func:`shown_name`) joined by commas; past ``limit`` names, ``...``."""
+    names = list(names)
+    shown = ", ".join(shown_name(n) for n in names[:limit])
+    return shown + (", ..." if limit is not None and len(names) > limit else "")
 
 
 def _upper_first(text: str) -> str:

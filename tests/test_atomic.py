@@ -213,7 +213,20 @@ def files(tmp_path_factory):
     folder = tmp_path_factory.mktemp("atomic")
     data = write_tests_csv(_frame(), folder / "data.csv")
     model = save_model(_model(), folder / "gmc.greyml")
-    return {"data": str(data), "model": str(model)}
+    comp = Compensator(["T1_C"], [("T1_C", 1, 600.0, 1.0)])
+    compensator = save_model(comp, folder / "comp.greyml")
+    t = 60.0 * np.arange(8)
+    three = pd.concat(
+        pd.DataFrame(
+            {"T1_C": 20.0 + (k + 1) * t / 600.0, "dz_um": -(k + 1) * t / 100.0 + 0.01 * (t % 7)},
+            index=make_test_index([label] * 8, t),
+        )
+        for k, label in enumerate("ABC")
+    )
+    three = write_tests_csv(three, folder / "three.csv")
+    return {
+        k: str(v) for k, v in locals().items() if k in ("data", "model", "compensator", "three")
+    }
 
 
 COMMANDS = {
@@ -279,3 +292,62 @@ def test_demo_force_replaces_no_link_pipe_or_device_in_its_folder(
     (tmp_path / "target").write_text("old\n")  # a regular file is replaced
     assert main(["demo", "--quick", "--out", str(tmp_path), "--force"]) == 0
     assert (tmp_path / "target").read_text() == "results\n"
+
+
+# -- "-" is standard output for a command that writes one file --------------------
+
+STDOUT_COMMANDS = {
+    "simulate": lambda f, out: ["simulate", "--machine", "vmc", "--tests", "I", "--out", out],
+    "predict": lambda f, out: ["predict", f["model"], f["data"], "--out", out],
+    "export": lambda f, out: ["export", f["compensator"], "--language", "st", "--out", out],
+    "validate": lambda f, out: [
+        *("validate", f["three"], "--target", "dz_um", "--model", "gmc", "--json", out),
+    ],
+}
+
+
+@pytest.mark.parametrize("command", STDOUT_COMMANDS)
+def test_dash_writes_the_one_file_to_standard_output(command, files, tmp_path, capsys):
+    """``--out -`` (``--json -``): standard output holds the file, byte for byte what
+    ``--out FILE`` writes, and what the command prints goes to standard error."""
+    path = tmp_path / "out"
+    assert main([*STDOUT_COMMANDS[command](files, str(path)), "--quiet"]) == 0
+    printed = capsys.readouterr().out
+    assert main([*STDOUT_COMMANDS[command](files, "-"), "--quiet"]) == 0
+    out, err = capsys.readouterr()
+    if command == "validate":  # the same numbers; the seconds it took differ
+        numbers = [json.loads(text) for text in (out, path.read_text())]
+        for record in numbers:
+            del record["fit_seconds"], record["seconds"]
+        assert numbers[0] == numbers[1]
+        table = printed.splitlines()[-2]  # the table's last line (the first says the seconds)
+        assert table in err.splitlines() and "wrote" not in err
+    else:
+        assert out == path.read_text()
+        assert printed and printed.replace(repr(str(path)), "standard output") in err
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["out"]
+
+
+def test_dash_writes_the_model_file_and_the_numbers_to_standard_output(
+    files, tmp_path, capsysbinary
+):
+    args = ["fit", files["data"], "--target", "dz_um", "--model", "gmc", "--out", "-"]
+    assert main(args) == 0
+    out, err = capsysbinary.readouterr()
+    (tmp_path / "m.greyml").write_bytes(out)
+    again = load_model(tmp_path / "m.greyml")
+    assert isinstance(again, GMC) and again.target_name_ == "dz_um"
+    assert err.decode().endswith("saved to standard output\n")
+
+
+def test_dash_never_prints_a_model_file_to_a_terminal(files, capsys, monkeypatch):
+    import sys
+
+    monkeypatch.setattr(sys.stdout, "isatty", lambda: True)
+    args = ["fit", files["data"], "--target", "dz_um", "--model", "gmc", "--out", "-"]
+    assert main(args) == 2
+    out, err = capsys.readouterr()
+    assert out == "" and err == (
+        "greyml fit: error: --out - would print a binary model file to the terminal; send "
+        "standard output to a file or a pipe, or give a file name.\n"
+    )

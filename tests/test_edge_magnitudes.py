@@ -180,3 +180,31 @@ def test_predict_refuses_a_correction_beyond_1_mm(tmp_path, capsys):
         capsys,
     )
     assert "beyond ±0.001" in line
+
+
+def test_the_magnitude_check_names_the_first_column_in_file_order_at_its_first_row():
+    """One pass over the numbers (issue 41, finding 4) keeps the old loop's answer:
+    ``time_s`` first, then the columns in order, the first row of that column; text
+    columns are not numbers and are passed over."""
+    from greyml._cli._files import _check_magnitudes
+
+    frame = pd.DataFrame(
+        {
+            "note": ["a", "b", "c"],
+            "T1_C": [20.0, 20.0, 20.0],
+            "count": np.array([1, 2, 3], dtype=np.int64),
+            "T2_C": [20.0, -2e100, 3e100],
+            "T3_C": [5e100, 20.0, 20.0],
+        },
+        index=make_test_index(["A", "A", "B"], [0.0, 60.0, 0.0]),
+    )
+    with pytest.raises(ValueError) as info:
+        _check_magnitudes(frame, "d.csv")
+    assert str(info.value) == (
+        "Column 'T2_C' holds -2e+100 at line 3 of 'd.csv' (test 'A', time_s 60), beyond 1e+100, "
+        "which no measurement reaches; check its unit."
+    )
+    late = frame.set_index(make_test_index(["A", "A", "B"], [0.0, 2e101, 0.0]))
+    with pytest.raises(ValueError, match=r"^Column 'time_s' holds 2e\+101 at line 3 "):
+        _check_magnitudes(late, "d.csv")
+    _check_magnitudes(frame.drop(columns=["T2_C", "T3_C"]), "d.csv")  # nothing beyond

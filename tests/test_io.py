@@ -446,3 +446,159 @@ def test_commands_name_a_number_beyond_a_float_in_one_line(tmp_path, capsys, sma
         f"greyml {command}: error: Column 'dz_um' of {str(data)!r} holds a number too large "
         "for a float (1000…000, 400 digits) at line 6 (test 'A'); "
     ), err
+
+
+# -- the shape of a file bounds the work before a value is read (issue 41, finding 4) --
+
+
+def _no_value_read(monkeypatch):
+    """Make reading any value fail: a refusal must come from the header alone."""
+    import greyml.io._csv as csv_module
+
+    def refuse(*args, **kwargs):
+        raise AssertionError("a value was read")
+
+    monkeypatch.setattr(csv_module.pd, "read_csv", refuse)
+    monkeypatch.setattr(csv_module, "_read_wide", refuse)
+
+
+@pytest.mark.parametrize("sep", [",", ";", "\t", None])
+def test_a_file_wider_than_max_columns_is_refused_from_its_header(tmp_path, monkeypatch, sep):
+    s = sep or ","
+    names = s.join(["test", "time_s", *(f"T{k}_C" for k in range(9))])
+    path = write(tmp_path, names + "\n" + s.join(["A", "0", *["x"] * 9]) + "\n")
+    _no_value_read(monkeypatch)
+    with pytest.raises(ValueError) as info:
+        read_tests_csv(path, sep=sep, max_columns=10)
+    assert str(info.value) == (
+        f"The header of {str(path)!r} has 11 columns (separator {s!r}), more than the 10 a CSV "
+        "file of tests may have (max_columns): is it a file of tests, one sample per line and "
+        "one column per sensor?"
+    )
+
+
+def test_a_quoted_header_is_counted_by_its_fields(tmp_path, monkeypatch):
+    """A separator inside a quoted name is no column: 11 fields, not 12."""
+    header = 'test,time_s,"T,0",' + ",".join(f"T{k}" for k in range(1, 9))
+    path = write(tmp_path, header + "\nA,0," + ",".join(["1"] * 9) + "\n")
+    assert read_tests_csv(path, max_columns=11).shape == (1, 9)
+    _no_value_read(monkeypatch)
+    with pytest.raises(ValueError, match=r"has 11 columns \(separator ','\), more than the 10"):
+        read_tests_csv(path, max_columns=10)
+
+
+def test_the_column_bound_is_checked_and_100000_by_default(tmp_path):
+    from greyml.io._csv import MAX_COLUMNS
+
+    assert MAX_COLUMNS == 100_000
+    path = write(tmp_path, "test,time_s,T1_C\nA,0,1\n")
+    for bad in (2, 0, 2.5, True, "9"):
+        with pytest.raises(
+            ValueError, match=rf"max_columns must be a whole number >= 3; got {bad!r}"
+        ):
+            read_tests_csv(path, max_columns=bad)
+    assert read_tests_csv(path, max_columns=3).shape == (1, 1)
+
+
+def test_a_column_name_longer_than_1000_characters_is_refused(tmp_path, monkeypatch):
+    path = write(tmp_path, "test,time_s,T1_C," + "n" * 1001 + "\nA,0,1,2\n")
+    _no_value_read(monkeypatch)
+    with pytest.raises(ValueError) as info:
+        read_tests_csv(path)
+    assert str(info.value) == (
+        f"Column 4 of the header of {str(path)!r} has a name of 1,001 characters, more than "
+        f"1,000 (starting {'n' * 40!r})."
+    )
+
+
+@pytest.fixture(scope="module")
+def too_wide(tmp_path_factory):
+    """A file of 3 rows and MAX_COLUMNS + 1 columns (100,003 with the keys), and a model."""
+    from greyml.cli import main
+
+    folder = tmp_path_factory.mktemp("wide")
+    n = 100_001
+    names = ",".join(f"T{k}_C" for k in range(n - 1))
+    cells = ",".join(["1"] * n)
+    path = write(
+        folder, f"test,time_s,{names},dz_um\n" + "".join(f"A,{r},{cells}\n" for r in range(3))
+    )
+    rows = "".join(f"A,{60 * k},{20 + k / 10},{k / 3}\n" for k in range(6))
+    good = write(folder, "test,time_s,T0_C,dz_um\n" + rows, "good.csv")
+    model = folder / "m.greyml"
+    assert (
+        main(
+            [
+                "fit",
+                str(good),
+                "--target",
+                "dz_um",
+                "--model",
+                "gmc",
+                "--out",
+                str(model),
+                "--quiet",
+            ]
+        )
+        == 0
+    )
+    return path, model
+
+
+@pytest.mark.parametrize("command", ["predict", "fit", "select", "gap", "validate"])
+def test_every_command_refuses_a_too_wide_file_in_one_line(tmp_path, capsys, too_wide, command):
+    """Before the bound a 1,000,000-column file kept predict busy for 195 s (the time is
+    measured in benchmarks/bench_csv_columns.py; here the refusal itself)."""
+    from greyml.cli import main
+
+    path, model = too_wide
+    argv = {
+        "predict": ["predict", model, path, "--out", tmp_path / "p.csv"],
+        "fit": ["fit", path, "--target", "dz_um", "--model", "gmc", "--out", tmp_path / "f.greyml"],
+        "select": ["select", path, "--target", "dz_um"],
+        "gap": ["gap", path, path, "--target", "dz_um"],
+        "validate": ["validate", path, "--target", "dz_um"],
+    }[command]
+    capsys.readouterr()
+    assert main([str(a) for a in argv]) == 2
+    out, err = capsys.readouterr()
+    assert out == "" and err == (
+        f"greyml {command}: error: The header of {str(path)!r} has 100,003 columns (separator "
+        "','), more than the 100,000 a CSV file of tests may have (max_columns): is it a file "
+        "of tests, one sample per line and one column per sensor?\n"
+    )
+    assert sorted(p.name for p in tmp_path.iterdir()) == []
+
+
+# -- a name with a character no one sees is shown with its escapes (issue 41, finding 6) --
+
+INVISIBLE = ["\u200bch1_um", "\ufeffch1_um", "ch1\x07_um", "ch1_um "]
+
+
+@pytest.mark.parametrize("name", INVISIBLE)
+def test_a_column_name_with_an_invisible_character_is_shown_escaped(tmp_path, capsys, name):
+    """It read "'ch1_um' is not a column (its columns: ..., ch1_um, ...)"."""
+    from greyml.cli import main
+
+    quoted = '"' + name + '"' if name != name.strip() else name
+    rows = "".join(f"A,{60 * k},{20 + k},{k}\n" for k in range(4))
+    path = write(tmp_path, f"test,time_s,T1_C,{quoted}\n" + rows)
+    assert read_tests_csv(path).columns[1] == name
+    capsys.readouterr()
+    assert main(["select", str(path), "--target", "ch1_um"]) == 2
+    out, err = capsys.readouterr()
+    assert err == (
+        f"greyml select: error: --target names 'ch1_um', not a column of {str(path)!r} (its "
+        f"columns: T1_C, {name!r}).\n"
+    )
+    assert "\\" in repr(name) or name != name.strip()  # what the line shows is visible
+
+
+def test_shown_names():
+    from greyml._validation import shown_name, shown_names
+
+    assert shown_name("T1_C") == "T1_C" and shown_name("t1(°C)") == "t1(°C)"
+    assert shown_name("\u200bch1_um") == "'\\u200bch1_um'"
+    assert shown_name("\ufeffT1") == "'\\ufeffT1'" and shown_name("a\tb") == "'a\\tb'"
+    assert shown_name("") == "''" and shown_name(3) == "3"
+    assert shown_names(["a", "b", "c"], 2) == "a, b, ..." and shown_names(["a", " b"]) == "a, ' b'"

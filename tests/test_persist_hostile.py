@@ -26,7 +26,7 @@ from conftest import TRUE_B, TRUE_B1, TRUE_U, exciting_drivers
 from sklearn.linear_model import LinearRegression, Ridge
 from sklearn.multioutput import MultiOutputRegressor
 from sklearn.pipeline import FeatureUnion, Pipeline
-from sklearn.preprocessing import MinMaxScaler, StandardScaler
+from sklearn.preprocessing import MinMaxScaler, PolynomialFeatures, StandardScaler
 
 from greyml import (
     AGO,
@@ -360,6 +360,37 @@ def _build(folder):
     files["26-compensator-nan-start"] = _tamper(
         comp, folder / "nan-start.greyml", _set(_start={"kind": "float", "value": "nan"})
     )
+
+    # issue 41: sizes a file declares, bounded and checked against each other (a
+    # PolynomialFeatures of 4 inputs, degree 2: 15 outputs with the bias, then Ridge)
+    poly = save_model(
+        Pipeline([("poly", PolynomialFeatures(2)), ("ridge", Ridge())]).fit(X, y),
+        folder / "poly.greyml",
+    )
+
+    def poly_state(**attributes):
+        return lambda header: _state(header)["steps"][0]["items"][1]["state"].update(attributes)
+
+    for label, value in (("1e9", 10**9), ("1e9-float", 1e9), ("inf", "INF"), ("nan", "NAN")):
+        text = {"INF": {"kind": "float", "value": "inf"}, "NAN": {"kind": "float", "value": "nan"}}
+        files[f"41-poly-outputs-{label}"] = _tamper(
+            poly,
+            folder / f"poly-{label}.greyml",
+            poly_state(n_output_features_=text.get(value, value)),
+        )
+    files["41-poly-outputs-16-for-15"] = _tamper(
+        poly, folder / "poly-16.greyml", poly_state(n_output_features_=16, _n_out_full=16)
+    )
+    # consistent in itself (interaction terms only: 1 + 4 + 6 = 11), not with the Ridge's 15
+    files["41-poly-11-into-15"] = _tamper(
+        poly,
+        folder / "poly-11.greyml",
+        poly_state(interaction_only=True, n_output_features_=11, _n_out_full=11),
+    )
+    files["41-inputs-1e9"] = _tamper(gmc, folder / "inputs.greyml", _set(n_features_in_=10**9))
+    files["41-poly-degree-1e9"] = _tamper(
+        poly, folder / "degree.greyml", poly_state(_max_degree=10**9)
+    )
     return data, files
 
 
@@ -650,3 +681,36 @@ def test_26_a_dynamic_models_fitted_state_is_checked_within_the_limit(report):
     _refused(report["26-compensator-nan-start"], "the state holds a value that is not finite")
     for label in ("26-negative-time-constant", "26-bank-of-50000", "26-compensator-nan-start"):
         _small(report[label])
+
+
+def test_41_sizes_a_file_declares_are_bounded_and_agree(report):
+    """A PolynomialFeatures declaring 1e9 outputs made greyml predict die with NumPy's
+    MemoryError and exit 1 (issue 41, finding 7): each size is checked at load."""
+    for label, shown in (
+        ("1e9", "1000000000"),
+        ("1e9-float", "1000000000.0"),
+        ("inf", "inf"),
+        ("nan", "nan"),
+    ):
+        _refused(
+            report[f"41-poly-outputs-{label}"],
+            f"the sklearn.preprocessing.PolynomialFeatures object's n_output_features_ is {shown}, "
+            "not a whole number in [1, 100,000]",
+        )
+    _refused(
+        report["41-poly-outputs-16-for-15"],
+        "n_output_features_ is 16, but its 4 inputs and degrees 0 to 2 give 15",
+    )
+    _refused(
+        report["41-poly-11-into-15"],
+        "the sklearn.pipeline.Pipeline object's step Ridge takes 15 columns, but the step "
+        "before it (PolynomialFeatures) gives 11",
+    )
+    _refused(
+        report["41-inputs-1e9"],
+        "the greyml.GMC object's n_features_in_ is 1000000000, not a whole number in [1, 100,000]",
+    )
+    _refused(report["41-poly-degree-1e9"], "_max_degree is 1000000000, not a whole number in [0,")
+    for label in report:
+        if label.startswith("41-"):
+            _small(report[label])

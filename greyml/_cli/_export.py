@@ -5,7 +5,13 @@ from __future__ import annotations
 import os
 
 from greyml._cli import _flags as flags
-from greyml._cli._files import _check_output_file, _load_model_file
+from greyml._cli._files import (
+    STDOUT,
+    _check_output_file,
+    _load_model_file,
+    _output_name,
+    _write_stdout,
+)
 from greyml._cli._printing import _progress, _warn, printable
 
 _EXPORT_EPILOG = """\
@@ -39,7 +45,13 @@ def _add_export_parser(subparsers):
     parser = flags._subparser(subparsers, "export", _EXPORT_EPILOG)
     parser.add_argument("model", metavar="MODEL.file", help="compensator or transfer function")
     parser.add_argument("--language", required=True, choices=LANGUAGES, help="what to write")
-    parser.add_argument("--out", required=True, metavar="FILE", help="file to write")
+    parser.add_argument(
+        "--out",
+        required=True,
+        metavar="FILE",
+        help="file to write; - writes it to standard output and what export prints to "
+        "standard error",
+    )
     parser.add_argument("--force", action="store_true", help="replace FILE if it exists")
     parser.add_argument(
         "--name",
@@ -105,6 +117,7 @@ def run_export(
     clamp=None,
     on_missing=None,
     quiet=False,
+    stdout=None,
 ):
     """``greyml export``: write a saved compensator as C, Structured Text or JSON.
 
@@ -115,7 +128,7 @@ def run_export(
         from ``greyml fit --model transfer-function`` (its compensator).
     language : {"c", "st", "json"}
     out : str or path-like
-        The file to write.
+        The file to write; ``"-"``: write it to ``stdout``.
     force : bool, default=False
         Replace ``out`` if it exists.
     name : str, default="greyml_compensator"
@@ -127,6 +140,8 @@ def run_export(
         Replaces the compensator's own.
     quiet : bool, default=False
         No progress on standard error.
+    stdout : text stream, optional
+        The command's standard output, where ``out="-"`` writes the export.
 
     Returns
     -------
@@ -144,12 +159,20 @@ def run_export(
             "on_missing": on_missing,
         }
         comp.set_params(**{k: v for k, v in given.items() if v is not None})
-        progress.step(f"writing {os.fspath(path)!r}")
-        comp.export(language, path, name=name, description=what, overwrite=force)
+        if path == STDOUT:
+            from greyml.controller._export._write import export_text
+
+            progress.step("writing the export to standard output")
+            text = export_text(comp, language, name=name, description=what)
+            _write_stdout(stdout, text)
+            size = len(text.encode("ascii"))
+        else:
+            progress.step(f"writing {os.fspath(path)!r}")
+            comp.export(language, path, name=name, description=what, overwrite=force)
+            size = path.stat().st_size
     _warn("export", [str(w.message) for w in caught])
-    size = path.stat().st_size
     print(
-        f"wrote {os.fspath(path)!r} ({language}, {size:,} bytes): {printable(what)}; "
+        f"wrote {_output_name(path)} ({language}, {size:,} bytes): {printable(what)}; "
         f"{len(comp.inputs)} inputs, {len(comp.terms)} terms."
     )
     limits = [

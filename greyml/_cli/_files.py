@@ -8,9 +8,16 @@ column or test; the command line prints it as one line.
 from __future__ import annotations
 
 import os
+import sys
 from pathlib import Path
 
 from greyml._atomic import refusal
+from greyml._cli._printing import _unfiltered
+
+#: The ``--out`` or ``--json`` that means standard output, for a command that writes
+#: one file: the file goes there, whole, and what the command prints goes to
+#: standard error (:func:`greyml._cli._flags._call`).
+STDOUT = "-"
 
 #: Columns that are operating inputs, not sensors: left out of the candidate
 #: sensors unless named with ``--sensors``.
@@ -39,6 +46,8 @@ def _check_output_folder(out, force):
 def _check_output_file(path, force, what="--out"):
     """Refuse an existing ``path`` without ``force``, anything but a regular file at
     ``path`` even with it, or a folder that does not exist."""
+    if os.fspath(path) == STDOUT:
+        return STDOUT
     path = Path(path)
     name = os.fspath(path)
     if path.is_dir():
@@ -56,6 +65,50 @@ def _check_output_file(path, force, what="--out"):
     if not os.access(parent, os.W_OK | os.X_OK):
         raise ValueError(f"cannot write {what} {name!r}: its folder is not writable.")
     return path
+
+
+def _refuse_binary_terminal(stdout, what="--out"):
+    """Refuse to print a binary file (a model) to a terminal."""
+    if _unfiltered(sys.stdout if stdout is None else stdout).isatty():
+        raise ValueError(
+            f"{what} - would print a binary model file to the terminal; send standard "
+            "output to a file or a pipe, or give a file name."
+        )
+
+
+def _write_stdout(stdout, content):
+    """Write ``content`` (text, or the bytes of a model file), made whole in memory
+    first, to the command's standard output ``stdout`` (``--out -``).
+
+    Text goes through the terminal filter only when ``stdout`` is a terminal; to
+    a pipe or a file it goes as it is, so the output is the file, byte for byte.
+    """
+    stdout = sys.stdout if stdout is None else stdout
+    raw = _unfiltered(stdout)
+    if isinstance(content, bytes):
+        _refuse_binary_terminal(stdout)
+        raw.flush()
+        raw.buffer.write(content)
+        raw.buffer.flush()
+        return
+    (stdout if raw.isatty() else raw).write(content)
+    raw.flush()
+
+
+def _output_name(path):
+    """How a message names an output: ``'file.csv'``, or ``standard output`` for ``-``."""
+    return "standard output" if os.fspath(path) == STDOUT else repr(os.fspath(path))
+
+
+def _csv_text(frame):
+    """``frame`` as :func:`greyml.io.write_tests_csv` writes it, as text."""
+    import io
+
+    from greyml.io._csv import _csv_writer
+
+    text = io.StringIO(newline="")
+    _csv_writer(frame)(text)
+    return text.getvalue()
 
 
 def _write_text(path, text, force):
@@ -80,22 +133,28 @@ def _read(path, csv_options=None):
 
 def _check_magnitudes(frame, path):
     """One line for a cell beyond :data:`MAX_INPUT` (a unit or logging error),
-    naming its column and line, before any command computes with it."""
+    naming its column and line, before any command computes with it.
+
+    One pass over the numbers (no loop over columns): the first column in the
+    file's order that holds such a cell (``time_s`` first), at its first row."""
     import numpy as np
 
     from greyml._validation import MAX_INPUT
 
-    columns = [("time_s", frame.index.get_level_values("time_s").to_numpy())]
-    columns += [(c, frame[c].to_numpy()) for c in frame.columns if frame[c].dtype.kind in "fiu"]
-    for name, values in columns:
-        with np.errstate(invalid="ignore"):
-            rows = np.flatnonzero(np.abs(values.astype(float)) > MAX_INPUT)
-        if rows.size:
-            row = int(rows[0])
-            raise ValueError(
-                f"Column {name!r} holds {float(values[row]):g} at {_where(frame, row, path)}, "
-                f"beyond {MAX_INPUT:g}, which no measurement reaches; check its unit."
-            )
+    numbers = frame.select_dtypes(include=[np.floating, np.integer])
+    time = frame.index.get_level_values("time_s").to_numpy(dtype=float)
+    values = np.column_stack([time, numbers.to_numpy(dtype=float)])
+    with np.errstate(invalid="ignore"):
+        beyond = np.abs(values) > MAX_INPUT
+    columns = np.flatnonzero(beyond.any(axis=0))
+    if columns.size:
+        at = int(columns[0])
+        row = int(np.flatnonzero(beyond[:, at])[0])
+        name = "time_s" if at == 0 else numbers.columns[at - 1]
+        raise ValueError(
+            f"Column {name!r} holds {float(values[row, at]):g} at {_where(frame, row, path)}, "
+            f"beyond {MAX_INPUT:g}, which no measurement reaches; check its unit."
+        )
 
 
 def _where(frame, row, path):
@@ -112,7 +171,9 @@ def _test_labels(frame):
 def _require_columns(frame, columns, path, flag):
     missing = [c for c in columns if c not in frame.columns]
     if missing:
-        have = ", ".join(map(str, frame.columns[:12])) + (", ..." if frame.shape[1] > 12 else "")
+        from greyml._validation import shown_names
+
+        have = shown_names(frame.columns, 12)
         raise ValueError(
             f"{flag} names {', '.join(repr(c) for c in missing)}, not a column of "
             f"{os.fspath(path)!r} (its columns: {have})."

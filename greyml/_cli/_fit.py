@@ -6,7 +6,14 @@ import io
 import os
 
 from greyml._cli import _flags as flags
-from greyml._cli._files import _check_output_file, _load_training, _test_labels
+from greyml._cli._files import (
+    STDOUT,
+    _check_output_file,
+    _load_training,
+    _refuse_binary_terminal,
+    _test_labels,
+    _write_stdout,
+)
 from greyml._cli._fitting import (
     _REFERENCE_WORDS,
     _final_step,
@@ -73,7 +80,13 @@ def _add_fit_parser(subparsers):
         "Parquet files, read piece by piece",
     )
     flags._add_target(parser)
-    parser.add_argument("--out", required=True, metavar="MODEL.file", help="model file to write")
+    parser.add_argument(
+        "--out",
+        required=True,
+        metavar="MODEL.file",
+        help="model file to write; - writes it to standard output (a pipe or a file, never a "
+        "terminal) and what fit prints to standard error",
+    )
     add_model_flags(parser)
     flags._add_names(parser, "--train-tests", "train on these tests only (default: all tests)")
     parser.add_argument("--force", action="store_true", help="replace MODEL.file if it exists")
@@ -103,6 +116,7 @@ def run_fit(
     selection=None,
     time_constants=None,
     driver_time_constants=None,
+    stdout=None,
 ):
     """``greyml fit``: train a named model and save it with :func:`greyml.persist.save_model`.
 
@@ -114,7 +128,8 @@ def run_fit(
         Target column.
     model : {"gmc", "gnnmci", "anfis-grid", "anfis-fcm", "mlp"}
     out : str or path-like
-        Model file to write.
+        Model file to write; ``"-"``: write it to ``stdout`` (never to a
+        terminal).
     select : int, optional
         Put a GreyInfluenceSelector keeping this many sensors before the
         model, in one Pipeline.
@@ -141,6 +156,8 @@ def run_fit(
         ``"transfer-function"`` only: the parameters of
         :class:`greyml.ThermalTransferFunction` of these names (None: its
         default).
+    stdout : text stream, optional
+        The command's standard output, where ``out="-"`` writes the model file.
 
     Returns
     -------
@@ -149,6 +166,7 @@ def run_fit(
     """
     from greyml._seeds import scores
     from greyml.persist import save_model
+    from greyml.persist._writer import _archive_writer
 
     choice = model_choice(
         model,
@@ -167,7 +185,11 @@ def run_fit(
     )
     dynamic, drivers = choice.dynamic, choice.drivers
     path = _check_output_file(out, force)
+    if path == STDOUT:
+        _refuse_binary_terminal(stdout)
     if _many_files(data):
+        if path == STDOUT:
+            raise ValueError("--out - is for a model fitted on one CSV file; name a file.")
         return _fit_files(
             data, target, choice, path, force, csv_options, quiet, train_tests, sensors, rises
         )
@@ -196,8 +218,15 @@ def run_fit(
         final.target_name_ = str(target)
         if not hasattr(final, "fitted_tests_"):  # greyml predict marks the tests fitted on
             final.fitted_tests_ = [str(t) for t in _test_labels(frame)]
-        progress.step(f"saving {os.fspath(path)!r}")
-        saved = save_model(estimator, path, overwrite=force)
+        if path == STDOUT:
+            progress.step("writing the model file to standard output")
+            archive = io.BytesIO()
+            _archive_writer(estimator)(archive)
+            _write_stdout(stdout, archive.getvalue())
+            saved = "standard output"
+        else:
+            progress.step(f"saving {os.fspath(path)!r}")
+            saved = repr(os.fspath(save_model(estimator, path, overwrite=force)))
     _warn("fit", [built.hint] if built.hint else [])
     _warn("fit", fit_messages)
     _warn("fit", messages)
@@ -250,7 +279,7 @@ def run_fit(
         f"  on the training rows: RMSE {fit_scores['RMSE']:.3g}, ±res {fit_scores['band']:.3g}, "
         f"R {fit_scores['R']:.3f} (score each test held out with greyml validate)"
     )
-    print(f"saved to {os.fspath(saved)!r}")
+    print(f"saved to {saved}")
     return 0
 
 

@@ -7,8 +7,10 @@ these without importing NumPy, pandas or scikit-learn.
 from __future__ import annotations
 
 import argparse
+import contextlib
 import functools
 import inspect
+import sys
 import textwrap
 
 from greyml._command_names import CSV_TIME_UNITS
@@ -164,12 +166,25 @@ def _call(run, args, **values):
     Every parameter of ``run`` takes ``values[name]`` if given, else the parsed
     argument of its name (``csv_options``: :func:`_csv_options`); a parameter
     that is neither is a KeyError.
+
+    A command that writes one file takes ``stdout``: with ``--out -`` (or
+    ``--json -``) it writes the file there, and everything else the command
+    prints goes to standard error meanwhile.
     """
+    from greyml._cli._files import STDOUT
+
     parsed = dict(vars(args))
     if "time_unit" in parsed:
         parsed["csv_options"] = _csv_options(args)
     parsed.update(values)
-    return run(**{name: parsed[name] for name in inspect.signature(run).parameters})
+    names = inspect.signature(run).parameters
+    if "stdout" not in names:
+        return run(**{name: parsed[name] for name in names})
+    parsed["stdout"] = sys.stdout
+    if STDOUT not in (parsed.get("out"), parsed.get("json")):
+        return run(**{name: parsed[name] for name in names})
+    with contextlib.redirect_stdout(sys.stderr):
+        return run(**{name: parsed[name] for name in names})
 
 
 def _calls(run):

@@ -217,7 +217,9 @@ def _sim_column(frame, path, target, given):
             return name
     if frame.shape[1] == 1:
         return frame.columns[0]
-    have = ", ".join(map(str, frame.columns[:12])) + (", ..." if frame.shape[1] > 12 else "")
+    from greyml._validation import shown_names
+
+    have = shown_names(frame.columns, 12)
     raise ValueError(
         f"{os.fspath(path)!r} has no column of the simulated {target!r} (looked for "
         f"{target}, predicted_{target} and predicted_{target}_since_start; its columns: "

@@ -6,13 +6,17 @@ import os
 
 from greyml._cli import _flags as flags
 from greyml._cli._files import (
+    STDOUT,
     _check_output_file,
+    _csv_text,
     _load_model_file,
+    _output_name,
     _read,
     _require_values,
     _test_labels,
     _time_unit_hint,
     _where,
+    _write_stdout,
 )
 from greyml._cli._fitting import (
     _REFERENCE_WORDS,
@@ -79,7 +83,13 @@ def _add_predict_parser(subparsers):
     parser = flags._subparser(subparsers, "predict", _PREDICT_EPILOG)
     parser.add_argument("model", metavar="MODEL.file", help="model file from greyml fit")
     parser.add_argument("data", metavar="DATA.csv", help="tests (CSV) with the model's sensors")
-    parser.add_argument("--out", required=True, metavar="PRED.csv", help="CSV file to write")
+    parser.add_argument(
+        "--out",
+        required=True,
+        metavar="PRED.csv",
+        help="CSV file to write; - writes it to standard output and what predict prints to "
+        "standard error",
+    )
     parser.add_argument("--force", action="store_true", help="replace PRED.csv if it exists")
     parser.add_argument(
         "--initial-displacement",
@@ -258,6 +268,7 @@ def run_predict(
     interval=None,
     probe=None,
     tolerance=None,
+    stdout=None,
 ):
     """``greyml predict``: apply a saved model to tests and write the compensation.
 
@@ -271,7 +282,8 @@ def run_predict(
         CSV file to write: ``test``, ``time_s``, ``predicted_<target>``
         (with ``interval``, ``lower_<target>`` and ``upper_<target>`` next to
         it), ``compensation_<target>`` (the negated prediction: the correction
-        to add to the axis position) and, with ``tolerance``, ``trusted``.
+        to add to the axis position) and, with ``tolerance``, ``trusted``;
+        ``"-"``: write it to ``stdout``.
     force : bool, default=False
         Replace ``out`` if it exists.
     {csv_and_quiet}
@@ -296,6 +308,8 @@ def run_predict(
     tolerance : float or None, default=None
         With ``interval``: write ``trusted``, 1 where the interval's
         half-width is at most this (in the target's unit), else 0.
+    stdout : text stream, optional
+        The command's standard output, where ``out="-"`` writes the CSV.
 
     Returns
     -------
@@ -336,11 +350,12 @@ def run_predict(
         inputs, used = _model_inputs(estimator, model)
         missing = [c for c in used if c not in frame.columns]
         if missing:
-            have = [str(c) for c in frame.columns]
-            shown = ", ".join(have[:12]) + (", ..." if len(have) > 12 else "")
+            from greyml._validation import shown_names
+
+            shown = shown_names(frame.columns, 12)
             raise ValueError(
                 f"the model {os.fspath(model)!r} needs the sensor column(s) "
-                f"{', '.join(missing)}, which {os.fspath(data)!r} lacks (its columns: "
+                f"{shown_names(missing)}, which {os.fspath(data)!r} lacks (its columns: "
                 f"{shown or 'none, 0 features'})."
             )
         _require_values(frame, used, data, "sensor")
@@ -390,8 +405,12 @@ def run_predict(
             trusted = replayed.trusted if replayed is not None else half <= tolerance
             columns["trusted"] = np.asarray(trusted, dtype=int)
         result = pd.DataFrame(columns, index=frame.index)
-        progress.step(f"writing {os.fspath(path)!r}")
-        write_tests_csv(result, path, overwrite=force)
+        if path == STDOUT:
+            progress.step("writing the compensation to standard output")
+            _write_stdout(stdout, _csv_text(result))
+        else:
+            progress.step(f"writing {os.fspath(path)!r}")
+            write_tests_csv(result, path, overwrite=force)
     _warn("predict", load_messages)
     _warn("predict", messages)
     hint = _time_unit_hint(frame, data, csv_options)
@@ -399,7 +418,7 @@ def run_predict(
     bounds = "" if interval is None else f", {lower} and {upper} (its {interval:g} interval)"
     flag = "" if tolerance is None else f" and trusted (half-width at most {tolerance:g})"
     print(
-        f"wrote {len(result)} rows of {len(tests)} test(s) to {os.fspath(path)!r}: "
+        f"wrote {len(result)} rows of {len(tests)} test(s) to {_output_name(path)}: "
         f"{predicted}{bounds}{',' if bounds else ' and'} {compensation} = -{predicted}{flag}."
     )
     words = _REFERENCE_WORDS[reference]

@@ -94,7 +94,9 @@ def read_probes(path, csv_options, target, frame, data):
 
     probes = _read(path, csv_options)
     if target not in probes.columns:
-        have = ", ".join(map(str, probes.columns[:12])) or "none"
+        from greyml._validation import shown_names
+
+        have = shown_names(probes.columns, 12) or "none"
         raise ValueError(
             f"--probe {os.fspath(path)!r} has no column {target!r} (the model's target) to "
             f"read the readings from (its columns: {have})."

@@ -5,7 +5,14 @@ from __future__ import annotations
 import os
 
 from greyml._cli import _flags as flags
-from greyml._cli._files import _check_output_file, _test_labels
+from greyml._cli._files import (
+    STDOUT,
+    _check_output_file,
+    _csv_text,
+    _output_name,
+    _test_labels,
+    _write_stdout,
+)
 from greyml._cli._printing import _progress
 from greyml._command_names import MACHINES
 
@@ -41,7 +48,13 @@ def _add_simulate_parser(subparsers):
     parser.add_argument(
         "--machine", required=True, choices=MACHINES, help="the machine to simulate"
     )
-    parser.add_argument("--out", required=True, metavar="FILE.csv", help="CSV file to write")
+    parser.add_argument(
+        "--out",
+        required=True,
+        metavar="FILE.csv",
+        help="CSV file to write; - writes it to standard output and what simulate prints to "
+        "standard error",
+    )
     parser.add_argument(
         "--programme",
         action="append",
@@ -133,7 +146,16 @@ def parse_programme(spec, inputs):
 
 
 def run_simulate(
-    machine, out, *, programmes=None, tests=None, ambient=20.0, seed=0, force=False, quiet=False
+    machine,
+    out,
+    *,
+    programmes=None,
+    tests=None,
+    ambient=20.0,
+    seed=0,
+    force=False,
+    quiet=False,
+    stdout=None,
 ):
     """``greyml simulate``: write simulated tests of a machine to a CSV file.
 
@@ -141,7 +163,8 @@ def run_simulate(
     ----------
     machine : {"vmc", "vmc-probe", "gantry"}
     out : str or path-like
-        CSV file to write (:func:`greyml.io.write_tests_csv`).
+        CSV file to write (:func:`greyml.io.write_tests_csv`); ``"-"``: write it
+        to ``stdout``.
     programmes : list of str, optional
         Programme specs (:func:`parse_programme`), one test each, labelled
         ``P1``, ``P2``, … Default: the seeds' tests of the machine.
@@ -157,6 +180,8 @@ def run_simulate(
         Replace ``out`` if it exists.
     quiet : bool, default=False
         No progress on standard error.
+    stdout : text stream, optional
+        The command's standard output, where ``out="-"`` writes the CSV.
 
     Returns
     -------
@@ -197,12 +222,16 @@ def run_simulate(
                     )
                 keep = frame.index.get_level_values("test").isin(tests)
                 frame = frame[keep]
-        progress.step(f"writing {os.fspath(path)!r}")
-        write_tests_csv(frame, path, overwrite=force)
+        if path == STDOUT:
+            progress.step("writing the tests to standard output")
+            _write_stdout(stdout, _csv_text(frame))
+        else:
+            progress.step(f"writing {os.fspath(path)!r}")
+            write_tests_csv(frame, path, overwrite=force)
     labels = _test_labels(frame)
     print(
         f"wrote {len(frame)} rows of {len(labels)} simulated test(s) of the {machine} "
-        f"({', '.join(labels)}) to {os.fspath(path)!r}: columns test, time_s, "
+        f"({', '.join(labels)}) to {_output_name(path)}: columns test, time_s, "
         f"{len(data.inputs)} operating inputs, {len(data.sensors)} sensors, targets "
         f"{', '.join(data.targets)}."
     )

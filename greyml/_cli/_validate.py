@@ -6,7 +6,14 @@ import os
 from dataclasses import replace
 
 from greyml._cli import _flags as flags
-from greyml._cli._files import _check_output_file, _load_training, _test_labels, _write_text
+from greyml._cli._files import (
+    STDOUT,
+    _check_output_file,
+    _load_training,
+    _test_labels,
+    _write_stdout,
+    _write_text,
+)
 from greyml._cli._fitting import _final_step, _fit_quietly, _predict_quietly, _reference
 from greyml._cli._model import add_model_flags, build, model_choice
 from greyml._cli._printing import _progress, _warn, printable
@@ -55,7 +62,10 @@ def _add_validate_parser(subparsers):
         "from the recording's zero (recording)",
     )
     parser.add_argument(
-        "--json", metavar="FILE", help="also write the numbers to FILE (JSON), whole or not at all"
+        "--json",
+        metavar="FILE",
+        help="also write the numbers to FILE (JSON), whole or not at all; - writes them to "
+        "standard output and the table to standard error",
     )
     parser.add_argument("--force", action="store_true", help="replace the --json FILE if it exists")
     add_model_flags(parser, model_default="transfer-function", reference_flag="--model-reference")
@@ -109,6 +119,7 @@ def run_validate(
     driver_time_constants=None,
     csv_options=None,
     quiet=False,
+    stdout=None,
 ):
     """``greyml validate``: leave one test out and print a table test by test.
 
@@ -122,7 +133,8 @@ def run_validate(
         The reference of the scores: the change since each test's first row,
         or the values from the recording's zero (the target as in the file).
     json : str or path-like, optional
-        Also write the numbers there (JSON, through a temporary file).
+        Also write the numbers there (JSON, through a temporary file); ``"-"``:
+        write them to ``stdout``, the table to standard error.
     force : bool, default=False
         Replace ``json`` if it exists.
     model, select, cluster_on, sensors, drivers, max_sensors, rises, random_state
@@ -132,6 +144,8 @@ def run_validate(
         ``selection``, ``time_constants`` and ``driver_time_constants`` of
         :class:`greyml.ThermalTransferFunction` (None: its default).
     {csv_and_quiet}
+    stdout : text stream, optional
+        The command's standard output, where ``json="-"`` writes the numbers.
 
     Returns
     -------
@@ -264,6 +278,9 @@ def run_validate(
             "seconds": elapsed,
         }
         text = json_module.dumps(record, indent=1, allow_nan=False) + "\n"
-        _write_text(json, text, force)
-        print(f"wrote {os.fspath(json)!r}")
+        if json == STDOUT:
+            _write_stdout(stdout, text)
+        else:
+            _write_text(json, text, force)
+            print(f"wrote {os.fspath(json)!r}")
     return 0

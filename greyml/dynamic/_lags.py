@@ -11,7 +11,7 @@ from sklearn.utils.validation import check_is_fitted
 
 from greyml._param_validation import Integral, Interval, Real, StrOptions
 from greyml._time import format_duration
-from greyml._validation import first_flagged, validate_sequences
+from greyml._validation import first_flagged, shown_names, validate_sequences
 from greyml.dynamic._kernels import lag_filter
 from greyml.dynamic._time import MAX_TERMS, STATES, check_time_constants, timeline
 
@@ -297,7 +297,7 @@ class LagFeatures(TransformerMixin, BaseEstimator):
             else:
                 raise ValueError(
                     f"LagFeatures: the column {c!r} named in columns= is not a column of X "
-                    f"(its columns: {', '.join(names[:20])}{', …' if len(names) > 20 else ''})."
+                    f"(its columns: {shown_names(names, 20)})."
                 )
             if j in chosen:
                 raise ValueError(f"LagFeatures: columns= names {names[j]!r} more than once.")

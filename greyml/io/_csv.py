@@ -61,6 +61,11 @@ __all__ = ["read_tests_csv", "write_tests_csv", "check_test_frame"]
 #: one huge line would otherwise take all memory).
 MAX_LINE_BYTES = 16 * 2**20
 
+#: Most columns :func:`read_tests_csv` reads by default. Counted in the header
+#: before any value is read: a wider file is refused in one line (a file of
+#: 1,000,000 columns kept ``greyml select`` busy for minutes before).
+MAX_COLUMNS = 100_000
+
 #: Rows :func:`write_tests_csv` formats at a time.
 _WRITE_ROWS = 2**16
 
@@ -199,6 +204,15 @@ def write_tests_csv(frame, path, *, overwrite=False):
     """
     check_test_frame(frame)
     path = Path(path)
+    write = _csv_writer(frame)
+    # written to a file beside path, then renamed: a failure leaves no partial file
+    write_atomic(path, write, overwrite=overwrite, newline="")
+    return path
+
+
+def _csv_writer(frame):
+    """The function that writes ``frame`` (checked) as :func:`write_tests_csv` does to
+    the text handle it is given; every refusal is raised before it is returned."""
     out = frame.copy()
     for c, dtype in zip(out.columns, out.dtypes):
         if pd.api.types.is_float_dtype(dtype) and dtype != np.float64:
@@ -222,9 +236,7 @@ def write_tests_csv(frame, path, *, overwrite=False):
             labels = cells[start : start + _WRITE_ROWS]
             fh.writelines(f"{t},{r}\n" for t, r in zip(labels, rows.split("\n")))
 
-    # written to a file beside path, then renamed: a failure leaves no partial file
-    write_atomic(path, write, overwrite=overwrite, newline="")
-    return path
+    return write
 
 
 def _csv_cell(text):
@@ -285,7 +297,14 @@ def _check_writable(out):
 
 
 def read_tests_csv(
-    path, *, time_unit="s", sep=None, decimal=None, max_line_bytes=None, test_column=None
+    path,
+    *,
+    time_unit="s",
+    sep=None,
+    decimal=None,
+    max_line_bytes=None,
+    test_column=None,
+    max_columns=None,
 ):
     """Read test data written by :func:`write_tests_csv` (or by hand, or a spreadsheet).
 
@@ -317,6 +336,11 @@ def read_tests_csv(
         level of the index. A file whose ``time_s`` runs on across its tests
         is one recording cut into consecutive pieces, and greyml's dynamic
         models carry their state from one piece into the next.
+    max_columns : int, optional
+        The most columns read, :data:`MAX_COLUMNS` (100,000) by default. The
+        header's columns are counted before any value is read, so a wider file
+        is refused at once; a column name longer than 1,000 characters is
+        refused too.
 
     Returns
     -------
@@ -334,7 +358,8 @@ def read_tests_csv(
         an infinity (``inf``) or a number too large for a float (``1e400``,
         a number of 400 digits), two rows with the same test and time, time
         that does not increase within a test, a test whose rows are not
-        contiguous, a line longer than ``max_line_bytes``, a quoted field
+        contiguous, a line longer than ``max_line_bytes``, a header of more than
+        ``max_columns`` columns or a name of over 1,000 characters, a quoted field
         that is never closed, a file that is not UTF-8, a path that is not a
         regular file (a folder, pipe or device), or an unknown ``time_unit``.
 
@@ -399,13 +424,17 @@ def read_tests_csv(
         or max_line_bytes < 1
     ):
         raise ValueError(f"max_line_bytes must be a whole number >= 1; got {max_line_bytes!r}.")
+    if max_columns is None:
+        max_columns = MAX_COLUMNS
+    if not isinstance(max_columns, int) or isinstance(max_columns, bool) or max_columns < 3:
+        raise ValueError(f"max_columns must be a whole number >= 3; got {max_columns!r}.")
     if os.path.exists(path) and not os.path.isfile(path):
         what = "a folder" if os.path.isdir(path) else "not a regular file (a pipe or device)"
         raise ValueError(f"{name!r} is {what}; give a CSV file (it is read more than once).")
     _check_line_lengths(path, name, max_line_bytes)
     test_key = TEST_LEVEL if test_column is None else test_column
     header, sep, header_lines, first_records = _header(
-        path, sep, max_line_bytes, (test_key, TIME_LEVEL)
+        path, sep, max_line_bytes, (test_key, TIME_LEVEL), max_columns
     )
     if len(header) == len(KEYS):
         raise ValueError(

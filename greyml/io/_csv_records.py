@@ -128,11 +128,13 @@ def _records(read, sep, name, max_chars, line=1):
         yield start, fields
 
 
-def _header(path, sep, max_line_bytes, keys=KEYS):
+def _header(path, sep, max_line_bytes, keys=KEYS, max_columns=None):
     """The header's names, the separator, the header's line count and the first
     data records (up to 50, as ``(line, fields)``).
 
-    ``keys`` are the columns that hold the test labels and the time."""
+    ``keys`` are the columns that hold the test labels and the time. A header of
+    more than ``max_columns`` fields (counted before any name is looked at) or a
+    name longer than :data:`MAX_NAME_CHARS` is refused before a data line is read."""
     name = os.fspath(path)
     try:
         with open(path, newline="", encoding="utf-8-sig") as fh:
@@ -162,11 +164,17 @@ def _header(path, sep, max_line_bytes, keys=KEYS):
             if sep is None:
                 sep = ","
                 for candidate in _SEPARATORS:
-                    if all(key in map(_value, first(candidate)) for key in keys):
+                    # so many separators that the header is refused: no keys to look for
+                    wide = max_columns is not None and lines[0].count(candidate) >= max_columns
+                    if wide or all(key in map(_value, first(candidate)) for key in keys):
                         sep = candidate
                         break
+            if max_columns is not None and '"' not in lines[0]:  # counted, not split
+                _check_columns(lines[0].count(sep) + 1, name, sep, max_columns)
             records = _records(reader(), sep, name, max_line_bytes)
             fields = next(records)[1]
+            _check_columns(len(fields), name, sep, max_columns)
+            _check_names(fields, name)
             data = list(itertools.islice(records, 50))
     except UnicodeDecodeError as exc:
         raise ValueError(
@@ -198,6 +206,32 @@ def _header(path, sep, max_line_bytes, keys=KEYS):
         )
     header_lines = 1 + sum(text.count("\n") for text, _ in fields)
     return header, sep, header_lines, data
+
+
+#: The longest column name :func:`~greyml.io.read_tests_csv` reads, in characters.
+MAX_NAME_CHARS = 1000
+
+
+def _check_columns(count, name, sep, max_columns):
+    """Refuse a header of ``count`` columns, more than ``max_columns``: what reading the
+    file would cost is bounded before a value is read."""
+    if max_columns is not None and count > max_columns:
+        raise ValueError(
+            f"The header of {name!r} has {count:,} columns (separator {sep!r}), more than "
+            f"the {max_columns:,} a CSV file of tests may have (max_columns): is it a file "
+            "of tests, one sample per line and one column per sensor?"
+        )
+
+
+def _check_names(fields, name):
+    """Refuse a header name longer than :data:`MAX_NAME_CHARS`."""
+    long = next((k for k, (text, _) in enumerate(fields) if len(text) > MAX_NAME_CHARS), None)
+    if long is not None:
+        raise ValueError(
+            f"Column {long + 1} of the header of {name!r} has a name of "
+            f"{len(fields[long][0]):,} characters, more than {MAX_NAME_CHARS:,} (starting "
+            f"{fields[long][0][:40]!r})."
+        )
 
 
 def _decimal(records, header, sep, name, decimal, test_key=TEST_LEVEL):

@@ -11,6 +11,14 @@ from pathlib import Path
 
 import numpy as np
 import sklearn
+from sklearn.pipeline import Pipeline
+from sklearn.preprocessing import (
+    MaxAbsScaler,
+    MinMaxScaler,
+    PolynomialFeatures,
+    RobustScaler,
+    StandardScaler,
+)
 
 from greyml.exceptions import UnsafeModelError
 from greyml.persist._archive import (
@@ -301,13 +309,92 @@ _FEATURE_SHAPES = {
 }
 
 
+#: The most inputs or outputs a loaded estimator may declare (``n_features_in_``,
+#: ``n_output_features_``): what a file declares is what ``predict`` allocates for
+#: every row (a PolynomialFeatures declaring 1e9 outputs made ``greyml predict`` die
+#: in NumPy with a MemoryError), so it is bounded and checked against the rest.
+MAX_FEATURES = 100_000
+
+#: The sizes a file declares as whole numbers, each in [1, MAX_FEATURES].
+_DECLARED_COUNTS = ("n_features_in_", "n_output_features_", "_n_out_full")
+
+
+def _declared_count(attributes, key, name, low=1):
+    """The whole number ``attributes[key]`` in [low, MAX_FEATURES], or _ABSENT."""
+    n = attributes.get(key, _ABSENT)
+    if n is _ABSENT:
+        return n
+    if not isinstance(n, int | np.integer) or isinstance(n, bool) or not low <= n <= MAX_FEATURES:
+        raise _Corrupt(
+            f"the {name} object's {key} is {n!r}, not a whole number in [{low}, {MAX_FEATURES:,}]"
+        )
+    return int(n)
+
+
+def _check_polynomial(attributes, name, n):
+    """A PolynomialFeatures declares the number of outputs its degrees and inputs give."""
+    low = _declared_count(attributes, "_min_degree", name, low=0)
+    high = _declared_count(attributes, "_max_degree", name, low=0)
+    if n is _ABSENT or high is _ABSENT:
+        return
+    low = 0 if low is _ABSENT else low
+    if low > high:
+        raise _Corrupt(f"the {name} object's degrees run from {low} down to {high}")
+    count = PolynomialFeatures._num_combinations  # scikit-learn's own count of its terms
+    flags = {
+        "interaction_only": bool(attributes.get("interaction_only")),
+        "include_bias": bool(attributes.get("include_bias")),
+    }
+    for key, start in (("n_output_features_", low), ("_n_out_full", 0)):
+        declared = attributes.get(key, _ABSENT)
+        if declared is _ABSENT:
+            continue
+        implied = count(n_features=n, min_degree=start, max_degree=high, **flags)
+        if declared != implied:
+            raise _Corrupt(
+                f"the {name} object's {key} is {declared}, but its {n} inputs and degrees "
+                f"{start} to {high} give {implied}"
+            )
+
+
+def _width_out(step):
+    """The number of columns a fitted pipeline step gives, when the file says it."""
+    if isinstance(step, PolynomialFeatures):
+        return getattr(step, "n_output_features_", None)
+    if isinstance(step, _SAME_WIDTH):
+        return getattr(step, "n_features_in_", None)
+    return None
+
+
+#: Transformers that give as many columns as they take.
+_SAME_WIDTH = (MaxAbsScaler, MinMaxScaler, RobustScaler, StandardScaler)
+
+
+def _check_pipeline(steps, name):
+    """Each step of a pipeline takes as many columns as the step before it gives."""
+    if not isinstance(steps, list):
+        return
+    estimators = [s[1] for s in steps if isinstance(s, tuple) and len(s) == 2]
+    for before, after in zip(estimators, estimators[1:]):
+        width = _width_out(before)
+        takes = getattr(after, "n_features_in_", None) if hasattr(after, "__dict__") else None
+        if isinstance(width, int) and isinstance(takes, int) and width != takes:
+            raise _Corrupt(
+                f"the {name} object's step {type(after).__name__} takes {takes} columns, "
+                f"but the step before it ({type(before).__name__}) gives {width}"
+            )
+
+
 def _check_shapes(attributes, name):
-    """Every array of an allowlisted estimator has the shape its inputs imply."""
-    n = attributes.get("n_features_in_", _ABSENT)
-    if n is not _ABSENT:
-        if not isinstance(n, int | np.integer) or isinstance(n, bool) or n < 1:
-            raise _Corrupt(f"the {name} object's n_features_in_ is {n!r}, not a count of inputs")
-        n = int(n)
+    """Every size an allowlisted estimator declares is bounded and agrees with the
+    others, and every array has the shape its inputs imply."""
+    for key in _DECLARED_COUNTS:
+        _declared_count(attributes, key, name)
+    n = _declared_count(attributes, "n_features_in_", name)
+    if name == _NAME_OF_CLASS[PolynomialFeatures]:
+        _check_polynomial(attributes, name, n)
+    if name == _NAME_OF_CLASS[Pipeline]:
+        _check_pipeline(attributes.get("steps"), name)
     names = attributes.get("feature_names_in_", _ABSENT)
     if names is not _ABSENT:
         if not (
@@ -452,7 +539,10 @@ def load_model(path, *, trusted=None, max_bytes=DEFAULT_MAX_BYTES):
         or damaged, was written by a newer format version, holds archive
         members greyml does not write, would take more than ``max_bytes``,
         holds an array whose shape disagrees with its estimator's
-        ``n_features_in_``, a number that overflows, an attribute that is a
+        ``n_features_in_``, declares a size (``n_features_in_``,
+        ``n_output_features_``) that is not a whole number from 1 to 100,000 or
+        disagrees with the others (a pipeline step taking other columns than
+        the step before gives), a number that overflows, an attribute that is a
         function or is named like a method, property or attribute of its
         class, or gives a greyml estimator parameters its ``fit`` would
         reject. The message is one line naming the file.

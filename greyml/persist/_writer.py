@@ -308,6 +308,17 @@ def save_model(estimator, path, *, overwrite=False) -> Path:
     if not folder.is_dir():
         raise FileNotFoundError(f"Cannot save the model to {path}: folder {folder} does not exist.")
 
+    write = _archive_writer(estimator)
+    # a new file in the same folder (permissions from the umask), then moved;
+    # whatever stops the save (an error, Ctrl-C, SIGTERM in the greyml
+    # command) removes it
+    write_atomic(path, write, overwrite=overwrite, exists=exists, encoding=None)
+    return path
+
+
+def _archive_writer(estimator):
+    """The function that writes the model file of ``estimator`` (a greyml-model zip) to
+    the binary handle it is given; the estimator is encoded before it is returned."""
     writer = _Writer()
     tree = writer.encode(estimator, type(estimator).__name__)
     header = {
@@ -330,8 +341,4 @@ def save_model(estimator, path, *, overwrite=False) -> Path:
             for name, data in writer.arrays:
                 archive.writestr(name, data)
 
-    # a new file in the same folder (permissions from the umask), then moved;
-    # whatever stops the save (an error, Ctrl-C, SIGTERM in the greyml
-    # command) removes it
-    write_atomic(path, write, overwrite=overwrite, exists=exists, encoding=None)
-    return path
+    return write

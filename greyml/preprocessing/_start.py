@@ -7,7 +7,7 @@ import pandas as pd
 from sklearn.base import BaseEstimator, OneToOneFeatureMixin, TransformerMixin
 from sklearn.utils.validation import check_is_fitted
 
-from greyml._validation import column_names, validate_sequences
+from greyml._validation import column_names, shown_names, validate_sequences
 
 __all__ = ["RelativeToStart"]
 
@@ -110,7 +110,7 @@ class RelativeToStart(OneToOneFeatureMixin, TransformerMixin, BaseEstimator):
                 positions.append(names.index(str(c)))
             else:
                 raise ValueError(
-                    f"RelativeToStart: {c!r} is not a column of X (columns: {', '.join(names)})."
+                    f"RelativeToStart: {c!r} is not a column of X (columns: {shown_names(names)})."
                 )
         if len(set(positions)) != len(positions):
             raise ValueError(f"RelativeToStart: a column is named twice in {self.columns!r}.")
