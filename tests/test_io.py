@@ -263,10 +263,17 @@ AWKWARD_LABELS = ["A", " A ", "A ", "A\nB", "x\r\ny", "A\r", '"q"', "a, b", "\xa
 AWKWARD_NAMES = ["T1", " T1", "T1\nC", "T2\r", '"', "c,d", "\t=x", "x\u2028"]
 
 
-def _awkward_frame(labels=AWKWARD_LABELS, names=AWKWARD_NAMES):
+def _awkward_frame(labels=AWKWARD_LABELS, names=AWKWARD_NAMES, objects=False):
+    """A frame with these test labels and column names; with ``objects`` kept as Python
+    strings (pandas with pyarrow stores text as UTF-8, which a lone surrogate is not)."""
     n = 2 * len(labels)
     values = np.arange(n * len(names), dtype=float).reshape(n, len(names)) / 7 - 3
-    index = make_test_index(np.repeat(labels, 2), np.tile([0.0, 60.0], len(labels)))
+    times = np.tile([0.0, 60.0], len(labels))
+    if objects:
+        tests = pd.Index(np.repeat(np.array(labels, dtype=object), 2), dtype=object)
+        index = pd.MultiIndex.from_arrays([tests, times], names=["test", "time_s"])
+        return pd.DataFrame(values, columns=pd.Index(names, dtype=object), index=index)
+    index = make_test_index(np.repeat(labels, 2), times)
     return pd.DataFrame(values, columns=names, index=index)
 
 
@@ -333,7 +340,7 @@ def test_a_quote_that_is_never_closed_is_one_error(tmp_path):
     ],
 )
 def test_labels_and_names_a_file_cannot_give_back_are_refused(tmp_path, labels, names, match):
-    frame = _awkward_frame(labels=labels, names=names)
+    frame = _awkward_frame(labels=labels, names=names, objects=True)
     with pytest.raises(ValueError, match=match) as err:
         write_tests_csv(frame, tmp_path / "out.csv")
     assert "\n" not in str(err.value)

@@ -213,6 +213,10 @@ def write_tests_csv(frame, path, *, overwrite=False):
 def _csv_writer(frame):
     """The function that writes ``frame`` (checked) as :func:`write_tests_csv` does to
     the text handle it is given; every refusal is raised before it is returned."""
+    # the texts first: pandas with pyarrow cannot even hold a label that is not UTF-8
+    # once it is a column
+    extra = [n for n in frame.index.names if n not in KEYS]
+    _check_texts([*extra, *frame.columns], pd.unique(frame.index.get_level_values(TEST_LEVEL)))
     out = frame.copy()
     for c, dtype in zip(out.columns, out.dtypes):
         if pd.api.types.is_float_dtype(dtype) and dtype != np.float64:
@@ -263,23 +267,30 @@ def _text_fault(text):
     return ""
 
 
-def _check_writable(out):
-    """Refuse what a CSV file would not give back: a column name or test label that is
-    empty, blank or not UTF-8, and an infinity (NaN is written as an empty cell)."""
-    for c in out.columns[1:]:
+def _check_texts(names, labels):
+    """Refuse a column name or test label a CSV file would not give back: empty, blank
+    or not UTF-8."""
+    for c in names:
         fault = _text_fault(str(c))
         if fault:
             raise ValueError(
                 f"The frame's column name {c!r} {fault}; a CSV header needs a name that "
                 "reads back as written. Rename the column."
             )
-    for t in pd.unique(out[TEST_LEVEL]):
+    for t in labels:
         fault = _text_fault(str(t))
         if fault:
             raise ValueError(
                 f"Test label {t!r} {fault}; every row of a CSV file must name its test "
                 "with a label that reads back as written. Rename the test."
             )
+
+
+def _check_writable(out):
+    """Refuse what a CSV file would not give back: a column name or test label that is
+    empty, blank or not UTF-8 (:func:`_check_texts`), and an infinity (NaN is written
+    as an empty cell)."""
+    _check_texts(out.columns[1:], pd.unique(out[TEST_LEVEL]))
     for c, dtype in zip(out.columns[1:], out.dtypes.iloc[1:]):
         if not pd.api.types.is_float_dtype(dtype):
             continue
