@@ -120,7 +120,7 @@ def check_magnitudes(model, A, names, segments):
     if A.ndim == 1:
         A = A[:, None]
     with np.errstate(invalid="ignore"):
-        big = np.abs(A) > MAX_INPUT
+        big = (A > MAX_INPUT) | (A < -MAX_INPUT)  # no copy of A (NaN compares False)
     if not big.any():
         return
     for j in np.flatnonzero(big.any(axis=0)):

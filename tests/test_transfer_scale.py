@@ -196,3 +196,20 @@ def test_data_that_change_between_reads_are_refused(recording):
     X, y, _ = recording
     with pytest.raises(ValueError, match="changed during the fit"):
         ThermalTransferFunction(drivers=["spindle_rpm"]).fit_chunks(_Changing(X, y))
+
+
+def test_a_long_frame_is_read_in_pieces_with_the_same_model(monkeypatch):
+    """Above WHOLE_ROWS rows a frame is read piece by piece (no float copy of it): the
+    same model, and an error in a later piece counts its rows from that piece."""
+    from greyml.dynamic import _transfer
+
+    X, y = _tiled(5, hours=40.0)
+    whole = ThermalTransferFunction(drivers=["spindle_rpm"]).fit(X, y)
+    monkeypatch.setattr(_transfer, "WHOLE_ROWS", 700)
+    _same_model(whole, ThermalTransferFunction(drivers=["spindle_rpm"]).fit(X, y))
+    bad = X.copy()
+    bad.iloc[1500, 1] = np.nan
+    with pytest.raises(
+        ValueError, match=r"T1_C.*rows counted from row 1,400, the first of piece 2"
+    ):
+        ThermalTransferFunction(drivers=["spindle_rpm"]).fit(bad, y)

@@ -135,6 +135,15 @@ def _unpack(item, name):
     return (*item, None) if len(item) == 2 else tuple(item)
 
 
+def _peaks(x):
+    """The largest ``|x|`` of each column, a block of rows at a time (no copy of ``x``)."""
+    out = np.zeros(x.shape[1])
+    for r0 in range(0, x.shape[0], _gram.CHUNK_ROWS):
+        block = x[r0 : r0 + _gram.CHUNK_ROWS]
+        out = np.maximum(out, np.maximum(block.max(axis=0), -block.min(axis=0)))
+    return out
+
+
 def read_rows(estimator, pieces, *, weights, default_step, keep):
     """The :class:`Rows` of ``pieces`` (an iterable of ``(X, y[, sample_weight])``),
     checked as ``fit`` checks one ``X``: columns, values, magnitudes, weights,
@@ -153,15 +162,23 @@ def read_rows(estimator, pieces, *, weights, default_step, keep):
     n = 0
     for j, item in enumerate(pieces):
         X, y, sample_weight = _unpack(item, name)
-        Xa, ya, segs = validate_sequences(estimator, X, y, reset=j == 0)
-        if j == 0:
-            names = column_names(estimator, Xa.shape[1])
-            index = getattr(X, "index", None)
-            labelled = index is not None and TEST_LEVEL in (index.names or [])
-        else:
-            check_magnitudes(estimator, Xa, names, segs)
-            check_magnitudes(estimator, ya[:, None], ["the target y"], segs)
-        w = weights(sample_weight, Xa.shape[0], segs)
+        try:
+            Xa, ya, segs = validate_sequences(estimator, X, y, reset=j == 0)
+            if j == 0:
+                names = column_names(estimator, Xa.shape[1])
+                index = getattr(X, "index", None)
+                labelled = index is not None and TEST_LEVEL in (index.names or [])
+            else:
+                check_magnitudes(estimator, Xa, names, segs)
+                check_magnitudes(estimator, ya[:, None], ["the target y"], segs)
+            w = weights(sample_weight, Xa.shape[0], segs)
+        except ValueError as error:
+            if j == 0:
+                raise  # the first piece's rows are counted as the data's
+            raise ValueError(
+                f"{str(error).rstrip('.')} (rows counted from row {n:,}, the first of "
+                f"piece {j} of the data)."
+            ) from None
         t, clocked_here = _times(X, segs, name, default_step)
         clocked = clocked_here if clocked is None else clocked and clocked_here
         on = bool(segments) and segs[0].label == segments[-1].label
@@ -188,13 +205,15 @@ def read_rows(estimator, pieces, *, weights, default_step, keep):
             firsts.append(Xa[seg.start].copy())
         if segments:
             seen.add(segments[-1].label)
-        a = np.abs(Xa).max(axis=0) if Xa.shape[0] else np.zeros(Xa.shape[1])
+        a = _peaks(Xa)
         peaks = a if peaks is None else np.maximum(peaks, a)
         if n_changes < MAX_CHANGES:
-            d = np.diff(Xa, axis=0)
+            # no more rows than the changes still wanted need (each test's first
+            # row has no change from the row before it)
+            d = np.diff(Xa[: MAX_CHANGES - n_changes + len(segs) + 1], axis=0)
             inside = np.ones(d.shape[0], dtype=bool)
             for seg in segs:  # no change from the row before a test's first
-                if seg.start > 0:
+                if 0 < seg.start <= d.shape[0]:
                     inside[seg.start - 1] = False
             parts = [d[inside]]
             if on and last_row is not None:

@@ -103,6 +103,31 @@ DEFAULT_TIME_CONSTANTS = (300.0, 900.0, 2700.0, 8100.0)
 DEFAULT_ALPHAS = tuple(np.logspace(-6, 0, 13))
 
 
+#: Rows of a frame above which ``fit`` reads it in pieces of this many rows.
+WHOLE_ROWS = 1 << 20
+
+
+class _FramePieces:
+    """A frame's rows (with their targets and weights) as pieces of :data:`WHOLE_ROWS`."""
+
+    def __init__(self, X, y, sample_weight):
+        self.X, self.y, self.w = X, y, sample_weight
+
+    def __iter__(self):
+        for a in range(0, self.X.shape[0], WHOLE_ROWS):
+            b = a + WHOLE_ROWS
+            yield self.X.iloc[a:b], _rows_of(self.y, a, b), _rows_of(self.w, a, b)
+
+
+def _rows_of(values, a, b):
+    """Rows ``a:b`` of a target or weights (None stays None)."""
+    if values is None:
+        return None
+    if isinstance(values, (pd.Series, pd.DataFrame)):
+        return values.iloc[a:b]
+    return np.asarray(values)[a:b]
+
+
 # -- the records of one fit -----------------------------------------------------
 
 
@@ -753,7 +778,15 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
     # -- data -----------------------------------------------------------------
 
     def _data(self, X, y, sample_weight, settings):
-        """Validated training data: arrays, tests, inputs, weights and time."""
+        """Validated training data: arrays, tests, inputs, weights and time.
+
+        A frame of more than :data:`WHOLE_ROWS` rows is read in pieces of that
+        many rows at every pass, as :meth:`fit_chunks` reads its pieces: no
+        float copy of it is held beside it (the model is the same).
+        """
+        n = getattr(X, "shape", (0,))[0]
+        if isinstance(X, pd.DataFrame) and n > WHOLE_ROWS:
+            return self._data_of(_FramePieces(X, y, sample_weight), settings, keep=False)
         return self._data_of([(X, y, sample_weight)], settings, keep=True)
 
     def _data_of(self, pieces, settings, keep):
