@@ -16,6 +16,8 @@ next (the same label), but may not come back after another test.
 
 from __future__ import annotations
 
+import queue
+import threading
 from collections.abc import Iterator
 from dataclasses import dataclass
 
@@ -97,6 +99,45 @@ class Rows:
                 buffer, r0, held = [rows[take:]], r0 + take, held - take
 
     def _read_again(self):
+        """``(r0, x)`` of every piece as given, checked to be what the first pass read,
+        the next piece read and checked in a thread while this one is used (reading
+        and parsing a file overlap the fit's arithmetic)."""
+        ahead = queue.Queue(maxsize=1)
+        stop = threading.Event()
+
+        def put(item):
+            while not stop.is_set():
+                try:
+                    ahead.put(item, timeout=0.05)
+                    return True
+                except queue.Full:
+                    continue
+            return False
+
+        def read():
+            try:
+                for piece in self._read_pieces():
+                    if not put(("piece", piece)):
+                        return
+                put(("done", None))
+            except BaseException as error:  # handed to the reader, raised there
+                put(("error", error))
+
+        worker = threading.Thread(target=read, name="greyml-read-ahead", daemon=True)
+        worker.start()
+        try:
+            while True:
+                kind, item = ahead.get()
+                if kind == "done":
+                    return
+                if kind == "error":
+                    raise item
+                yield item
+        finally:
+            stop.set()
+            worker.join()
+
+    def _read_pieces(self):
         """``(r0, x)`` of every piece as given, checked to be what the first pass read."""
         r0 = 0
         pieces = iter(self.source)

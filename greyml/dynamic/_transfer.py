@@ -103,6 +103,44 @@ DEFAULT_TIME_CONSTANTS = (300.0, 900.0, 2700.0, 8100.0)
 DEFAULT_ALPHAS = tuple(np.logspace(-6, 0, 13))
 
 
+class _EnvelopeRows:
+    """The :class:`InputEnvelope` of the inputs ``used``, from the rows of positive
+    weight (see :mod:`greyml.dynamic._envelope`), added up piece by piece as the rows
+    pass (each piece with the last row of the one before, so that the change between
+    them counts)."""
+
+    def __init__(self, data, used):
+        self.data, self.used = data, used
+        self.columns = [data.names.index(c) for c in used]
+        self.starts = np.array([a for a, _ in data.bounds], dtype=int)
+        self.envelope, self.last = None, None
+
+    def passing(self, chunks):
+        """``chunks`` as they are, each added on its way."""
+        for r0, x in chunks:
+            self.add(r0, x)
+            yield r0, x
+
+    def add(self, r0, x):
+        data = self.data
+        dt, w, carried = data.steps.dt, data.w, data.steps.carried
+        r1 = r0 + x.shape[0]
+        parts = row_pieces(self.starts, data.bounds, r0, r1)
+        lo = r0 - (self.last is not None)
+        local = [(a - lo, b - lo) for _, a, b in parts]
+        links = [bool(carried[i]) for i, _, _ in parts]
+        rows = x[:, self.columns]
+        if self.last is not None:
+            rows = np.vstack([self.last, rows])
+            if parts[0][1] > data.bounds[parts[0][0]][0]:  # the test runs on
+                local[0] = (0, local[0][1])
+            else:
+                local, links = [(0, 1), *local], [False, *links]
+        seen = envelope_of(rows, dt[lo:r1], local, w[lo:r1], self.used, links)
+        self.envelope = seen if self.envelope is None else union(self.envelope, seen)
+        self.last = x[-1:, self.columns]
+
+
 #: Rows of a frame above which ``fit`` reads it in pieces of this many rows.
 WHOLE_ROWS = 1 << 20
 
@@ -1011,10 +1049,15 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
         self.time_constants_ = np.asarray(bank.taus, dtype=float)
         self.driver_time_constants_ = np.asarray(bank.driver_taus, dtype=float)
         self.gap_limit_s_ = float(data.gap_limit)
-        self.input_envelope_ = self._envelope(data)
+        # one pass over the rows for the held-out predictions and the envelope
+        seen = _EnvelopeRows(data, self._used_inputs())
+        chunks = seen.passing(data.rows.chunks())
         self.interval_calibration_ = self._calibrate(
-            data, bank, reference, y_fit, folds, settings.alphas
+            data, bank, reference, y_fit, folds, settings.alphas, chunks
         )
+        for _ in chunks:  # what the calibration did not read (all of it without one)
+            pass
+        self.input_envelope_ = seen.envelope
         columns = [data.names.index(c) for c in data.sensors]
         self.sensor_resolution_ = max(
             (resolution_of_changes(data.rows.changes[:, k]) for k in columns), default=0.0
@@ -1648,7 +1691,7 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
 
     # -- intervals ---------------------------------------------------------------
 
-    def _calibrate(self, data, bank, reference, y, folds, alphas):
+    def _calibrate(self, data, bank, reference, y, folds, alphas, chunks):
         """The interval's :class:`IntervalCalibration` from the held-out tests.
 
         ``None`` when fewer than 3 tests were scored (nothing was held out, so
@@ -1670,7 +1713,7 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
         tests = {k: [k] if data.fold_tests is None else data.fold_tests[k] for k in folds}
         coefs = {t: coef for k in folds for coef in [choose(k)] for t in tests[k]}
         pred = self._predictions(
-            data.rows.chunks(),
+            chunks,
             data.y.size,
             data.steps,
             data.bounds,
@@ -1806,34 +1849,6 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
     def _used_inputs(self):
         """The inputs the model reads: its drivers, then its selected sensors."""
         return [*map(str, self.drivers_), *map(str, self.selected_sensors_)]
-
-    def _envelope(self, data):
-        """The :class:`InputEnvelope` of the inputs the model reads, from the rows of
-        positive weight (see :mod:`greyml.dynamic._envelope`), the rows read piece by
-        piece (each piece with the last row of the one before, so that the change
-        between them counts)."""
-        used = self._used_inputs()
-        columns = [data.names.index(c) for c in used]
-        dt, w, carried = data.steps.dt, data.w, data.steps.carried
-        starts = np.array([a for a, _ in data.bounds], dtype=int)
-        env, last = None, None
-        for r0, x in data.rows.chunks():
-            r1 = r0 + x.shape[0]
-            parts = row_pieces(starts, data.bounds, r0, r1)
-            lo = r0 - (last is not None)
-            local = [(a - lo, b - lo) for _, a, b in parts]
-            links = [bool(carried[i]) for i, _, _ in parts]
-            rows = x[:, columns]
-            if last is not None:
-                rows = np.vstack([last, rows])
-                if parts[0][1] > data.bounds[parts[0][0]][0]:  # the test runs on
-                    local[0] = (0, local[0][1])
-                else:
-                    local, links = [(0, 1), *local], [False, *links]
-            seen = envelope_of(rows, dt[lo:r1], local, w[lo:r1], used, links)
-            env = seen if env is None else union(env, seen)
-            last = x[-1:, columns]
-        return env
 
     def _followed(self, X):
         """``(Xa, followed, columns, segments)``: the rows of ``X`` as an array, the
