@@ -213,3 +213,15 @@ def test_a_long_frame_is_read_in_pieces_with_the_same_model(monkeypatch):
         ValueError, match=r"T1_C.*rows counted from row 1,400, the first of piece 2"
     ):
         ThermalTransferFunction(drivers=["spindle_rpm"]).fit(bad, y)
+
+
+def test_rows_without_labels_or_clock_in_pieces_are_one_test_evenly_spaced():
+    """No test level and no time level (sample_interval): the pieces are one test whose
+    rows run on; the model of the rows stacked."""
+    X, y = _tiled(1, hours=20.0)
+    plain = X.reset_index(drop=True)
+    model = ThermalTransferFunction(drivers=["spindle_rpm"], sample_interval=60.0)
+    whole = model.fit(plain, y)
+    pieces = [(plain.iloc[a : a + 500], y[a : a + 500]) for a in range(0, len(y), 500)]
+    again = ThermalTransferFunction(drivers=["spindle_rpm"], sample_interval=60.0)
+    np.testing.assert_array_equal(again.fit_chunks(pieces).feature_coef_, whole.feature_coef_)
