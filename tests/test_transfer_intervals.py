@@ -12,6 +12,7 @@ import pytest
 from greyml import ThermalTransferFunction, make_test_index
 from greyml.dynamic import IntervalCalibration
 from greyml.dynamic._intervals import (
+    compress_scores,
     conformal_quantile,
     quantile_by_test,
     scale_fit,
@@ -159,3 +160,22 @@ def test_too_few_tests_give_the_gaussian_quantile():
 def test_old_calibrations_keep_the_rows_rank():
     cal = IntervalCalibration(1.0, 0.0, 0.5, 0.5, 2.0, scores=np.linspace(0.2, 1.8, 9))
     assert cal.quantile(0.9) == 1.8 and cal.promise(0.9) == "rows"
+
+
+def test_the_scores_kept_give_quantiles_no_lower_and_at_most_a_level_higher():
+    """A year of rows keeps 100,000 scores, not one per row: every quantile of the kept
+    scores lies between the exact one and the exact one 1/k higher in level."""
+    rng = np.random.default_rng(5)
+    sizes = rng.integers(2_000, 30_000, 40)
+    scores = np.sort(np.abs(rng.standard_t(4, sizes.sum())))
+    weights = rng.permutation(weights_by_test(sizes))
+    kept, kept_weights = compress_scores(scores, weights, k=1000)
+    assert kept.size == 1000 and kept_weights.sum() == pytest.approx(weights.sum())
+    cum = np.cumsum(weights) / weights.sum()
+    for level in (0.5, 0.8, 0.9, 0.95, 0.99, 0.999):
+        exact = scores[np.searchsorted(cum, level - 1e-12)]
+        higher = scores[min(np.searchsorted(cum, level + 1e-3 - 1e-12), scores.size - 1)]
+        q, _ = quantile_by_test(kept, kept_weights, 40, level * 40 / 41)
+        assert exact <= q <= higher
+    small = np.sort(rng.uniform(size=50))
+    assert compress_scores(small, np.ones(50), k=1000)[0] is small

@@ -45,6 +45,8 @@ from scipy.special import ndtri
 
 __all__ = [
     "IntervalCalibration",
+    "MAX_KEPT_SCORES",
+    "compress_scores",
     "conformal_quantile",
     "held_out_predictions",
     "scale_fit",
@@ -173,6 +175,29 @@ def quantile_by_test(scores, weights, n_tests, coverage):
         return float(scores[order][min(i, scores.size - 1)]), "conformal"
     rms = math.sqrt(float(weights @ scores**2) / float(weights.sum()))
     return float(ndtri(0.5 + coverage / 2.0)) * rms, "gaussian"
+
+
+#: The most scaled scores a calibration keeps: beyond, the weighted distribution of
+#: the scores is kept at this many levels (:func:`compress_scores`), so that a model
+#: fitted on a year of rows is as small as one fitted on a week.
+MAX_KEPT_SCORES = 100_000
+
+
+def compress_scores(scores, weights, k=MAX_KEPT_SCORES):
+    """``(scores, weights)`` (``scores`` sorted) kept at ``k`` levels of their weight.
+
+    Each of the ``k`` representatives is the exact weighted quantile at level
+    ``j/k`` (j = 1 … k), weighing ``1/k`` of the total: any quantile of the
+    kept scores is at least the exact one and at most the exact one ``1/k``
+    higher in level, so an interval built on them covers at least what the
+    exact scores promise. Unchanged when there are no more than ``k``.
+    """
+    if scores.size <= k:
+        return scores, weights
+    cum = np.cumsum(weights)
+    levels = np.arange(1, k + 1) / k * cum[-1]
+    at = np.minimum(np.searchsorted(cum, levels - 1e-12 * cum[-1]), scores.size - 1)
+    return scores[at], np.full(k, cum[-1] / k)
 
 
 @dataclass

@@ -75,6 +75,7 @@ from greyml.dynamic._gram import (
 )
 from greyml.dynamic._intervals import (
     IntervalCalibration,
+    compress_scores,
     scale_fit,
     scale_of,
     variogram_fit,
@@ -1751,14 +1752,15 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
         qb, qr, scale, glr_scale = observer_noise(series, prior, noise, memory_h, s2)
         scores = np.abs(residuals) / scale_of(hours, a, b)
         order = np.argsort(scores, kind="stable")
+        kept, kept_weights = compress_scores(scores[order], weights[order])
         return IntervalCalibration(
             anchor_var=float(a),
             growth_var_per_h=float(b),
             noise_var=noise,
             memory_var=float(s2),
             memory_h=float(memory_h),
-            scores=scores[order],
-            score_weights=weights[order],
+            scores=kept,
+            score_weights=kept_weights,
             n_tests=len(series),
             filter_scale=float(scale),
             bias_var_per_h=float(qb),
