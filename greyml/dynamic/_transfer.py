@@ -15,7 +15,8 @@ evaluation of the time constants). The lags are computed by
 compensator, so batch and stream agree.
 
 Choices made inside ``fit`` are scored on whole held-out tests (leave one test
-out, from three tests on): the ridge penalty, which temperature sensors to use
+out, from three tests on; ten folds of consecutive tests beyond ten tests):
+the ridge penalty, which temperature sensors to use
 (a group lasso over whole sensors, or forward selection) and, with
 ``time_constants="fit"``, the time constants. Every held-out score is
 computed from per-test Gram matrices, so a candidate costs a few small linear
@@ -559,8 +560,9 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
     **What fit chooses.** For fixed time constants the model is linear in its
     gains: they are one ridge regression on the standardised lag features.
     Everything else is chosen inside ``fit`` on whole held-out tests (leave
-    one test out) when ``fit`` has three tests or more, never on rows of a
-    test being predicted:
+    one test out; with more than ten tests, ten folds of consecutive tests,
+    Hastie, Tibshirani and Friedman (2009)) when ``fit`` has three tests or
+    more, never on rows of a test being predicted:
 
     * the ridge penalty, from ``alphas``;
     * which temperature sensors, by two candidates, and between them the
@@ -608,6 +610,12 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
     without each test in turn and keeps the sensors that at least half of the
     runs chose (stability selection, Meinshausen and Bühlmann (2010)): fewer
     sensors that fit one test's peculiarities.
+
+    **Cost.** Time linear in rows and flat in the number of tests; memory
+    flat in rows but for 24 bytes a row: the lag features are computed
+    32,768 rows at a time, never held whole, and a frame of more than 2^20
+    rows is read in pieces. :meth:`fit_chunks` fits rows given in pieces
+    (files larger than memory), the same model.
 
     With fewer than three tests the penalty and the sensors are chosen by
     training error (which favours the smallest penalty), and
