@@ -219,43 +219,57 @@ def _innovations(series, every_h, prior, noise, memory_h, memory_var, qb, qr):
     qb, qr = np.asarray(qb, dtype=float), np.asarray(qr, dtype=float)
     rows = [_reading_rows(h, every_h) for h, _ in series]
     T, C = len(series), qb.size
-    n_read = np.array([r.size for r in rows])
+    n_read = np.array([r.size for r in rows], dtype=int)
+    # the tests with the most readings first: those read a k-th time are a prefix
+    rank = np.argsort(-n_read, kind="stable")
     K = int(n_read.max(initial=0))
     hr, zr = np.zeros((T, K)), np.zeros((T, K))
-    for t, ((h, r), i) in enumerate(zip(series, rows)):
-        hr[t, : i.size], zr[t, : i.size] = h[i], r[i]
+    for j, t in enumerate(rank):
+        (h, r), i = series[t], rows[t]
+        hr[j, : i.size], zr[j, : i.size] = h[i], r[i]
     z, logs = np.zeros((T, K, C)), np.zeros((T, K, C))
-    x, P = np.zeros((T, C, 3)), np.zeros((T, C, 3, 3))
-    eye = np.eye(3)
+    # the states (offset, bias, rate) and the covariance's six entries, (T, C) each
+    x0, x1, x2 = np.zeros((T, C)), np.zeros((T, C)), np.zeros((T, C))
+    p00, p01, p02, p11, p12, p22 = (np.zeros((T, C)) for _ in range(6))
     if K:  # the first reading: the batch variance there, all in the offset
-        P[:, :, 0, 0] = np.array([prior(v) for v in hr[:, 0]])[:, None]
+        p00[:] = np.array([prior(v) for v in hr[:, 0]])[:, None]
     for k in range(K):
-        t = np.flatnonzero(n_read > k)  # the tests read a k-th time
-        xt, Pt = x[t], P[t]
+        m = int(np.count_nonzero(n_read > k))  # the first m (ranked) tests are read
+        s = slice(0, m)
         if k > 0:
-            dh = hr[t, k] - hr[t, k - 1]
-            phi = np.exp(-dh / memory_h) if math.isfinite(memory_h) else np.ones(t.size)
-            F = np.zeros((t.size, 1, 3, 3))
-            F[:, 0, 0, 0], F[:, 0, 1, 1], F[:, 0, 2, 2], F[:, 0, 1, 2] = phi, 1.0, 1.0, dh
-            Q = np.zeros((t.size, C, 3, 3))
-            Q[:, :, 0, 0] = (memory_var * (1.0 - phi * phi))[:, None]
-            Q[:, :, 1, 1] = qb * dh[:, None] + qr * dh[:, None] ** 3 / 3.0
-            Q[:, :, 1, 2] = Q[:, :, 2, 1] = qr * dh[:, None] ** 2 / 2.0
-            Q[:, :, 2, 2] = qr * dh[:, None]
-            xt = (F @ xt[..., None])[..., 0]
-            Pt = F @ Pt @ np.swapaxes(F, -1, -2) + Q
-        nu = zr[t, k, None] - (xt @ H)
-        PH = Pt @ H
-        S = PH @ H + noise
+            dh = (hr[s, k] - hr[s, k - 1])[:, None]
+            phi = np.exp(-dh / memory_h) if math.isfinite(memory_h) else np.ones_like(dh)
+            x0[s] *= phi
+            x1[s] += dh * x2[s]
+            p11[s] += dh * (2.0 * p12[s] + dh * p22[s]) + qb * dh + qr * dh**3 / 3.0
+            p12[s] += dh * p22[s] + qr * dh * dh / 2.0
+            p22[s] += qr * dh
+            p01[s] = phi * (p01[s] + dh * p02[s])
+            p02[s] *= phi
+            p00[s] = phi * phi * p00[s] + memory_var * (1.0 - phi * phi)
+        nu = zr[s, k, None] - (x0[s] + x1[s])
+        h0, h1, h2 = p00[s] + p01[s], p01[s] + p11[s], p02[s] + p12[s]
+        S = h0 + h1 + noise
         S = np.where(S <= 0, np.finfo(float).tiny, S)
-        gain = PH / S[..., None]
-        IKH = eye - gain[..., :, None] * H
-        Pt = IKH @ Pt @ np.swapaxes(IKH, -1, -2) + gain[..., :, None] * gain[..., None, :] * noise
-        P[t] = 0.5 * (Pt + np.swapaxes(Pt, -1, -2))
-        x[t] = xt + gain * nu[..., None]
-        z[t, k] = nu / np.sqrt(S)
-        logs[t, k] = np.log(S)
-    return [z[t, : n_read[t]] for t in range(T)], [logs[t, : n_read[t]] for t in range(T)]
+        k0, k1, k2 = h0 / S, h1 / S, h2 / S
+        # Joseph's form, (I − KH)P(I − KH)' + KRK', written out: P − K·PH' − PH·K' + KK'·S
+        p00[s] += k0 * (k0 * S - 2.0 * h0)
+        p11[s] += k1 * (k1 * S - 2.0 * h1)
+        p22[s] += k2 * (k2 * S - 2.0 * h2)
+        p01[s] += k0 * k1 * S - k0 * h1 - k1 * h0
+        p02[s] += k0 * k2 * S - k0 * h2 - k2 * h0
+        p12[s] += k1 * k2 * S - k1 * h2 - k2 * h1
+        x0[s] += k0 * nu
+        x1[s] += k1 * nu
+        x2[s] += k2 * nu
+        z[s, k] = nu / np.sqrt(S)
+        logs[s, k] = np.log(S)
+    back = np.empty(T, dtype=int)
+    back[rank] = np.arange(T)
+    return (
+        [z[back[t], : n_read[t]] for t in range(T)],
+        [logs[back[t], : n_read[t]] for t in range(T)],
+    )
 
 
 def observer_noise(series, prior, noise, memory_h, memory_var):
