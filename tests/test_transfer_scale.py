@@ -225,3 +225,14 @@ def test_rows_without_labels_or_clock_in_pieces_are_one_test_evenly_spaced():
     pieces = [(plain.iloc[a : a + 500], y[a : a + 500]) for a in range(0, len(y), 500)]
     again = ThermalTransferFunction(drivers=["spindle_rpm"], sample_interval=60.0)
     np.testing.assert_array_equal(again.fit_chunks(pieces).feature_coef_, whole.feature_coef_)
+
+
+def test_a_bad_cell_in_a_file_read_in_pieces_names_the_file(tmp_path):
+    X, y = _tiled(3, hours=12.0)
+    flat = X.reset_index().assign(dx_um=y)
+    flat.loc[600, "T2_C"] = np.nan
+    flat.iloc[:500].to_csv(tmp_path / "a.csv", index=False)
+    flat.iloc[500:].to_csv(tmp_path / "b.csv", index=False)
+    files = TestFiles(tmp_path, "dx_um", rows=300)
+    with pytest.raises(ValueError, match=r"T2_C.*b\.csv, data rows 0-299\)"):
+        ThermalTransferFunction(drivers=["spindle_rpm"]).fit_chunks(files)

@@ -214,12 +214,14 @@ def read_rows(estimator, pieces, *, weights, default_step, keep):
                 check_magnitudes(estimator, ya[:, None], ["the target y"], segs)
             w = weights(sample_weight, Xa.shape[0], segs)
         except ValueError as error:
-            if j == 0:
+            source = getattr(X, "attrs", {}).get("greyml_source")
+            if source is not None:
+                where = f"in {source}"
+            elif j == 0:
                 raise  # the first piece's rows are counted as the data's
-            raise ValueError(
-                f"{str(error).rstrip('.')} (rows counted from row {n:,}, the first of "
-                f"piece {j} of the data)."
-            ) from None
+            else:
+                where = f"rows counted from row {n:,}, the first of piece {j} of the data"
+            raise ValueError(f"{str(error).rstrip('.')} ({where}).") from None
         t, clocked_here = _times(X, segs, name, default_step)
         clocked = clocked_here if clocked is None else clocked and clocked_here
         on = bool(segments) and segs[0].label == segments[-1].label

@@ -124,6 +124,7 @@ class TestFiles:
                 "each='recording' (its tests labelled by that column)."
             )
         label = Path(path).stem
+        first = 0
         for frame in _frames(path, self.rows, self.test_column):
             X, y = piece_of(
                 frame,
@@ -133,7 +134,11 @@ class TestFiles:
                 where=path,
                 label=label,
             )
-            yield (X if self.inputs is None else X[self.inputs]), y
+            X = X if self.inputs is None else X[self.inputs]
+            # where a message about this piece should point (greyml's readers look)
+            X.attrs["greyml_source"] = f"{path}, data rows {first:,}-{first + len(X) - 1:,}"
+            first += len(X)
+            yield X, y
 
     def columns(self):
         """The columns of the first file, read from its header."""
