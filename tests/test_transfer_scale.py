@@ -234,5 +234,5 @@ def test_a_bad_cell_in_a_file_read_in_pieces_names_the_file(tmp_path):
     flat.iloc[:500].to_csv(tmp_path / "a.csv", index=False)
     flat.iloc[500:].to_csv(tmp_path / "b.csv", index=False)
     files = TestFiles(tmp_path, "dx_um", rows=300)
-    with pytest.raises(ValueError, match=r"T2_C.*b\.csv, data rows 0-299\)"):
+    with pytest.raises(ValueError, match=r"T2_C.*b\.csv, data rows 0-219\)"):
         ThermalTransferFunction(drivers=["spindle_rpm"]).fit_chunks(files)
