@@ -210,7 +210,7 @@ def fleet(cycles, root, n_machines, rows, recording, reference):
     alone = fit_fleet(model, machines)
     sequential = time.perf_counter() - w0
     with (
-        LocalCluster(n_workers=2, threads_per_worker=1, dashboard_address=None) as cluster,
+        LocalCluster(n_workers=2, threads_per_worker=1, dashboard_address=":0") as cluster,
         Client(cluster) as client,
     ):
         w0 = time.perf_counter()

@@ -73,7 +73,7 @@ def client(tmp_path_factory):
                 n_workers=2,
                 threads_per_worker=1,
                 processes=True,
-                dashboard_address=None,
+                dashboard_address=":0",  # any free port: two test processes may each start one
                 local_directory=str(tmp_path_factory.mktemp("dask-workers")),
             ) as cluster,
             Client(cluster) as dask_client,

@@ -245,17 +245,24 @@ def grams_by_test(A, y, w, bounds):
     return GramBlocks(np.array(G), np.array(b), np.array(yy), np.array(sw))
 
 
-def grams_of_rows(rows, chunks, y, w, intercept):
+def grams_of_rows(rows, chunks, y, w, intercept, groups=None):
     """:func:`grams_by_test` of the design :class:`DesignRows` ``rows`` gives for the
     inputs ``chunks`` (``(r0, x)`` in order, covering every row), a ones column
-    last with ``intercept``: the design is never held whole."""
+    last with ``intercept``: the design is never held whole. With ``groups``
+    (lists of tests), one block per group, summed as it is read (the tests in no
+    group are left out): :meth:`GramBlocks.grouped` without a block per test."""
     width = rows.order.size
     T = len(rows.bounds)
-    G, b = np.zeros((T, width, width)), np.zeros((T, width))
-    ones, yw = np.zeros((T, width)), np.zeros(T)
+    block = {t: j for j, g in enumerate(groups) for t in g} if groups else None
+    B = T if groups is None else len(groups)
+    G, b = np.zeros((B, width, width)), np.zeros((B, width))
+    ones = np.zeros((B, width))
     for r0, x in chunks:
         FT = rows.rows(r0, x)
-        for i, start, stop in rows.pieces(r0, r0 + x.shape[0]):
+        for t, start, stop in rows.pieces(r0, r0 + x.shape[0]):
+            i = t if block is None else block.get(t)
+            if i is None:
+                continue
             a = FT[:, start - r0 : stop - r0]
             v = w[start:stop]
             av = a if (v == 1.0).all() else a * v
@@ -265,9 +272,15 @@ def grams_of_rows(rows, chunks, y, w, intercept):
     # back to design()'s column order, a ones column last with the intercept
     back = np.argsort(rows.order)
     G, b, ones = G[:, back][:, :, back], b[:, back], ones[:, back]
+    members = [[t] for t in range(T)] if groups is None else groups
+    per = np.array(
+        [
+            (float(w[a:e].sum()), float(y[a:e] @ (w[a:e] * y[a:e])), float(w[a:e] @ y[a:e]))
+            for a, e in rows.bounds
+        ]
+    ).reshape(T, 3)
+    sw, yy, yw = (np.array([per[g, k].sum() for g in members]) for k in range(3))
     if intercept:
-        sw = np.array([w[s:e].sum() for s, e in rows.bounds])
-        yw = np.array([w[s:e] @ y[s:e] for s, e in rows.bounds])
         G = np.concatenate(
             [
                 np.concatenate([G, ones[:, None, :]], axis=1),
@@ -276,8 +289,6 @@ def grams_of_rows(rows, chunks, y, w, intercept):
             axis=2,
         )
         b = np.concatenate([b, yw[:, None]], axis=1)
-    yy = np.array([float(y[s:e] @ (w[s:e] * y[s:e])) for s, e in rows.bounds])
-    sw = np.array([float(w[s:e].sum()) for s, e in rows.bounds])
     return GramBlocks(G, b, yy, sw)
 
 

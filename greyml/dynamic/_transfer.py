@@ -1623,9 +1623,9 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
         recording reference), summed by fold where several tests share one."""
         relative = reference == "start"
         rows = self._design_rows(data.steps, data.bounds, spec, groups, reference)
-        grams = grams_of_rows(rows, data.rows.chunks(), y, data.w, not relative)
-        if data.fold_tests is not None:
-            grams = grams.grouped(data.fold_tests)
+        grams = grams_of_rows(
+            rows, data.rows.chunks(), y, data.w, not relative, groups=data.fold_tests
+        )
         pen = np.ones(grams.n_columns)
         if not relative:
             pen[-1] = 0.0
