@@ -30,6 +30,7 @@ from greyml.dynamic._observer import KINDS, WINDOW, glr_threshold
 
 __all__ = [
     "CHANGE_KINDS",
+    "RESERVED_WORDS",
     "SCHEMA",
     "SCHEMA_VERSION",
     "STATUS_CODES",
@@ -62,20 +63,47 @@ STATUS_CODES = {
     "ERR_READING": (-4, "a probe reading refused (as Compensator.observe refuses it)"),
 }
 
-# IEC 61131-3 and C keywords (case-insensitive for Structured Text) that a
-# function or block name may not be; an input's identifier always has a prefix
-_RESERVED = frozenset(
-    """
-    abs action and any array at auto bool break by byte case char const continue date
-    default dint do double dt dword else elsif end_action end_case end_for end_function
-    end_function_block end_if end_method end_program end_repeat end_struct end_type
-    end_var end_while enum exit exp extern false float for function function_block goto
-    if inline int int16_t int32_t int64_t lint long lreal mod not of or program real
-    register repeat restrict return short signed sint sizeof static string struct switch
-    then time to tod true trunc type typedef udint uint ulint union unsigned until usint
-    var var_input var_output var_in_out var_temp var_global void volatile while word xor
-    """.split()
-)
+# Words a function or block name may not be (case-insensitive, as Structured Text reads
+# them): the keywords of C99 and C11; of IEC 61131-3 (third edition: its statements,
+# sections, types and operators, the object-oriented extensions, namespaces, SFC); the
+# extensions of TwinCAT 3 and CODESYS 3.5 (properties, references, unions, pointers,
+# JMP, the qualifiers of VAR sections); and the standard functions the function block
+# calls. An input's identifier always has a prefix (x_), so it is none of them.
+_C_KEYWORDS = """
+    auto break case char const continue default do double else enum extern float for goto
+    if inline int long register restrict return short signed sizeof static struct switch
+    typedef union unsigned void volatile while bool complex imaginary alignas alignof
+    atomic generic noreturn static_assert thread_local int8_t int16_t int32_t int64_t
+    uint8_t uint16_t uint32_t uint64_t size_t main nan infinity huge_val
+"""
+_IEC_KEYWORDS = """
+    action end_action array at by case end_case class end_class configuration
+    end_configuration constant continue do else elsif end_for end_function
+    end_function_block end_if end_interface end_method end_namespace end_program
+    end_repeat end_resource end_step end_struct end_transition end_type end_var end_while
+    en eno exit extends f_edge r_edge false final for from function function_block if
+    implements initial_step interface internal method namespace non_retain null of on
+    or override private program protected public read_only read_write ref ref_to repeat
+    resource retain return step struct super task then this to transition true type
+    until using var var_access var_config var_external var_global var_in_out var_input
+    var_output var_temp var_stat var_inst while with abstract and and_then or_else xor
+    not mod
+    bool byte word dword lword sint int dint lint usint uint udint ulint real lreal time
+    ltime date ldate time_of_day tod ltod date_and_time dt ldt string wstring char wchar
+    any any_num any_real any_int any_bit any_string any_date any_elementary any_derived
+    any_magnitude any_signed any_unsigned any_duration any_char any_chars
+"""
+_VENDOR_KEYWORDS = """
+    property end_property reference pointer union end_union jmp persistent adr adrinst
+    bitadr sizeof ini xword xint uxint bit jmpc jmpcn cal calc calcn ret retc retcn
+    var_in_out_constant end_class interface end_interface
+    abs exp expt sqrt trunc ln log sin cos tan asin acos atan min max limit sel mux
+    dint_to_lreal lreal_to_dint
+"""
+_RESERVED = frozenset((_C_KEYWORDS + _IEC_KEYWORDS + _VENDOR_KEYWORDS).split())
+
+#: Every word refused as a name, in upper case (what the tests try).
+RESERVED_WORDS = tuple(sorted(w.upper() for w in _RESERVED))
 
 _NAME = re.compile(r"[A-Za-z](?:_?[A-Za-z0-9])*")
 _NAME_MAX = 31
