@@ -95,6 +95,33 @@ def header_lines(p, language, call, found=""):
 _KINDS = {"real": "double", "int": "long", "bool": "int"}
 
 
+def _init_body(p):
+    """Every state member and the work space zeroed (no struct on the stack)."""
+    zero = {"real": "0.0", "int": "0", "bool": "0"}
+    lines, used = [], False
+    members = [(v.name, v.kind, v.length, v.length > 1 or v.name in ARRAYS) for v in p.state]
+    n_terms = max(len(p.terms), 1)
+    members.append(("work_lag", "real", n_terms, True))
+    if p.envelope is not None:
+        n_env, n_inputs = len(p.envelope.input), max(len(p.inputs), 1)
+        members += [
+            ("work_elag", "real", n_terms, True),
+            ("work_xt", "real", n_inputs, True),
+            ("work_ef", "real", n_env, True),
+            ("work_ex", "real", n_env, True),
+            ("work_din", "real", n_env, True),
+        ]
+    for name, kind, length, array in members:
+        if array:
+            used = True
+            lines.append(f"    for (k = 0; k < {max(length, 1)}; k++) s->{name}[k] = {zero[kind]};")
+        else:
+            lines.append(f"    s->{name} = {zero[kind]};")
+    if not used:
+        lines.append("    (void)k;")
+    return "\n".join(lines)
+
+
 def _struct(p):
     members = []
     for v in p.state:
@@ -145,8 +172,9 @@ static const int ${P}_idle[${n_lags_1}] = ${idle};${env_tables}
 
 void ${P}_init(${P}_state *s)
 {
-    ${P}_state zero = {0};
-    *s = zero;
+    /* member by member: a zero struct copied in would be the struct's size on the stack */
+    int k;
+${init}
 }
 
 void ${P}_reset(${P}_state *s, int has_initial, double initial_um)
@@ -836,6 +864,7 @@ def write_c(p):
         status_macros=status_macros,
         input_macros=input_macros,
         members=_struct(p),
+        init=_init_body(p),
         trust_declarations=declarations,
         trust_functions=functions,
         input_index=_array([t.input for t in p.terms], str, 16),
