@@ -138,7 +138,9 @@ half_width : float
 trusted : bool
     The correction is plausible and its half-width within ``tolerance_um``.
 plausible : bool
-    The correction is within ``max_correction_um``.
+    The correction is within ``max_correction_um`` (a row whose correction
+    is not is refused; a probe reading may move it beyond, and the next row
+    is refused then).
 changes : int
     How many times the change detector fired (and recalibrated).
 output : float
@@ -1090,8 +1092,14 @@ class Compensator:
         to a fractional power must not be negative; ``time_s`` must be finite
         and later than the previous row's (or start the next piece, with
         ``nominal_step_s``), by at most ``max_step_s``; every input must be
-        finite (else, with ``on_missing="hold"``, the last output again); the
-        correction must be finite. A refused or held row changes no state.
+        finite (else, with ``on_missing="hold"``, the last output again: on
+        the first row, the output the axis has, and the next row is the
+        first); the sum of the terms must be finite; the correction, probe
+        filter included, must be finite and within ``max_correction_um``.
+        Every check runs before anything is kept: a refused or held row
+        changes no state (``time_s`` included), and what this returns is
+        always finite and within ``max_correction_um`` (plus half a quantum
+        where rounded).
 
         Parameters
         ----------
@@ -1104,6 +1112,11 @@ class Compensator:
         output : float
             The correction, clamped, quantised and rate limited as the
             parameters say (the correction itself with none of them).
+
+        Raises
+        ------
+        ValueError
+            With one line naming the time (and the input), for a refused row.
         """
         with np.errstate(over="ignore", invalid="ignore"):  # every overflow is checked
             return self._update_row(row)
@@ -1958,7 +1971,9 @@ class Compensator:
             With one line naming the time and the value, for a reading that is
             not a finite number, beyond ``max_correction_um``, after the last
             update, before the previous reading, or older than the rows
-            remembered. The state is unchanged then.
+            remembered, or that would make the filter's states, their
+            covariance or the change detector's sums overflow. The state is
+            unchanged then.
         """
         self._plan_or_build()
         for what, value in (("time_s", time_s), ("measured_um", measured_um)):

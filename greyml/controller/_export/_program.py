@@ -58,9 +58,13 @@ STATUS_CODES = {
     "ERR_VALUE": (
         -3,
         "an input missing (on_missing='raise'), negative to a fractional power, or the "
-        "correction overflows: refused",
+        "correction not finite or beyond max_correction_um: refused, no state changed",
     ),
-    "ERR_READING": (-4, "a probe reading refused (as Compensator.observe refuses it)"),
+    "ERR_READING": (
+        -4,
+        "a probe reading or a recalibration size refused (as Compensator.observe and "
+        "recalibrate refuse them): no state changed",
+    ),
 }
 
 # Words a function or block name may not be (case-insensitive, as Structured Text reads
@@ -413,10 +417,12 @@ ALGORITHM = [
     "(3) an input not finite -> refuse(); (4) v_k = x[input_k] ** power_k; at the first "
     "row lag_k = v_k (0 for idle lags), else lag_k = (1 - a_k) v_k + a_k lag_k with "
     "a_k = exp(-dt / tau_k) (a_k = 0 without lag); total = sum weight_k lag_k; not finite "
-    "-> ERR_VALUE; (5) at the first row start = intercept + total - initial (initial "
-    "given), total (relative_to_start) or nothing; total -= start; (6) model = intercept "
-    "+ total; the probe filter's correction: model + offset exp(-dh / memory_h) + bias + "
-    "rate dh once a reading was taken (dh in hours since the filter's time); (7) the "
+    "-> ERR_VALUE (the sum term after term, in the order of terms); (5) at the first row "
+    "start = intercept + total - initial (initial given), total (relative_to_start) or "
+    "nothing; total -= start; (6) model = intercept + total; the probe filter's "
+    "correction: model + offset exp(-dh / memory_h) + bias + rate dh once a reading was "
+    "taken (dh in hours since the filter's time); not finite or beyond "
+    "max_correction_um -> ERR_VALUE; nothing is kept before this check; (7) the "
     "output stage: clamp, quantise (floor(|v| / q + 0.5) quanta, at most quanta_max, "
     "sign of v), rate limit (without a quantum: within +-rate dt of the last output, 0 "
     "at the first row after init or reset; with one: credit = min(credit + rate dt, "
@@ -433,7 +439,9 @@ ALGORITHM = [
     "rate_var_per_h3 dh]]; x = F x, P = F P F' + Q, but at the first reading since reset "
     "x = 0, P = diag(scale (offset_var + growth_var_per_h dh), 0, 0); innovation = "
     "(measured - m) - H x, S = H P H' + reading_var, K = P H' / S, x += K innovation, P = "
-    "(I - K H) P (I - K H)' + K K' reading_var, symmetrised.",
+    "(I - K H) P (I - K H)' + K K' reading_var, symmetrised; the filter, the bank and "
+    "the correction are computed on copies and kept only if every number is finite "
+    "(else ERR_READING).",
     "the change detector (Willsky and Jones, 1976), after each reading at time_h = time_s "
     "/ 3600: a bank of `window` onsets for each kind (step, ramp) shifts by one (the "
     "newest onset begins at the filter's previous time, the oldest beyond the window "
@@ -446,10 +454,13 @@ ALGORITHM = [
     "changes += 1, change_kind and change_start_s (the onset, s) set; the last "
     "standardised innovation innovation / sqrt(S) is kept.",
     "recalibrate(size?): P += diag(0, size^2, size^2) (size by default sqrt(offset_var + "
-    "noise_var), 1 if that is 0), changes += 1, the bank emptied.",
+    "noise_var), 1 if that is 0; a size not finite or beyond max_correction_um, or a P "
+    "that would not be finite: ERR_READING), changes += 1, the bank emptied.",
     "half-width: interval_quantile sqrt(offset_var + growth_var_per_h dh + noise_var) "
     "before any reading (dh from the filter's time to the last row), else "
-    "interval_quantile sqrt(max(H P H', 0) + white_var) with P carried to the last row.",
+    "interval_quantile sqrt(max(hph + scale hqh, 0) + white_var) with phi = exp(-dh / "
+    "memory_h), hph = phi phi P00 + P11 + dh dh P22 + 2 (phi P01 + phi dh P02 + dh P12), "
+    "hqh = memory_var (1 - phi phi) + bias_var_per_h dh + rate_var_per_h3 dh^3 / 3.",
 ]
 
 
