@@ -113,7 +113,7 @@ def run(variant, calls, tally=None):
             assert (python < 0) == (code < 0) and (python == 1) == (code == 1), (call, code)
             key = "refused" if code < 0 else "held" if code == 1 else "taken"
             tally[key] = tally.get(key, 0) + 1
-            if math.isfinite(t_next):
+            if python == 0:  # a refused or held row leaves the clock where it was
                 t = t_next
         elif kind == "observe":
             if comp.status.time_s is None:

@@ -172,3 +172,20 @@ def test_sums_are_taken_left_to_right():
     assert ordered_sum([1.0, 1e17, -1e17]) == 0.0
     assert ordered_sum(np.array([[1e17, -1e17, 1.0], [1.0, 1e17, -1e17]])).tolist() == [1.0, 0.0]
     assert ordered_sum([]) == 0.0
+
+
+def test_an_overflow_is_a_valueerror_never_an_overflowerror():
+    # Python's float power raised OverflowError: products and powers that overflow
+    # are inf, and what is refused is refused with the package's ValueError
+    comp = _comp(max_correction_um=math.inf)
+    comp.update(_row(0.0))
+    comp.observe(0.0, 1.0)
+    state = comp.get_state()
+    _one_line(lambda: comp.recalibrate(1e200), "overflows the probe filter's covariance")
+    assert _same(comp.get_state(), state)
+    # a row 1e300 s on (no lag: nothing bounds the step): the half-width is infinite
+    raw = Compensator(["T1_C"], [("T1_C", 1, None, 2.0)], uncertainty=U)
+    raw.update(_row(0.0))
+    raw.observe(0.0, 1.0)
+    raw.update(_row(1e300))
+    assert raw.status.half_width == math.inf

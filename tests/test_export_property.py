@@ -1,6 +1,6 @@
 """Random sequences of calls give the same, bounded outputs in Python and the C (issue 41).
 
-A few dozen sequences of ``update`` / ``observe`` / ``recalibrate`` / ``reset``
+Thirty sequences of ``update`` / ``observe`` / ``recalibrate`` / ``reset``
 / a saved state restored, each run in Python and in the C export compiled once
 per set of limits (``tests/_export_property.py``): every output finite and
 within ``max_correction_um`` or the call refused with a status, Python = C to
@@ -18,7 +18,7 @@ pytestmark = pytest.mark.skipif(
 )
 
 
-@settings(max_examples=40, deadline=None, derandomize=True)
+@settings(max_examples=30, deadline=None, derandomize=True)
 @given(sequences)
 def test_random_calls_give_bounded_outputs_equal_in_python_and_c(case):
     variant, calls = case

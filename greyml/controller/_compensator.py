@@ -72,6 +72,7 @@ from greyml.dynamic._lags import _power_name, _tau_label
 from greyml.dynamic._observer import (
     KINDS,
     WINDOW,
+    cube,
     glr_advance,
     glr_change,
     glr_reset,
@@ -1857,16 +1858,15 @@ class Compensator:
         # H (F P Fᵀ + Q) Hᵀ with H F = (φ, 1, dh), in scalars (read at every row)
         dh = max(0.0, (time - self._ft0) / 3600.0)
         phi = math.exp(-dh / u.memory_h) if math.isfinite(u.memory_h) else 1.0
-        P = self._fP
-        hph = (
-            phi * phi * P[0, 0]
-            + P[1, 1]
-            + dh * dh * P[2, 2]
-            + 2.0 * (phi * P[0, 1] + phi * dh * P[0, 2] + dh * P[1, 2])
-        )
+        # Python floats: an overflow is inf (no warning), as in C
+        (p00, p01, p02), (_, p11, p12), (_, _, p22) = self._fP.tolist()
+        hph = phi * phi * p00 + p11 + dh * dh * p22 + 2.0 * (phi * p01 + phi * dh * p02 + dh * p12)
         hqh = u.memory_var * (1.0 - phi * phi) + u.bias_var_per_h * dh
-        hqh += u.rate_var_per_h3 * dh**3 / 3.0
-        return max(float(hph) + u.scale * hqh, 0.0) + u.scale * u.noise_var
+        hqh += u.rate_var_per_h3 * cube(dh) / 3.0
+        var = hph + u.scale * hqh
+        if var != var:  # inf - inf: nothing is known
+            var = math.inf
+        return max(var, 0.0) + u.scale * u.noise_var
 
     @property
     def status(self):
@@ -2021,7 +2021,7 @@ class Compensator:
             P = self._fP.copy()
             P[0, 0] = u.scale * (u.offset_var + u.growth_var_per_h * dh)
         F, _ = self._transition(dh)
-        R = u.scale * u.noise_var + self.probe_noise_um**2
+        R = u.scale * u.noise_var + self.probe_noise_um * self.probe_noise_um
         with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
             x, P, innovation, S, K = update(x, P, z - m, R)
             glr, (stat, kind, slot) = glr_advance(
@@ -2034,8 +2034,9 @@ class Compensator:
                 # are opened by the size found (its effect here, and that per hour since
                 # it began), so that the next readings settle which
                 span = max(time_s / 3600.0 - start_h, 1e-9)
-                effect2 = (size * span) ** 2 if kind else size**2
-                x, P = x + dx, P + dP + np.diag([0.0, effect2, effect2 / span**2])
+                # products, not powers: an overflow is inf (refused below), as in C
+                effect2 = (size * span) * (size * span) if kind else size * size
+                x, P = x + dx, P + dP + np.diag([0.0, effect2, effect2 / (span * span)])
                 kind_name, start = KINDS[kind], start_h * 3600.0
                 changes += 1
                 glr = glr_reset()
@@ -2102,7 +2103,7 @@ class Compensator:
                 f"Compensator.recalibrate: size_um is {size_um!r}; it must be a finite number "
                 f"within +-{self.max_correction_um:g} um (max_correction_um)."
             )
-        size2 = float(size_um) ** 2
+        size2 = float(size_um) * float(size_um)
         P = self._fP + np.diag([0.0, size2, size2])
         if not np.isfinite(P).all():
             raise ValueError(

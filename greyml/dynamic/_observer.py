@@ -45,6 +45,7 @@ __all__ = [
     "KINDS",
     "READING_HOURS",
     "WINDOW",
+    "cube",
     "glr_advance",
     "glr_change",
     "glr_reset",
@@ -66,6 +67,15 @@ KINDS = ("step", "ramp")
 READING_HOURS = (0.25, 1.0, 4.0)
 
 
+def cube(dh):
+    """``dh**3`` as C's ``pow(dh, 3.0)`` gives it: infinity where it overflows (Python's
+    float power raises ``OverflowError`` there)."""
+    try:
+        return dh**3
+    except OverflowError:
+        return math.inf
+
+
 def transition(dh, memory_h, memory_var, bias_var_per_h, rate_var_per_h3, scale=1.0):
     """``(F, Q)`` carrying the states ``(o, β, r)`` over ``dh`` hours (≥ 0)."""
     phi = math.exp(-dh / memory_h) if math.isfinite(memory_h) else 1.0
@@ -74,7 +84,7 @@ def transition(dh, memory_h, memory_var, bias_var_per_h, rate_var_per_h3, scale=
     Q = np.array(
         [
             [memory_var * (1.0 - phi * phi), 0.0, 0.0],
-            [0.0, qb * dh + qr * dh**3 / 3.0, qr * dh * dh / 2.0],
+            [0.0, qb * dh + qr * cube(dh) / 3.0, qr * dh * dh / 2.0],
             [0.0, qr * dh * dh / 2.0, qr * dh],
         ]
     )

@@ -408,6 +408,7 @@ double ${P}_half_width(const ${P}_state *s)
         hqh = ${memory_var} * (1.0 - phi * phi) + ${bias_var} * dh;
         hqh += ${rate_var} * pow(dh, 3.0) / 3.0;
         var = hph + ${scale} * hqh;
+        if (isnan(var)) var = HUGE_VAL; /* inf - inf: nothing is known */
         var = (var > 0.0 ? var : 0.0) + ${white_var};
     }
     return ${quantile} * sqrt(var)${widening};

@@ -458,7 +458,8 @@ ALGORITHM = [
     "that would not be finite: ERR_READING), changes += 1, the bank emptied.",
     "half-width: interval_quantile sqrt(offset_var + growth_var_per_h dh + noise_var) "
     "before any reading (dh from the filter's time to the last row), else "
-    "interval_quantile sqrt(max(hph + scale hqh, 0) + white_var) with phi = exp(-dh / "
+    "interval_quantile sqrt(max(hph + scale hqh, 0) + white_var) (infinite for NaN) with "
+    "phi = exp(-dh / "
     "memory_h), hph = phi phi P00 + P11 + dh dh P22 + 2 (phi P01 + phi dh P02 + dh P12), "
     "hqh = memory_var (1 - phi phi) + bias_var_per_h dh + rate_var_per_h3 dh^3 / 3.",
 ]
@@ -596,7 +597,7 @@ def describe(comp, *, name="greyml_compensator", description=None):
             interval_quantile=float(comp.interval_quantile),
             probe_noise_um=probe_noise,
             # as Compensator.observe and status compute them
-            reading_var=u.scale * u.noise_var + probe_noise**2,
+            reading_var=u.scale * u.noise_var + probe_noise * probe_noise,
             white_var=u.scale * u.noise_var,
             false_alarm_rate=rate,
             glr_threshold=glr_threshold(rate) * u.glr_scale,  # as observe compares it

@@ -427,6 +427,8 @@ IF st_started THEN
         variance := hph + SCALE * hqh;
         IF variance < 0.0 THEN
             variance := 0.0;
+        ELSIF NOT (variance >= 0.0) THEN
+            variance := 1.7976931348623157E308; (* inf - inf: nothing is known *)
         END_IF;
         variance := variance + WHITE_VAR;
     END_IF;
