@@ -77,6 +77,7 @@ from greyml.dynamic._observer import (
     glr_change,
     glr_reset,
     glr_threshold,
+    matmul,
     transition,
     update,
 )
@@ -1847,7 +1848,7 @@ class Compensator:
         """The filter's states and covariance carried from its time to ``time``."""
         dh = max(0.0, (time - self._ft0) / 3600.0)
         F, Q = self._transition(dh)
-        return F @ self._fx, F @ self._fP @ F.T + Q, dh
+        return matmul(F, self._fx), matmul(matmul(F, self._fP), F.T) + Q, dh
 
     def _variance_at(self, time, model):
         """Variance of the error of the correction given at ``time`` (model part ``model``)."""
