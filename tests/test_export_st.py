@@ -11,10 +11,12 @@ numbers, a missing input told by ``InputsValid`` as by a NaN; a missing idle
 input on the first row is held or refused as Python does (issue 41), the
 commands act on their rising edge in a cyclic call, and every reserved word
 is refused as a name. Parsing a block costs blark 5-25 s, and replaying
-rows little: the tests share three blocks, parsed once a run (one xdist group).
+rows little: the tests share three blocks, parsed once a run (their translations
+kept in the session's temporary folder, shared by the xdist workers).
 """
 
 import math
+import os
 import re
 
 import numpy as np
@@ -44,11 +46,12 @@ class Block:
     """The exported function block, driven as the C export and Python are."""
 
     no_nan = True  # Structured Text has no NaN: 0 where Python says NaN
+    cache = None  # where translations are shared (_shared_blocks)
 
     def __init__(self, comp, *, flag_missing=False, name="gm_block"):
         program = describe(comp, name=name)
         self.source = write_st(program)
-        self.fb = FunctionBlock(self.source)
+        self.fb = FunctionBlock(self.source, cache=Block.cache)
         self.ids = [v.identifier for v in program.inputs]
         self.flag_missing = flag_missing
         self.before = {}
@@ -119,15 +122,23 @@ class Block:
         return self.out["wideningum"]
 
 
-# Three function blocks, each parsed once (blark's Earley parser takes 5-25 s per
-# block: the parse, not the rows, is what these tests cost; every test of the file
-# runs in one worker, xdist_group, so that each block is parsed once a run): the
+# Three function blocks, each parsed once a run (blark's Earley parser takes 5-25 s
+# per block: the parse, not the rows, is what these tests cost; the translations
+# are kept in the session's temporary folder, which the xdist workers share): the
 # day's model with a rate limit, a quantum and a clamp, and the script's model twice:
 # on a restarting clock with a rate limit, a clamp, held rows and its input envelope
 # (block A: the script, the step and the ramp, InputsValid, the rising edges), and on
 # a refusing clock, refusing missing inputs, without limits or a calibration, its
 # inputs named as a hostile model file would name them (block B).
-pytestmark = pytest.mark.xdist_group("structured_text")
+
+
+@pytest.fixture(autouse=True, scope="module")
+def _shared_blocks(tmp_path_factory):
+    """The blocks' translations in the session's temporary folder (its root, which
+    every xdist worker of the session shares)."""
+    base = tmp_path_factory.getbasetemp()
+    Block.cache = (base.parent if os.environ.get("PYTEST_XDIST_WORKER") else base) / "st"
+
 
 DAY_LIMITS = {"rate_limit_um_s": 0.002, "quantum_um": 0.1, "clamp_um": 8.0}
 SCRIPTED = {
