@@ -135,7 +135,7 @@ def scripted(calibrated=True, names=("T1_C", "T2_C", "rpm"), envelope=False, **l
         tolerance_um=3.0,
         probe_noise_um=0.5,
         false_alarm_rate=0.01,
-        **limits,
+        **{"max_correction_um": 4000.0, **limits},
     )
 
 
@@ -159,6 +159,8 @@ def script(nominal):
         ("update", t + 4000.0, [20.0, 21.0, 3000.0], ERR_GAP),
         ("update", t, [20.0, 21.0, -5.0], ERR_VALUE),  # negative to the power 1.5
         ("update", t, [nan, 21.0, -5.0], HELD),  # the missing input decides
+        ("update", t, [20.0, 21.0, 1e5], ERR_VALUE),  # beyond max_correction_um (issue 41)
+        ("update", t, [20.0, 21.0, 1e300], ERR_VALUE),  # its power overflows
         ("observe", t, 3.0, ERR_READING),  # after the last row
         ("observe", t - 20.0, nan, ERR_READING),
         ("observe", t - 20.0, 5000.0, ERR_READING),  # beyond max_correction_um
@@ -313,7 +315,7 @@ def compiler():
     return None
 
 
-C_FLAGS = ["-std=c99", "-O2", "-Wall", "-Wextra", "-pedantic", "-Werror"]
+C_FLAGS = ["-std=c99", "-O2", "-Wall", "-Wextra", "-Wconversion", "-pedantic", "-Werror"]
 
 
 #: The probe filter's arrays in the C state struct, and their lengths.
@@ -343,7 +345,7 @@ class CompiledC:
                 )
         self.envelope = comp.envelope is not None
         if self.envelope:
-            shim.append(f"int shim_outside(const {name}_state *s) {{ return s->outside; }}")
+            shim.append(f"long shim_outside(const {name}_state *s) {{ return s->outside; }}")
             shim.append(f"double shim_widening(const {name}_state *s) {{ return s->widening_um; }}")
         (folder / "shim.c").write_text("\n".join(shim) + "\n")
         library = folder / f"lib{name}.so"
@@ -367,6 +369,7 @@ class CompiledC:
             getattr(lib, f"shim_{field}").restype = ctypes.c_double
         if self.envelope:
             lib.shim_widening.restype = ctypes.c_double
+            lib.shim_outside.restype = ctypes.c_long
         if self.trust:
             self._observe = getattr(lib, f"{name}_observe")
             self._observe.argtypes = [ctypes.c_void_p, ctypes.c_double, ctypes.c_double]

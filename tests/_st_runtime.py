@@ -14,9 +14,15 @@ array indices are checked against the declared bounds.
 
 from __future__ import annotations
 
+import fcntl
 import functools
+import hashlib
+import json
 import math
+import os
+from pathlib import Path
 
+import blark
 import blark.transform as tf
 from blark import parse_source_code
 
@@ -127,6 +133,10 @@ class FunctionBlock:
     ----------
     source : str
         Structured Text holding one function block.
+    cache : path-like, optional
+        A folder where the translation of each source is kept (by its SHA-256,
+        blark's version and this module's), so that processes that run the same
+        block parse it once between them (blark's parse takes 5-25 s).
 
     Attributes
     ----------
@@ -135,8 +145,8 @@ class FunctionBlock:
         Every variable by its lower-case name (Structured Text ignores case).
     """
 
-    def __init__(self, source):
-        translated = _translate(source)
+    def __init__(self, source, cache=None):
+        translated = _translate(source, None if cache is None else os.fspath(cache))
         self.name, self.types, self.inputs, self.outputs, self._run = translated[:5]
         self.variables = {
             k: list(v) if isinstance(v, list) else v for k, v in translated[5].items()
@@ -155,11 +165,62 @@ class FunctionBlock:
 
 
 @functools.lru_cache(maxsize=16)
-def _translate(source):
+def _translate(source, cache=None):
     """The block's name, types, inputs, outputs, body and initial values (blark parses
-    a block of a few hundred lines in seconds: each source is parsed once)."""
-    t = _Translator(source)
-    return t.name, t.types, t.inputs, t.outputs, t.run, t.variables
+    a block of a few hundred lines in seconds: each source is parsed once a process,
+    and once between processes that share a ``cache`` folder)."""
+    if cache is None:
+        t = _Translator(source)
+        return t.name, t.types, t.inputs, t.outputs, t.run, t.variables
+    key = hashlib.sha256(
+        "\0".join((source, blark.__version__, Path(__file__).read_text())).encode()
+    ).hexdigest()
+    folder = Path(cache)
+    folder.mkdir(parents=True, exist_ok=True)
+    stored = folder / f"{key}.json"
+    with open(folder / f"{key}.lock", "w") as lock:
+        fcntl.flock(lock, fcntl.LOCK_EX)  # another process parsing it: wait for it
+        if stored.exists():
+            saved = json.loads(stored.read_text())
+        else:
+            t = _Translator(source)
+            saved = {
+                "name": t.name,
+                "types": t.types,
+                "inputs": t.inputs,
+                "outputs": t.outputs,
+                "code": t.code,
+                "variables": t.variables,
+            }
+            temporary = folder / f"{key}.{os.getpid()}.tmp"
+            temporary.write_text(json.dumps(saved))
+            temporary.replace(stored)
+    return (
+        saved["name"],
+        saved["types"],
+        saved["inputs"],
+        saved["outputs"],
+        _compiled(saved["name"], saved["code"]),
+        saved["variables"],
+    )
+
+
+def _compiled(name, code):
+    """The body's Python code as a function ``run(V)``."""
+    namespace = {
+        "_div": _div,
+        "_exp": _exp,
+        "_expt": _expt,
+        "_sqrt": _sqrt,
+        "_trunc": _trunc,
+        "_mod": _mod,
+        "_at": _at,
+        "_lreal": _lreal,
+        "_dint": _dint,
+        "_bool": _bool,
+    }
+    exec(compile(code, f"<{name}>", "exec"), namespace)
+    return namespace["run"]
 
 
 class _Translator:
@@ -180,20 +241,8 @@ class _Translator:
                 self._declare(section, item)
         lines = ["def run(V):"]
         self._statements(block.body.statements, lines, 1)
-        namespace = {
-            "_div": _div,
-            "_exp": _exp,
-            "_expt": _expt,
-            "_sqrt": _sqrt,
-            "_trunc": _trunc,
-            "_mod": _mod,
-            "_at": _at,
-            "_lreal": _lreal,
-            "_dint": _dint,
-            "_bool": _bool,
-        }
-        exec(compile("\n".join(lines), f"<{self.name}>", "exec"), namespace)
-        self.run = namespace["run"]
+        self.code = "\n".join(lines)
+        self.run = _compiled(self.name, self.code)
 
     # -- declarations ----------------------------------------------------------
 

@@ -196,10 +196,15 @@ def test_tolerance_sets_the_trust_flag():
     assert comp.status.half_width < 3.0 and comp.status.trusted
 
 
-def test_an_implausible_correction_is_flagged():
+def test_an_implausible_correction_is_refused_and_changes_nothing():
+    # issue 41: what reaches the axis is within max_correction_um, or the row is refused
     comp = _comp(max_correction_um=10.0)
-    comp.update(_row(0.0, 100.0))
-    assert not comp.status.plausible and not comp.status.trusted
+    assert comp.update(_row(0.0, 4.0)) == 8.0
+    state = comp.get_state()
+    with pytest.raises(ValueError, match=r"the correction 200 um at time_s = 60 s is beyond "):
+        comp.update(_row(60.0, 100.0))
+    assert comp.get_state() == state and comp.status.time_s == 0.0  # time_s did not move
+    assert comp.update(_row(60.0, 4.5)) == 9.0  # the next plausible row is taken
 
 
 def test_saved_mid_stream_resumes_to_the_bit(tmp_path):

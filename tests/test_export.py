@@ -90,7 +90,11 @@ def test_the_json_holds_the_terms_limits_and_state_layout_of_c_and_st():
     c_source = export_text(comp, "c", name="ch1")
     struct = re.search(r"typedef struct \{(.*?)\} ch1_state;", c_source, flags=re.S).group(1)
     members = re.findall(r"^\s+\w+ (\w+)(?:\[(\d+)\])?;", struct, flags=re.M)
-    assert [(m, int(n or 1)) for m, n in members] == [
+    # then the update's work space (issue 41: in the caller's struct, not on the stack)
+    work = [(m, int(n or 1)) for m, n in members if m.startswith("work_")]
+    assert work[0] == ("work_lag", plan.weight.size)
+    assert {m for m, _ in work[1:]} <= {"work_elag", "work_xt", "work_ef", "work_ex", "work_din"}
+    assert [(m, int(n or 1)) for m, n in members if not m.startswith("work_")] == [
         (v["name"], v["length"]) for v in data["state"]
     ]
     st_source = export_text(comp, "st", name="ch1")
@@ -225,18 +229,24 @@ def test_greyml_export_writes_a_transfer_functions_compensator(model_file, tmp_p
     out = tmp_path / "ch1.json"
     argv = ["export", str(model_file), "--language", "json", "--out", str(out)]
     limits = ["--rate-limit", "0.5", "--quantum", "0.1", "--clamp", "100", "--name", "ch1"]
-    assert main([*argv, *limits]) == 0
+    assert main([*argv, *limits, "--tolerance", "4"]) == 0
     printed = capsys.readouterr().out
     assert f"wrote {str(out)!r} (json" in printed and "rate limit 0.5 µm/s" in printed
+    assert "trusted while the half-width is at most 4 µm" in printed  # issue 41
     data = json.loads(out.read_text())
+    assert data["tolerance_um"] == 4.0
     comp = Compensator.from_model(load_model(model_file))
     assert data["name"] == "ch1" and [v["name"] for v in data["inputs"]] == comp.inputs
     assert data["limits"] == {**data["limits"], "rate_limit_um_s": 0.5, "clamp_um": 100.0}
     assert data["probe_filter"] is not None  # the calibration came with it
     assert data["model"].startswith("ThermalTransferFunction from ch1.greyml")
     # the same text as the Python export of the same compensator
-    comp.set_params(rate_limit_um_s=0.5, quantum_um=0.1, clamp_um=100.0)
+    comp.set_params(rate_limit_um_s=0.5, quantum_um=0.1, clamp_um=100.0, tolerance_um=4.0)
     assert out.read_text() == export_text(comp, "json", name="ch1", description=data["model"])
+    c_file = tmp_path / "ch1.c"
+    assert main(["export", str(model_file), "--language", "c", "--out", str(c_file), *limits]) == 0
+    assert "trusted whenever plausible (no --tolerance)" in capsys.readouterr().out
+    assert "(void)half, 1" in c_file.read_text()  # without a tolerance: plausible is trusted
 
 
 def _error(capsys, argv):

@@ -8,12 +8,20 @@ and resets gives the same codes and numbers; the source allocates nothing and
 loops over constants only. Without a C compiler these tests skip, saying so.
 """
 
+import ctypes
+import math
 import re
+import resource
+import subprocess
 
 import numpy as np
 import pytest
 from _export_cases import (
+    C_FLAGS,
     CHANGE_START_S,
+    ERR_READING,
+    ERR_VALUE,
+    HELD,
     CompiledC,
     change_script,
     compiler,
@@ -25,7 +33,7 @@ from _export_cases import (
     scripted,
 )
 
-from greyml.controller import Compensator
+from greyml.controller import Compensator, Uncertainty
 from greyml.controller._export._write import export_text
 
 pytestmark = pytest.mark.skipif(
@@ -200,7 +208,7 @@ def test_the_update_allocates_nothing_and_loops_over_constants(compiled):
         assert f"{name}(" not in body, name
 
 
-def test_a_model_of_five_sensors_and_the_speed_exports_under_40_kb(tmp_path):
+def test_a_model_of_five_sensors_and_the_speed_exports_under_45_kb(tmp_path):
     model = five_sensors()
     comp = Compensator.from_model(model, tolerance_um=5.0)
     comp.set_params(rate_limit_um_s=0.5, quantum_um=0.1, clamp_um=100.0)
@@ -210,6 +218,102 @@ def test_a_model_of_five_sensors_and_the_speed_exports_under_40_kb(tmp_path):
     for language in ("c", "st", "json"):
         size = len(export_text(comp, language).encode())
         # 30 KB until issue 39 (the ST was 29.9 KB); the likelihood test's bank of
-        # 12 readings and its opening by the size found took it past that
-        assert size < 40_000, (language, size)
+        # 12 readings and its opening by the size found took it past that; 40 KB
+        # until issue 41 (the reading's copies of the bank and their checks, the
+        # commands' edges: the ST was 40.1 KB)
+        assert size < 45_000, (language, size)
     CompiledC(comp, tmp_path)  # and it compiles
+
+
+# -- issue 41 ---------------------------------------------------------------------
+
+
+def test_cancelling_weights_give_pythons_numbers_exactly(tmp_path):
+    # 1e17 and -1e17 cancel: a sum in another order than Python's differed by 30 um
+    terms = [("T1_C", 1, 600.0, 1e17), ("T2_C", 1, 600.0, -1e17), ("T3_C", 1, None, 1.0)]
+    terms += [("T3_C", 1, 60.0 * k, 0.1 * k) for k in range(1, 12)]  # more than 8 terms
+    comp = Compensator(
+        ["T1_C", "T2_C", "T3_C"],
+        terms,
+        uncertainty=Uncertainty(4.0, 0.5, 0.2, 2.0, 1.5, 0.3, 0.05, 1.25),
+        max_correction_um=math.inf,
+    )
+    c = CompiledC(comp, tmp_path)
+    for k in range(40):
+        x = [20.0 + 0.013 * k, 20.0 + 0.011 * k, 3.0 + math.sin(k)]
+        python = comp.update(dict(zip(["time_s", *comp.inputs], [60.0 * k, *x])))
+        assert c.update(60.0 * k, x) == (0, python)
+        if k % 10 == 9:
+            comp.observe(60.0 * k, python + 1.0)
+            assert c.observe(60.0 * k, python + 1.0) == 0
+        assert c.half_width() == comp.status.half_width
+        assert c.correction() == comp.status.correction
+
+
+def test_a_zero_input_model_compiles_and_gives_its_intercept(tmp_path):
+    comp = Compensator([], [], intercept=1.5)
+    c = CompiledC(comp, tmp_path)  # -std=c99 -pedantic -Wconversion -Werror
+    assert c.update(0.0, []) == (0, 1.5) and c.update(15.0, []) == (0, 1.5)
+
+
+def test_the_update_needs_no_stack_per_term(tmp_path):
+    # 10,000 terms: 160 KB on the stack at 16 bytes a term, five times a 32 KB stack
+    n = 10_000
+    comp = Compensator(["T1_C"], [("T1_C", 1, 60.0 + k, 1e-4) for k in range(n)])
+    source = export_text(comp, "c", name="big")
+    body = re.search(r"int big_update\([^;]*?\)\n\{.*?\n\}", source, flags=re.S).group(0)
+    assert not re.search(r"double \w+\[", body.split("{", 1)[1])  # no array local to it
+    (tmp_path / "big.c").write_text(source)
+    (tmp_path / "main.c").write_text(
+        '#include "big.c"\n#include <stdio.h>\n#include <stdlib.h>\n'
+        "int main(void)\n{\n    double x[1] = {20.0}, out = 0.0;\n"
+        "    big_state *s = malloc(sizeof(big_state));\n    int k, code = 0;\n"
+        "    if (!s) return 3;\n    big_init(s);\n"
+        "    for (k = 0; k < 3; k++) code |= big_update(s, 60.0 * k, x, &out);\n"
+        '    printf("%d %.6f\\n", code, out);\n    free(s);\n    return 0;\n}\n'
+    )
+    subprocess.run(
+        [compiler(), *C_FLAGS, "-O0", "-o", "main", "main.c", "-lm"], cwd=tmp_path, check=True
+    )
+
+    def small_stack():
+        resource.setrlimit(resource.RLIMIT_STACK, (32 * 1024, resource.RLIM_INFINITY))
+
+    done = subprocess.run(
+        [str(tmp_path / "main")], preexec_fn=small_stack, capture_output=True, text=True
+    )
+    assert done.returncode == 0 and done.stdout.split() == ["0", f"{n * 1e-4 * 20.0:.6f}"]
+
+
+def test_a_reading_that_overflows_leaves_the_c_filter_as_it_was(tmp_path):
+    comp = scripted()
+    c = CompiledC(comp, tmp_path)
+    for action in change_script("step", 5.0)[:40]:
+        replay(comp, c, [action], "hold")
+    before = {k: np.array(v, copy=True) for k, v in c.filter_state().items() if k != "open"}
+    fx = ctypes.cast(c.lib.shim_fx(c.state), ctypes.POINTER(ctypes.c_double))
+    fx[0], fx[1] = 1e308, 1e308  # an offset and a bias whose sum is beyond any double
+    before["x"] = np.array([1e308, 1e308, before["x"][2]])
+    t = comp.status.time_s
+    assert c.observe(t, 1.0) == ERR_READING
+    after = c.filter_state()
+    for key, value in before.items():
+        np.testing.assert_array_equal(after[key], value)
+    # and a recalibration beyond max_correction_um, or not finite, is refused as in Python
+    assert c._recalibrate(c.state, 1, 5000.0) == ERR_READING
+    assert c._recalibrate(c.state, 1, math.nan) == ERR_READING
+    np.testing.assert_array_equal(c.filter_state()["P"], before["P"])
+
+
+@pytest.mark.parametrize("on_missing", ["hold", "raise"])
+def test_a_missing_idle_input_on_the_first_row_gives_the_same_outputs_after(tmp_path, on_missing):
+    # issue 41: Python took it as 0 (even with "raise"), the C held or refused it, and
+    # every later output differed (0.148 against 0.0 um, then 0.309 against 0.165)
+    comp = scripted(on_missing=on_missing)
+    c = CompiledC(comp, tmp_path)
+    code = HELD if on_missing == "hold" else ERR_VALUE
+    rows = [("update", 0.0, [20.0, 21.0, math.nan], code)]
+    rows += [("update", 15.0 * k, [20.0 + 0.1 * k, 21.0, 3000.0], 0) for k in range(1, 40)]
+    worst, _ = replay(comp, c, rows, on_missing)
+    assert worst == 0.0  # every row, to the bit
+    assert comp.get_state()["time_s"] == 15.0 * 39

@@ -33,7 +33,7 @@ Examples:
       --drivers spindle_rpm --max-sensors 5 --test-column cycle --out ch1.greyml
   greyml export ch1.greyml --language st --out ch1_comp.st --name ch1_comp \\
       --rate-limit 0.5 --quantum 0.1 --clamp 100
-  greyml export ch1.greyml --language c --out ch1_comp.c --name ch1_comp
+  greyml export ch1.greyml --language c --out ch1_comp.c --name ch1_comp --tolerance 5
   greyml export ch1.greyml --language json --out ch1_comp.json
 """
 
@@ -66,6 +66,13 @@ def _add_export_parser(subparsers):
         ("--clamp", "UM", "the output stays within ±UM (a whole number of quanta)"),
     ):
         limits.add_argument(flag, type=flags._positive_number, metavar=metavar, help=help_text)
+    limits.add_argument(
+        "--tolerance",
+        type=flags._positive_number,
+        metavar="UM",
+        help="the correction is trusted (Trusted, <name>_trusted) while its interval's "
+        "half-width is at most UM (without it, whenever it is plausible)",
+    )
     limits.add_argument(
         "--on-missing",
         choices=("hold", "raise"),
@@ -115,6 +122,7 @@ def run_export(
     rate_limit=None,
     quantum=None,
     clamp=None,
+    tolerance=None,
     on_missing=None,
     quiet=False,
     stdout=None,
@@ -136,6 +144,9 @@ def run_export(
     rate_limit, quantum, clamp : float, optional
         ``rate_limit_um_s``, ``quantum_um`` and ``clamp_um`` of the
         compensator (replacing its own).
+    tolerance : float, optional
+        ``tolerance_um`` of the compensator (replacing its own): the exported
+        trust flag is set while the interval's half-width is at most this.
     on_missing : {"hold", "raise"}, optional
         Replaces the compensator's own.
     quiet : bool, default=False
@@ -156,6 +167,7 @@ def run_export(
             "rate_limit_um_s": rate_limit,
             "quantum_um": quantum,
             "clamp_um": clamp,
+            "tolerance_um": tolerance,
             "on_missing": on_missing,
         }
         comp.set_params(**{k: v for k, v in given.items() if v is not None})
@@ -184,8 +196,14 @@ def run_export(
         )
         if value is not None
     ]
+    trusted = (
+        "trusted whenever plausible (no --tolerance)"
+        if comp.tolerance_um is None
+        else f"trusted while the half-width is at most {comp.tolerance_um:g} µm"
+    )
     print(
         f"  limits: {', '.join(limits) or 'none'}; a missing input: "
-        f"{'hold the last output' if comp.on_missing == 'hold' else 'refuse the row'}"
+        f"{'hold the last output' if comp.on_missing == 'hold' else 'refuse the row'}; "
+        f"{trusted}"
     )
     return flags.EXIT_OK

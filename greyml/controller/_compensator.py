@@ -72,16 +72,26 @@ from greyml.dynamic._lags import _power_name, _tau_label
 from greyml.dynamic._observer import (
     KINDS,
     WINDOW,
+    cube,
     glr_advance,
     glr_change,
     glr_reset,
     glr_threshold,
+    matmul,
     transition,
     update,
 )
 from greyml.dynamic._time import MAX_TERMS, gap_message
 
-__all__ = ["HISTORY", "Compensator", "Status", "Uncertainty", "UpdatePlan", "real"]
+__all__ = [
+    "HISTORY",
+    "Compensator",
+    "Status",
+    "Uncertainty",
+    "UpdatePlan",
+    "ordered_sum",
+    "real",
+]
 
 _PREFIX = "Compensator.update:"
 _OBSERVE = "Compensator.observe:"
@@ -130,7 +140,9 @@ half_width : float
 trusted : bool
     The correction is plausible and its half-width within ``tolerance_um``.
 plausible : bool
-    The correction is within ``max_correction_um``.
+    The correction is within ``max_correction_um`` (a row whose correction
+    is not is refused; a probe reading may move it beyond, and the next row
+    is refused then).
 changes : int
     How many times the change detector fired (and recalibrated).
 output : float
@@ -316,6 +328,22 @@ class UpdatePlan:
     limited: bool = False
     uncertainty: Uncertainty | None = field(default=None)
     envelope: EnvelopeStage | None = field(default=None)
+
+
+def ordered_sum(values):
+    """The sum of ``values`` along the last axis, left to right (one addition after the
+    other, as the C and Structured Text exports add them).
+
+    A sum of terms of mixed signs depends on its order by rounding (numpy's pairwise
+    sum and BLAS's dot product each choose their own); this one is the order every
+    export writes, so that they give Python's number to the last bit where their
+    products are the same.
+    """
+    values = np.asarray(values, dtype=float)
+    if values.shape[-1] == 0:
+        return np.zeros(values.shape[:-1]) if values.ndim > 1 else 0.0
+    out = np.add.accumulate(values, axis=-1)[..., -1]
+    return out if values.ndim > 1 else float(out)
 
 
 def real(value):
@@ -1066,8 +1094,14 @@ class Compensator:
         to a fractional power must not be negative; ``time_s`` must be finite
         and later than the previous row's (or start the next piece, with
         ``nominal_step_s``), by at most ``max_step_s``; every input must be
-        finite (else, with ``on_missing="hold"``, the last output again); the
-        correction must be finite. A refused or held row changes no state.
+        finite (else, with ``on_missing="hold"``, the last output again: on
+        the first row, the output the axis has, and the next row is the
+        first); the sum of the terms must be finite; the correction, probe
+        filter included, must be finite and within ``max_correction_um``.
+        Every check runs before anything is kept: a refused or held row
+        changes no state (``time_s`` included), and what this returns is
+        always finite and within ``max_correction_um`` (plus half a quantum
+        where rounded).
 
         Parameters
         ----------
@@ -1080,7 +1114,16 @@ class Compensator:
         output : float
             The correction, clamped, quantised and rate limited as the
             parameters say (the correction itself with none of them).
+
+        Raises
+        ------
+        ValueError
+            With one line naming the time (and the input), for a refused row.
         """
+        with np.errstate(over="ignore", invalid="ignore"):  # every overflow is checked
+            return self._update_row(row)
+
+    def _update_row(self, row):
         try:
             plan = self._plan
         except AttributeError:
@@ -1119,7 +1162,7 @@ class Compensator:
                     gap_message(_PREFIX[:-1], "the stream", dt, time, plan.max_step)
                     + " Call reset() to start anew after a pause."
                 )
-        if plan.check_all and not np.isfinite(row).all():
+        if not np.isfinite(row).all():  # every input, before any state changes
             return self._bad_value(time, row, plan)
         followed = excess = None
         if plan.envelope is not None:
@@ -1131,20 +1174,27 @@ class Compensator:
             if dt != self._dt:
                 self._coefficients(dt, plan)
             lags = lag_step(self._lags, v, self._a)
-        total = float(plan.weight @ lags)
-        if not math.isfinite(total) or not math.isfinite(time):
+        total = ordered_sum(plan.weight * lags)
+        if not math.isfinite(total):
             return self._bad_value(time, row, plan)
+        # the correction this row would give, computed before anything is kept
+        start = self._first_start(total) if previous is None else self._start
+        if start is not None:
+            total -= start
+        model = self.intercept + total
+        value = model
+        if self._adjusted:
+            value = self._corrected(model, time, self._ft0 - shift)
+        self._refuse_implausible(time, value)
         if previous is None:
-            self._start = self._first_start(total)
+            self._start = start
         if followed is not None:
             self._step_excess(row, followed, excess, previous is None, plan)
         self._time = time
         self._lags = lags
-        if self._start is not None:
-            total -= self._start
         if shift:
             self._shift_clock(shift)
-        value = self._record(time, self.intercept + total)
+        value = self._record(time, model, value)
         self._held = False
         if not plan.limited:
             self._output = self._last = value
@@ -1153,6 +1203,21 @@ class Compensator:
             value, dt, self._last, self._credit, plan.limits
         )
         return self._output
+
+    def _refuse_implausible(self, time, value):
+        """Refuse, in one line, a row whose correction is not finite or beyond
+        ``max_correction_um`` (nothing has been kept of it yet)."""
+        if not math.isfinite(value):
+            raise ValueError(
+                f"{_PREFIX} the correction overflows at time_s = {time:g} s (the probe "
+                "filter's states or a power of an input too large); the row is refused."
+            )
+        if abs(value) > self.max_correction_um:
+            raise ValueError(
+                f"{_PREFIX} the correction {value:g} um at time_s = {time:g} s is beyond "
+                f"+-{self.max_correction_um:g} um (max_correction_um), not a thermal "
+                "displacement; the row is refused (reset to start anew)."
+            )
 
     def _first_start(self, total):
         """What is subtracted from the sum of the terms from the first row on."""
@@ -1560,12 +1625,12 @@ class Compensator:
                 self._estart = zero if self._start is not None else None
             self._widening = 0.0
             return
-        delta = plan.envelope.by_input @ elags
+        delta = ordered_sum(plan.envelope.by_input * elags)
         if first:
             self._estart = delta.copy() if self._start is not None else None
         if self._estart is not None:
             delta -= self._estart
-        self._widening = float(np.add.reduce(np.abs(delta)))
+        self._widening = ordered_sum(np.abs(delta))
 
     def _set_beyond(self, beyond, plan):
         """The inputs minus their follower, and :attr:`Status.outside` from them."""
@@ -1584,11 +1649,13 @@ class Compensator:
         """Each enveloped input's response (the excess bank's weighted sum), before any
         start is subtracted."""
         env = self._plan.envelope
-        return np.zeros(env.take.size) if self._elags is None else env.by_input @ self._elags
+        if self._elags is None:
+            return np.zeros(env.take.size)
+        return ordered_sum(env.by_input * self._elags)
 
     @staticmethod
     def _widening_of(responses, start):
-        return float(np.abs(responses if start is None else responses - start).sum())
+        return ordered_sum(np.abs(responses if start is None else responses - start))
 
     def _outside(self):
         """:attr:`Status.outside`: (input, excess) of the inputs outside at the last row."""
@@ -1719,7 +1786,7 @@ class Compensator:
         self.update(row)
         if self._held:
             return self._output  # a missing input: nothing moved, not even the reference
-        total = float(self._plan.weight @ self._lags)
+        total = ordered_sum(self._plan.weight * self._lags)
         self._initial = None if initial_displacement is None else float(initial_displacement)
         self._start = self._first_start(total)
         self._restart_excess()
@@ -1749,8 +1816,9 @@ class Compensator:
         self._hm[(self._hn - 1) % HISTORY] = model
         self._ft0, self._model, self._corr = time, model, model
 
-    def _record(self, time, model):
-        """Remember the model's correction at ``time``; return the correction given."""
+    def _record(self, time, model, corrected):
+        """Remember the model's correction ``model`` at ``time``; return the correction
+        given (``corrected``, with the probe filter's states, computed before)."""
         if self._ft0 is None:
             self._ft0 = time
         i = self._hn % HISTORY
@@ -1758,18 +1826,17 @@ class Compensator:
         self._hm[i] = model
         self._hn += 1
         self._model = model
-        if self._adjusted:
-            model = self._corrected(model, time)
-        self._corr = model = float(model)
-        return model
+        self._corr = corrected = float(corrected)
+        return corrected
 
-    def _corrected(self, model, time):
-        """The model's correction with the filter's states carried to ``time``."""
-        x = self._fx
-        dh = (time - self._ft0) / 3600.0
+    def _corrected(self, model, time, ft0=None):
+        """The model's correction with the filter's states carried to ``time`` (from the
+        filter's time, or from ``ft0``)."""
+        offset, bias, rate = (float(v) for v in self._fx)  # floats: an overflow is inf
+        dh = (time - (self._ft0 if ft0 is None else ft0)) / 3600.0
         u = self._plan_or_build().uncertainty or _CERTAIN
         phi = math.exp(-dh / u.memory_h) if math.isfinite(u.memory_h) else 1.0
-        return model + x[0] * phi + x[1] + x[2] * dh
+        return model + offset * phi + bias + rate * dh
 
     def _transition(self, dh):
         u = self._plan_or_build().uncertainty or _CERTAIN
@@ -1781,7 +1848,7 @@ class Compensator:
         """The filter's states and covariance carried from its time to ``time``."""
         dh = max(0.0, (time - self._ft0) / 3600.0)
         F, Q = self._transition(dh)
-        return F @ self._fx, F @ self._fP @ F.T + Q, dh
+        return matmul(F, self._fx), matmul(matmul(F, self._fP), F.T) + Q, dh
 
     def _variance_at(self, time, model):
         """Variance of the error of the correction given at ``time`` (model part ``model``)."""
@@ -1792,16 +1859,15 @@ class Compensator:
         # H (F P Fᵀ + Q) Hᵀ with H F = (φ, 1, dh), in scalars (read at every row)
         dh = max(0.0, (time - self._ft0) / 3600.0)
         phi = math.exp(-dh / u.memory_h) if math.isfinite(u.memory_h) else 1.0
-        P = self._fP
-        hph = (
-            phi * phi * P[0, 0]
-            + P[1, 1]
-            + dh * dh * P[2, 2]
-            + 2.0 * (phi * P[0, 1] + phi * dh * P[0, 2] + dh * P[1, 2])
-        )
+        # Python floats: an overflow is inf (no warning), as in C
+        (p00, p01, p02), (_, p11, p12), (_, _, p22) = self._fP.tolist()
+        hph = phi * phi * p00 + p11 + dh * dh * p22 + 2.0 * (phi * p01 + phi * dh * p02 + dh * p12)
         hqh = u.memory_var * (1.0 - phi * phi) + u.bias_var_per_h * dh
-        hqh += u.rate_var_per_h3 * dh**3 / 3.0
-        return max(float(hph) + u.scale * hqh, 0.0) + u.scale * u.noise_var
+        hqh += u.rate_var_per_h3 * cube(dh) / 3.0
+        var = hph + u.scale * hqh
+        if var != var:  # inf - inf: nothing is known
+            var = math.inf
+        return max(var, 0.0) + u.scale * u.noise_var
 
     @property
     def status(self):
@@ -1906,7 +1972,9 @@ class Compensator:
             With one line naming the time and the value, for a reading that is
             not a finite number, beyond ``max_correction_um``, after the last
             update, before the previous reading, or older than the rows
-            remembered. The state is unchanged then.
+            remembered, or that would make the filter's states, their
+            covariance or the change detector's sums overflow. The state is
+            unchanged then.
         """
         self._plan_or_build()
         for what, value in (("time_s", time_s), ("measured_um", measured_um)):
@@ -1954,29 +2022,50 @@ class Compensator:
             P = self._fP.copy()
             P[0, 0] = u.scale * (u.offset_var + u.growth_var_per_h * dh)
         F, _ = self._transition(dh)
-        R = u.scale * u.noise_var + self.probe_noise_um**2
-        x, P, innovation, S, K = update(x, P, z - m, R)
-        self._glr, (stat, kind, slot) = glr_advance(
-            self._glr, F, K, innovation, S, time_s / 3600.0, previous / 3600.0
-        )
-        kind_name, start = self._found[0], self._found[1]
-        if stat > glr_threshold(self.false_alarm_rate) * u.glr_scale:
-            dx, dP, size, start_h = glr_change(self._glr, kind, slot, time_s / 3600.0)
-            # a few readings cannot tell a step from a ramp: the bias and the rate
-            # are opened by the size found (its effect here, and that per hour since
-            # it began), so that the next readings settle which
-            span = max(time_s / 3600.0 - start_h, 1e-9)
-            effect2 = (size * span) ** 2 if kind else size**2
-            x, P = x + dx, P + dP + np.diag([0.0, effect2, effect2 / span**2])
-            kind_name, start = KINDS[kind], start_h * 3600.0
-            self._changes += 1
-            self._glr = glr_reset()
-        self._fx, self._fP, self._ft0 = x, 0.5 * (P + P.T), time_s
+        R = u.scale * u.noise_var + self.probe_noise_um * self.probe_noise_um
+        with np.errstate(over="ignore", invalid="ignore", divide="ignore"):
+            x, P, innovation, S, K = update(x, P, z - m, R)
+            glr, (stat, kind, slot) = glr_advance(
+                self._glr, F, K, innovation, S, time_s / 3600.0, previous / 3600.0
+            )
+            kind_name, start, changes = self._found[0], self._found[1], self._changes
+            if stat > glr_threshold(self.false_alarm_rate) * u.glr_scale:
+                dx, dP, size, start_h = glr_change(glr, kind, slot, time_s / 3600.0)
+                # a few readings cannot tell a step from a ramp: the bias and the rate
+                # are opened by the size found (its effect here, and that per hour since
+                # it began), so that the next readings settle which
+                span = max(time_s / 3600.0 - start_h, 1e-9)
+                # products, not powers: an overflow is inf (refused below), as in C
+                effect2 = (size * span) * (size * span) if kind else size * size
+                x, P = x + dx, P + dP + np.diag([0.0, effect2, effect2 / (span * span)])
+                kind_name, start = KINDS[kind], start_h * 3600.0
+                changes += 1
+                glr = glr_reset()
+            P = 0.5 * (P + P.T)
+            standardised = innovation / math.sqrt(S)
+            # the last update's correction, with the filter's new state
+            dh_last = (self._time - time_s) / 3600.0
+            phi = math.exp(-dh_last / u.memory_h) if math.isfinite(u.memory_h) else 1.0
+            offset, bias, rate = (float(v) for v in x)
+            corrected = self._model + offset * phi + bias + rate * dh_last
+        if not (
+            np.isfinite(x).all()
+            and np.isfinite(P).all()
+            and all(np.isfinite(a).all() for a in glr[:4])
+            and math.isfinite(standardised)
+            and math.isfinite(corrected)
+        ):
+            raise ValueError(
+                f"{_OBSERVE} the reading {z:g} at time_s = {time_s:g} s overflows the probe "
+                "filter (its covariance or the change detector's sums are not finite); it "
+                "is refused and the filter is as before."
+            )
+        self._fx, self._fP, self._ft0, self._glr = x, P, time_s, glr
         self._adjusted = True
         self._last_reading = time_s
-        self._found = (kind_name, start, innovation / math.sqrt(S))
-        # the last update's correction, with the filter's new state
-        self._corr = float(self._corrected(self._model, self._time))
+        self._found = (kind_name, start, standardised)
+        self._changes = changes
+        self._corr = corrected
         return self.status
 
     def recalibrate(self, size_um=None):
@@ -1992,18 +2081,37 @@ class Compensator:
         size_um : float, optional
             How far off the model is thought to be: a step of that size, and a
             drift of that size per hour, become possible (by default the
-            interval's standard deviation at the anchor).
+            interval's standard deviation at the anchor). At most
+            ``max_correction_um`` in absolute value.
 
         Returns
         -------
         self : Compensator
+
+        Raises
+        ------
+        ValueError
+            For a size that is not a finite number, is beyond
+            ``max_correction_um``, or would make the filter's covariance
+            overflow; the state is unchanged then.
         """
         self._plan_or_build()
-        if size_um is None or not real(size_um):
+        if size_um is None:
             u = self._plan_or_build().uncertainty or _CERTAIN
             size_um = math.sqrt(max(u.offset_var + u.noise_var, 0.0)) or 1.0
-        size2 = float(size_um) ** 2
-        self._fP = self._fP + np.diag([0.0, size2, size2])
+        elif not real(size_um) or abs(size_um) > self.max_correction_um:
+            raise ValueError(
+                f"Compensator.recalibrate: size_um is {size_um!r}; it must be a finite number "
+                f"within +-{self.max_correction_um:g} um (max_correction_um)."
+            )
+        size2 = float(size_um) * float(size_um)
+        P = self._fP + np.diag([0.0, size2, size2])
+        if not np.isfinite(P).all():
+            raise ValueError(
+                f"Compensator.recalibrate: size_um {size_um!r} overflows the probe filter's "
+                "covariance; the filter is as before."
+            )
+        self._fP = P
         self._changes += 1
         self._glr = glr_reset()
         return self
@@ -2061,9 +2169,7 @@ class Compensator:
             or P.shape != (3, 3)
             or not (np.isfinite(x).all() and np.isfinite(P).all())
             or not np.allclose(P, P.T)
-            or (
-                np.linalg.eigvalsh(0.5 * (P + P.T)) < -1e-9 * max(1.0, float(np.abs(P).max()))
-            ).any()
+            or not _positive_semidefinite(P)
             or ht.shape != hm.shape
             or ht.ndim != 1
             or ht.size > HISTORY

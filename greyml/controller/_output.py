@@ -110,6 +110,8 @@ def limit_output(value, dt, last, credit, limits):
     credit : float
     """
     clamp, q, rate = limits.clamp_um, limits.quantum_um, limits.rate_limit_um_s
+    if not math.isfinite(value):  # never a NaN or an infinity to a count of quanta
+        raise ValueError(f"limit_output: the correction is {value!r}, not a finite number.")
     if clamp is not None:
         value = min(max(value, -clamp), clamp)
     if q is None:

@@ -45,6 +45,8 @@ __all__ = [
     "KINDS",
     "READING_HOURS",
     "WINDOW",
+    "cube",
+    "matmul",
     "glr_advance",
     "glr_change",
     "glr_reset",
@@ -66,6 +68,39 @@ KINDS = ("step", "ramp")
 READING_HOURS = (0.25, 1.0, 4.0)
 
 
+def matmul(a, b):
+    """``a @ b``, each entry's products added in order from the first, as the C and
+    Structured Text exports' loops add them.
+
+    numpy's ``@`` hands small matrices to BLAS, which may fuse a multiply with an
+    add and order the sum its own way: on an ill-conditioned covariance (a
+    variance of 1e16 after a large change) the filter's numbers then
+    differed from the exports' in the third digit. ``b`` is a vector (``k``) or
+    a matrix (``k``, ``m``); ``a`` is (..., ``k``) or (..., ``n``, ``k``).
+    """
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    if b.ndim == 1:  # (..., k) @ (k,) or (..., n, k) @ (k,)
+        terms = a * b
+        out = terms[..., 0]
+        for k in range(1, b.shape[0]):
+            out = out + terms[..., k]
+        return out
+    terms = a[..., :, :, None] * b  # (..., n, k, m)
+    out = terms[..., 0, :]
+    for k in range(1, b.shape[0]):
+        out = out + terms[..., k, :]
+    return out
+
+
+def cube(dh):
+    """``dh**3`` as C's ``pow(dh, 3.0)`` gives it: infinity where it overflows (Python's
+    float power raises ``OverflowError`` there)."""
+    try:
+        return dh**3
+    except OverflowError:
+        return math.inf
+
+
 def transition(dh, memory_h, memory_var, bias_var_per_h, rate_var_per_h3, scale=1.0):
     """``(F, Q)`` carrying the states ``(o, β, r)`` over ``dh`` hours (≥ 0)."""
     phi = math.exp(-dh / memory_h) if math.isfinite(memory_h) else 1.0
@@ -74,7 +109,7 @@ def transition(dh, memory_h, memory_var, bias_var_per_h, rate_var_per_h3, scale=
     Q = np.array(
         [
             [memory_var * (1.0 - phi * phi), 0.0, 0.0],
-            [0.0, qb * dh + qr * dh**3 / 3.0, qr * dh * dh / 2.0],
+            [0.0, qb * dh + qr * cube(dh) / 3.0, qr * dh * dh / 2.0],
             [0.0, qr * dh * dh / 2.0, qr * dh],
         ]
     )
@@ -87,14 +122,14 @@ def update(x, P, z_minus_model, R):
     ``z_minus_model`` is the reading minus the model's correction there;
     ``R`` the variance of its white part (the model's and the probe's).
     """
-    innovation = z_minus_model - float(H @ x)
-    PH = P @ H
-    S = float(H @ PH) + R
+    innovation = z_minus_model - float(matmul(x, H))
+    PH = matmul(P, H)
+    S = float(matmul(PH, H)) + R
     if S <= 0:  # every variance 0: the model is held certain, the reading moves nothing
         S = np.finfo(float).tiny
     K = PH / S
     IKH = np.eye(3) - np.outer(K, H)
-    P = IKH @ P @ IKH.T + np.outer(K, K) * R
+    P = matmul(matmul(IKH, P), IKH.T) + np.outer(K, K) * R
     return x + K * innovation, 0.5 * (P + P.T), innovation, S, K
 
 
@@ -130,12 +165,12 @@ def glr_advance(bank, F, K, innovation, S, time_h, previous_h):
     D[:, 1:], A[:, 1:], B[:, 1:], T0[1:] = D0[:, :-1], A0[:, :-1], B0[:, :-1], T00[:-1]
     T0[0] = previous_h
     n = min(n + 1, window)
-    D[:, :n] = D[:, :n] @ F.T  # each response carried to this reading
+    D[:, :n] = matmul(D[:, :n], F.T)  # each response carried to this reading
     G = np.zeros((2, n, 3))
     G[0, :, 1] = 1.0  # a step in the bias
     G[1, :, 1] = time_h - T0[:n]  # a ramp: the bias grows with the time since its start
     G[1, :, 2] = 1.0  # ... at a constant rate
-    rho = (G - D[:, :n]) @ H
+    rho = matmul(G - D[:, :n], H)
     D[:, :n] += rho[..., None] * K
     A[:, :n] += rho * innovation / S
     B[:, :n] += rho * rho / S
@@ -182,7 +217,7 @@ def replay(hours, resid, every_h, prior, noise, memory_h, memory_var, qb, qr):
             x, P = np.zeros(3), np.diag([prior(hours[i]), 0.0, 0.0])
         else:
             F, Q = transition(hours[i] - last, memory_h, memory_var, qb, qr)
-            x, P = F @ x, F @ P @ F.T + Q
+            x, P = matmul(F, x), matmul(matmul(F, P), F.T) + Q
         x, P, nu, S, _ = update(x, P, float(resid[i]), noise)
         z[k] = nu / math.sqrt(S)
         logs[k] = math.log(S)

@@ -95,12 +95,52 @@ def header_lines(p, language, call, found=""):
 _KINDS = {"real": "double", "int": "long", "bool": "int"}
 
 
+def _init_body(p):
+    """Every state member and the work space zeroed (no struct on the stack)."""
+    zero = {"real": "0.0", "int": "0", "bool": "0"}
+    lines, used = [], False
+    members = [(v.name, v.kind, v.length, v.length > 1 or v.name in ARRAYS) for v in p.state]
+    n_terms = max(len(p.terms), 1)
+    members.append(("work_lag", "real", n_terms, True))
+    if p.envelope is not None:
+        n_env, n_inputs = len(p.envelope.input), max(len(p.inputs), 1)
+        members += [
+            ("work_elag", "real", n_terms, True),
+            ("work_xt", "real", n_inputs, True),
+            ("work_ef", "real", n_env, True),
+            ("work_ex", "real", n_env, True),
+            ("work_din", "real", n_env, True),
+        ]
+    for name, kind, length, array in members:
+        if array:
+            used = True
+            lines.append(f"    for (k = 0; k < {max(length, 1)}; k++) s->{name}[k] = {zero[kind]};")
+        else:
+            lines.append(f"    s->{name} = {zero[kind]};")
+    if not used:
+        lines.append("    (void)k;")
+    return "\n".join(lines)
+
+
 def _struct(p):
     members = []
     for v in p.state:
         size = f"[{max(v.length, 1)}]" if v.length > 1 or v.name in ARRAYS else ""
         unit = f" ({v.unit})" if v.unit else ""
         members.append(f"    {_KINDS[v.kind]} {v.name}{size}; /* {v.meaning}{unit} */")
+    # the work space of an update: in the caller's struct, never on the stack (a model
+    # of 100,000 terms needs no stack of its size), and meaningless between calls
+    n_terms = max(len(p.terms), 1)
+    members.append(f"    double work_lag[{n_terms}]; /* work space: each term's new lag */")
+    if p.envelope is not None:
+        n_env, n_inputs = len(p.envelope.input), max(len(p.inputs), 1)
+        members += [
+            f"    double work_elag[{n_terms}]; /* work space: each term's new excess lag */",
+            f"    double work_xt[{n_inputs}]; /* work space: the inputs on their followers */",
+            f"    double work_ef[{n_env}]; /* work space: the new followers */",
+            f"    double work_ex[{n_env}]; /* work space: the new excesses */",
+            f"    double work_din[{n_env}]; /* work space: each input's response */",
+        ]
     return "\n".join(members)
 
 
@@ -120,7 +160,7 @@ ${members}
 
 void ${P}_init(${P}_state *s);
 void ${P}_reset(${P}_state *s, int has_initial, double initial_um);
-int ${P}_update(${P}_state *s, double time_s, const double x[${M}_N_INPUTS], double *output_um);
+int ${P}_update(${P}_state *s, double time_s, const double x[], double *output_um);
 int ${P}_plausible(const ${P}_state *s);
 ${trust_declarations}
 static const int ${P}_input[${n_terms_1}] = ${input_index};
@@ -132,8 +172,9 @@ static const int ${P}_idle[${n_lags_1}] = ${idle};${env_tables}
 
 void ${P}_init(${P}_state *s)
 {
-    ${P}_state zero = {0};
-    *s = zero;
+    /* member by member: a zero struct copied in would be the struct's size on the stack */
+    int k;
+${init}
 }
 
 void ${P}_reset(${P}_state *s, int has_initial, double initial_um)
@@ -164,11 +205,10 @@ ${missing}
     return ${M}_ERR_VALUE;
 }
 ${trust_functions}
-int ${P}_update(${P}_state *s, double time_s, const double x[${M}_N_INPUTS], double *output_um)
+int ${P}_update(${P}_state *s, double time_s, const double x[], double *output_um)
 {
-    double v[${n_terms_1}], lag[${n_terms_1}];
-    double dt = 0.0, shift = 0.0, total = 0.0, value;
-    int k, j, has_dt = 0;${env_locals}
+    double dt = 0.0, shift = 0.0, total = 0.0, start, model, value;
+    int k, j, has_dt = 0, has_start;${env_locals}
     *output_um = s->output_um; /* what a refused or held row leaves on the axis */
     /* (1) a negative input to a fractional power */
     for (k = 0; k < ${M}_N_TERMS; k++) {
@@ -183,40 +223,48 @@ int ${P}_update(${P}_state *s, double time_s, const double x[${M}_N_INPUTS], dou
 ${restart}
         }${gap}
     }
-    /* (3) every input finite */
+    /* (3) every input finite, before anything changes */
     for (j = 0; j < ${M}_N_INPUTS; j++) {
         if (!isfinite(x[j])) return ${P}_refuse(s, time_s, x);
     }
-    /* (4) the lags and their weighted sum */
+    /* (4) the lags, into the work space (nothing is kept before the checks), and their
+       weighted sum, term after term (as Python adds them) */
     for (k = 0; k < ${M}_N_TERMS; k++) {
-        v[k] = ${P}_power[k] == 1.0 ? x[${P}_input[k]] : pow(x[${P}_input[k]], ${P}_power[k]);
-    }
-    for (k = 0; k < ${M}_N_TERMS; k++) {
+        double v = ${P}_power[k] == 1.0 ? x[${P}_input[k]] : pow(x[${P}_input[k]], ${P}_power[k]);
+        double lag;
         if (!s->started) {
-            lag[k] = (k < ${M}_N_LAGS && ${P}_idle[k < ${M}_N_LAGS ? k : 0]) ? 0.0 : v[k];
+            lag = (k < ${M}_N_LAGS && ${P}_idle[k < ${M}_N_LAGS ? k : 0]) ? 0.0 : v;
         } else if (k < ${M}_N_LAGS) {
             double a = exp(-dt / ${P}_tau[k]);
-            lag[k] = (1.0 - a) * v[k] + a * s->lag[k];
+            lag = (1.0 - a) * v + a * s->lag[k];
         } else {
-            lag[k] = v[k];
+            lag = v;
         }
-        total += ${P}_weight[k] * lag[k];
+        s->work_lag[k] = lag;
+        total += ${P}_weight[k] * lag;
     }
     if (!isfinite(total)) return ${P}_refuse(s, time_s, x);${env_step}
     /* (5) the reference */
+    has_start = s->has_start;
+    start = s->start;
     if (!s->started) {
         if (s->has_initial) {
-            s->has_start = 1;
-            s->start = ${intercept} + total - s->initial;
+            has_start = 1;
+            start = ${intercept} + total - s->initial;
         } else {
-            s->has_start = ${relative};
-            s->start = ${relative} ? total : 0.0;
+            has_start = ${relative};
+            start = ${relative} ? total : 0.0;
         }
     }
-    for (k = 0; k < ${M}_N_TERMS; k++) s->lag[k] = lag[k];${env_store}
-    if (s->has_start) total -= s->start;
-    /* (6) the model's correction, and the probe filter's */
-    value = ${intercept} + total;
+    if (has_start) total -= start;
+    /* (6) the model's correction, and the probe filter's: refused if not finite or beyond
+       max_correction_um, before anything is kept */
+    model = ${intercept} + total;
+    value = model;${filter_value}
+    if (!isfinite(value) || fabs(value) > ${max_correction}) return ${M}_ERR_VALUE;
+    s->has_start = has_start;
+    s->start = start;
+    for (k = 0; k < ${M}_N_TERMS; k++) s->lag[k] = s->work_lag[k];${env_store}
 ${record}
     s->started = 1;
     s->time_s = time_s;
@@ -237,7 +285,7 @@ def _trust_c(p):
     t = p.trust
     declarations = (
         f"int {p.name}_observe({p.name}_state *s, double time_s, double measured_um);\n"
-        f"void {p.name}_recalibrate({p.name}_state *s, int has_size, double size_um);\n"
+        f"int {p.name}_recalibrate({p.name}_state *s, int has_size, double size_um);\n"
         f"double {p.name}_half_width(const {p.name}_state *s);\n"
         f"int {p.name}_trusted(const {p.name}_state *s);\n"
         f"int {p.name}_change_kind(const {p.name}_state *s);\n"
@@ -255,10 +303,53 @@ def _trust_c(p):
 #define ${M}_WINDOW ${window}
 ${change_macros}
 
-static double ${P}_corrected(const ${P}_state *s, double model, double time_s)
+/* the model's correction with the filter's states carried from ft0 to time_s */
+static double ${P}_corrected(const ${P}_state *s, double model, double time_s, double ft0)
 {
-    double dh = (time_s - s->ft0) / 3600.0;
+    double dh = (time_s - ft0) / 3600.0;
     return model + s->fx[0] * exp(-dh / ${memory_h}) + s->fx[1] + s->fx[2] * dh;
+}
+
+/* the change detector's bank: a copy that a reading works on, kept only if it is finite */
+typedef struct {
+    double d[2 * ${M}_WINDOW * 3], a[2 * ${M}_WINDOW], b[2 * ${M}_WINDOW], t0[${M}_WINDOW];
+    long n;
+} ${P}_bank;
+
+static void ${P}_bank_clear(${P}_bank *g)
+{
+    int i;
+    for (i = 0; i < 2 * ${M}_WINDOW * 3; i++) g->d[i] = 0.0;
+    for (i = 0; i < 2 * ${M}_WINDOW; i++) {
+        g->a[i] = 0.0;
+        g->b[i] = 0.0;
+    }
+    for (i = 0; i < ${M}_WINDOW; i++) g->t0[i] = 0.0;
+    g->n = 0;
+}
+
+static void ${P}_bank_load(const ${P}_state *s, ${P}_bank *g)
+{
+    int i;
+    for (i = 0; i < 2 * ${M}_WINDOW * 3; i++) g->d[i] = s->glr_d[i];
+    for (i = 0; i < 2 * ${M}_WINDOW; i++) {
+        g->a[i] = s->glr_a[i];
+        g->b[i] = s->glr_b[i];
+    }
+    for (i = 0; i < ${M}_WINDOW; i++) g->t0[i] = s->glr_t0[i];
+    g->n = s->glr_n;
+}
+
+static void ${P}_bank_store(${P}_state *s, const ${P}_bank *g)
+{
+    int i;
+    for (i = 0; i < 2 * ${M}_WINDOW * 3; i++) s->glr_d[i] = g->d[i];
+    for (i = 0; i < 2 * ${M}_WINDOW; i++) {
+        s->glr_a[i] = g->a[i];
+        s->glr_b[i] = g->b[i];
+    }
+    for (i = 0; i < ${M}_WINDOW; i++) s->glr_t0[i] = g->t0[i];
+    s->glr_n = g->n;
 }
 
 /* the filter's transition over dh hours (>= 0): F, and Q (the random walks, scaled) */
@@ -302,17 +393,23 @@ static void ${P}_propagate(const ${P}_state *s, double time_s, double x[3], doub
 
 double ${P}_half_width(const ${P}_state *s)
 {
-    double var;
+    double var, dh;
     if (!s->started) return NAN;
+    dh = (s->time_s - s->ft0) / 3600.0;
+    if (dh < 0.0) dh = 0.0;
     if (!s->adjusted) {
-        double dh = (s->time_s - s->ft0) / 3600.0;
-        if (dh < 0.0) dh = 0.0;
         var = ${offset_var} + ${growth_var} * dh + ${noise_var};
     } else {
-        double x[3], P[9], F[9], hph;
-        ${P}_propagate(s, s->time_s, x, P, F);
-        hph = (P[0] + P[3]) + (P[1] + P[4]); /* H P H' with H = (1, 1, 0) */
-        var = (hph > 0.0 ? hph : 0.0) + ${white_var};
+        /* H (F P F' + Q) H' with H F = (phi, 1, dh), in scalars, as Python computes it */
+        const double *P = s->fp;
+        double phi = exp(-dh / ${memory_h}), hph, hqh;
+        hph = phi * phi * P[0] + P[4] + dh * dh * P[8]
+            + 2.0 * (phi * P[1] + phi * dh * P[2] + dh * P[5]);
+        hqh = ${memory_var} * (1.0 - phi * phi) + ${bias_var} * dh;
+        hqh += ${rate_var} * pow(dh, 3.0) / 3.0;
+        var = hph + ${scale} * hqh;
+        if (isnan(var)) var = HUGE_VAL; /* inf - inf: nothing is known */
+        var = (var > 0.0 ? var : 0.0) + ${white_var};
     }
     return ${quantile} * sqrt(var)${widening};
 }
@@ -338,36 +435,31 @@ double ${P}_innovation(const ${P}_state *s)
     return s->adjusted ? s->innovation : NAN;
 }
 
-/* the change detector's bank emptied */
-static void ${P}_glr_reset(${P}_state *s)
+int ${P}_recalibrate(${P}_state *s, int has_size, double size_um)
 {
-    int i;
-    for (i = 0; i < 2 * ${M}_WINDOW * 3; i++) s->glr_d[i] = 0.0;
-    for (i = 0; i < 2 * ${M}_WINDOW; i++) {
-        s->glr_a[i] = 0.0;
-        s->glr_b[i] = 0.0;
-    }
-    for (i = 0; i < ${M}_WINDOW; i++) s->glr_t0[i] = 0.0;
-    s->glr_n = 0;
-}
-
-void ${P}_recalibrate(${P}_state *s, int has_size, double size_um)
-{
-    double size2;
-    if (!has_size || !isfinite(size_um)) {
+    double size2, b, r;
+    ${P}_bank g;
+    if (!has_size) {
         double sd = sqrt(${offset_var} + ${noise_var} > 0.0 ? ${offset_var} + ${noise_var} : 0.0);
         size_um = sd != 0.0 ? sd : 1.0;
+    } else if (!isfinite(size_um) || fabs(size_um) > ${max_correction}) {
+        return ${M}_ERR_READING; /* as Compensator.recalibrate refuses it: nothing changes */
     }
     size2 = size_um * size_um;
-    s->fp[4] += size2;
-    s->fp[8] += size2;
+    b = s->fp[4] + size2;
+    r = s->fp[8] + size2;
+    if (!isfinite(b) || !isfinite(r)) return ${M}_ERR_READING;
+    s->fp[4] = b;
+    s->fp[8] = r;
     s->changes += 1;
-    ${P}_glr_reset(s);
+    ${P}_bank_clear(&g);
+    ${P}_bank_store(s, &g);
+    return ${M}_OK;
 }
 
 /* the likelihood test after a reading (Willsky and Jones, 1976): the bank advanced by
    one onset; returns the kind (0 step, 1 ramp) and onset of the largest statistic */
-static double ${P}_glr_advance(${P}_state *s, const double F[9], const double K[3],
+static double ${P}_glr_advance(${P}_bank *g, const double F[9], const double K[3],
                                double innovation, double S, double time_h, double previous_h,
                                int *kind, int *slot)
 {
@@ -375,36 +467,36 @@ static double ${P}_glr_advance(${P}_state *s, const double F[9], const double K[
     int c, i, j, k;
     for (j = 0; j + 1 < ${M}_WINDOW; j++) {
         int to = ${M}_WINDOW - 1 - j, from = ${M}_WINDOW - 2 - j;
-        s->glr_t0[to] = s->glr_t0[from];
+        g->t0[to] = g->t0[from];
         for (c = 0; c < 2; c++) {
             int at = c * ${M}_WINDOW + to, was = c * ${M}_WINDOW + from;
-            s->glr_a[at] = s->glr_a[was];
-            s->glr_b[at] = s->glr_b[was];
-            for (i = 0; i < 3; i++) s->glr_d[3 * at + i] = s->glr_d[3 * was + i];
+            g->a[at] = g->a[was];
+            g->b[at] = g->b[was];
+            for (i = 0; i < 3; i++) g->d[3 * at + i] = g->d[3 * was + i];
         }
     }
-    s->glr_t0[0] = previous_h;
+    g->t0[0] = previous_h;
     for (c = 0; c < 2; c++) {
-        s->glr_a[c * ${M}_WINDOW] = 0.0;
-        s->glr_b[c * ${M}_WINDOW] = 0.0;
-        for (i = 0; i < 3; i++) s->glr_d[c * ${M}_WINDOW * 3 + i] = 0.0;
+        g->a[c * ${M}_WINDOW] = 0.0;
+        g->b[c * ${M}_WINDOW] = 0.0;
+        for (i = 0; i < 3; i++) g->d[c * ${M}_WINDOW * 3 + i] = 0.0;
     }
-    if (s->glr_n < ${M}_WINDOW) s->glr_n += 1;
+    if (g->n < ${M}_WINDOW) g->n += 1;
     *kind = 0;
     *slot = 0;
     for (c = 0; c < 2; c++) {
         for (j = 0; j < ${M}_WINDOW; j++) {
-            if (j < s->glr_n) {
-                double *d = s->glr_d + (c * ${M}_WINDOW + j) * 3, e[3], g1, rho, a, b, stat;
+            if (j < g->n) {
+                double *d = g->d + (c * ${M}_WINDOW + j) * 3, e[3], g1, rho, a, b, stat;
                 for (i = 0; i < 3; i++) {
                     e[i] = 0.0;
                     for (k = 0; k < 3; k++) e[i] += d[k] * F[3 * i + k];
                 }
-                g1 = c == 0 ? 1.0 : time_h - s->glr_t0[j];
+                g1 = c == 0 ? 1.0 : time_h - g->t0[j];
                 rho = (0.0 - e[0]) + (g1 - e[1]); /* H (g - d) */
                 for (i = 0; i < 3; i++) d[i] = e[i] + rho * K[i];
-                a = s->glr_a[c * ${M}_WINDOW + j] += rho * innovation / S;
-                b = s->glr_b[c * ${M}_WINDOW + j] += rho * rho / S;
+                a = g->a[c * ${M}_WINDOW + j] += rho * innovation / S;
+                b = g->b[c * ${M}_WINDOW + j] += rho * rho / S;
                 stat = b > 0.0 ? a * a / b : 0.0;
                 if (c == 1 && j == 0) stat = 0.0; /* a ramp read once is the step */
                 if ((c == 0 && j == 0) || stat > best) {
@@ -421,8 +513,12 @@ static double ${P}_glr_advance(${P}_state *s, const double F[9], const double K[
 int ${P}_observe(${P}_state *s, double time_s, double measured_um)
 {
     double m, x[3], P[9], F[9], PH[3], K[3], IKH[9], A[9], Pn[9];
-    double dh, innovation, S, previous, stat;
-    int i, j, k, oldest, newest, kind, slot, found = 0;
+    double dh, innovation, S, previous, stat, standardised, corrected;
+    long oldest, newest, i, j, k;
+    int kind, slot, found = 0, ok, change_kind = (int)s->change_kind;
+    long changes = s->changes;
+    double change_start_s = s->change_start_s;
+    ${P}_bank g;
     if (!isfinite(time_s) || !isfinite(measured_um) || !s->started) return ${M}_ERR_READING;
     if (fabs(measured_um) > ${max_correction} || time_s > s->time_s) return ${M}_ERR_READING;
     if (s->has_reading && time_s <= s->last_reading) return ${M}_ERR_READING;
@@ -433,7 +529,7 @@ int ${P}_observe(${P}_state *s, double time_s, double measured_um)
     m = s->hm[newest];
     for (i = 0; i + 1 < ${M}_HISTORY; i++) {
         if (!found && i + 1 < s->hcount) {
-            int j0 = (oldest + i) % ${M}_HISTORY, j1 = (oldest + i + 1) % ${M}_HISTORY;
+            long j0 = (oldest + i) % ${M}_HISTORY, j1 = (oldest + i + 1) % ${M}_HISTORY;
             if (time_s < s->ht[j1]) {
                 double slope = (s->hm[j1] - s->hm[j0]) / (s->ht[j1] - s->ht[j0]);
                 m = slope * (time_s - s->ht[j0]) + s->hm[j0];
@@ -441,6 +537,7 @@ int ${P}_observe(${P}_state *s, double time_s, double measured_um)
             }
         }
     }
+    /* everything below works on copies: the state changes only once all is finite */
     previous = s->ft0;
     ${P}_propagate(s, time_s, x, P, F);
     if (!s->adjusted) {
@@ -478,14 +575,15 @@ int ${P}_observe(${P}_state *s, double time_s, double measured_um)
         for (j = 0; j < 3; j++) P[3 * i + j] = 0.5 * (Pn[3 * i + j] + Pn[3 * j + i]);
     }
     /* the change detector: a step or a ramp since one of the last readings */
-    stat = ${P}_glr_advance(s, F, K, innovation, S, time_s / 3600.0, previous / 3600.0, &kind,
+    ${P}_bank_load(s, &g);
+    stat = ${P}_glr_advance(&g, F, K, innovation, S, time_s / 3600.0, previous / 3600.0, &kind,
                             &slot);
     if (stat > ${threshold}) {
-        const double *d = s->glr_d + (kind * ${M}_WINDOW + slot) * 3;
-        double miss[3], b = s->glr_b[kind * ${M}_WINDOW + slot];
-        double size = s->glr_a[kind * ${M}_WINDOW + slot] / b;
+        const double *d = g.d + (kind * ${M}_WINDOW + slot) * 3;
+        double miss[3], b = g.b[kind * ${M}_WINDOW + slot];
+        double size = g.a[kind * ${M}_WINDOW + slot] / b;
         miss[0] = 0.0 - d[0];
-        miss[1] = (kind == 0 ? 1.0 : time_s / 3600.0 - s->glr_t0[slot]) - d[1];
+        miss[1] = (kind == 0 ? 1.0 : time_s / 3600.0 - g.t0[slot]) - d[1];
         miss[2] = (kind == 0 ? 0.0 : 1.0) - d[2];
         for (i = 0; i < 3; i++) {
             x[i] += size * miss[i];
@@ -494,28 +592,42 @@ int ${P}_observe(${P}_state *s, double time_s, double measured_um)
         {
             /* a few readings cannot tell a step from a ramp: the bias and the rate
                are opened by the size found (its effect here, and per hour since) */
-            double span = time_s / 3600.0 - s->glr_t0[slot], effect2;
+            double span = time_s / 3600.0 - g.t0[slot], effect2;
             if (span < 1e-9) span = 1e-9;
             effect2 = kind ? (size * span) * (size * span) : size * size;
             P[4] += effect2;
             P[8] += effect2 / (span * span);
         }
-        s->change_kind = kind + 1;
-        s->change_start_s = s->glr_t0[slot] * 3600.0;
-        s->changes += 1;
-        ${P}_glr_reset(s);
+        change_kind = kind + 1;
+        change_start_s = g.t0[slot] * 3600.0;
+        changes += 1;
+        ${P}_bank_clear(&g);
     }
     for (i = 0; i < 3; i++) {
-        s->fx[i] = x[i];
-        for (j = 0; j < 3; j++) s->fp[3 * i + j] = 0.5 * (P[3 * i + j] + P[3 * j + i]);
+        for (j = 0; j < 3; j++) Pn[3 * i + j] = 0.5 * (P[3 * i + j] + P[3 * j + i]);
     }
+    standardised = innovation / sqrt(S);
+    dh = (s->time_s - time_s) / 3600.0;
+    corrected = s->model_um + x[0] * exp(-dh / ${memory_h}) + x[1] + x[2] * dh;
+    ok = isfinite(standardised) && isfinite(corrected);
+    for (i = 0; i < 3; i++) ok = ok && isfinite(x[i]);
+    for (i = 0; i < 9; i++) ok = ok && isfinite(Pn[i]);
+    for (i = 0; i < 2 * ${M}_WINDOW * 3; i++) ok = ok && isfinite(g.d[i]);
+    for (i = 0; i < 2 * ${M}_WINDOW; i++) ok = ok && isfinite(g.a[i]) && isfinite(g.b[i]);
+    if (!ok) return ${M}_ERR_READING; /* the reading overflows the filter: nothing changes */
+    for (i = 0; i < 3; i++) s->fx[i] = x[i];
+    for (i = 0; i < 9; i++) s->fp[i] = Pn[i];
+    ${P}_bank_store(s, &g);
+    s->change_kind = change_kind;
+    s->change_start_s = change_start_s;
+    s->changes = changes;
     s->ft0 = time_s;
     s->has_ft0 = 1;
     s->adjusted = 1;
     s->has_reading = 1;
     s->last_reading = time_s;
-    s->innovation = innovation / sqrt(S);
-    s->correction_um = ${P}_corrected(s, s->model_um, s->time_s);
+    s->innovation = standardised;
+    s->correction_um = corrected;
     return ${M}_OK;
 }
 """
@@ -557,7 +669,7 @@ def _envelope_c(p):
     step = Template(
         r"""
     /* (4b) the envelope: each enveloped input's follower, and the excess bank */
-    for (j = 0; j < ${M}_N_INPUTS; j++) xt[j] = x[j];
+    for (j = 0; j < ${M}_N_INPUTS; j++) s->work_xt[j] = x[j];
     for (j = 0; j < ${M}_N_ENV; j++) {
         double xi = x[${P}_env_input[j]], f = xi, lo = ${P}_env_low[j], hi = ${P}_env_high[j];
         if (s->started) {
@@ -568,24 +680,27 @@ def _envelope_c(p):
         }
         if (f < lo) f = lo;
         if (f > hi) f = hi;
-        ef[j] = f;
-        ex[j] = xi - f;
-        xt[${P}_env_input[j]] = f;
-        if (outside == 0 && ex[j] != 0.0) outside = ${P}_env_input[j] + 1;
+        s->work_ef[j] = f;
+        s->work_ex[j] = xi - f;
+        s->work_xt[${P}_env_input[j]] = f;
+        if (outside == 0 && s->work_ex[j] != 0.0) outside = ${P}_env_input[j] + 1;
     }
-    for (j = 0; j < ${M}_N_ENV; j++) din[j] = 0.0;
+    for (j = 0; j < ${M}_N_ENV; j++) s->work_din[j] = 0.0;
     for (k = 0; k < ${M}_N_TERMS; k++) {
-        double w = ${P}_power[k] == 1.0 ? xt[${P}_input[k]] : pow(xt[${P}_input[k]], ${P}_power[k]);
-        double e = v[k] - w;
+        double xk = x[${P}_input[k]], xtk = s->work_xt[${P}_input[k]];
+        double v = ${P}_power[k] == 1.0 ? xk : pow(xk, ${P}_power[k]);
+        double w = ${P}_power[k] == 1.0 ? xtk : pow(xtk, ${P}_power[k]);
+        double e = v - w, elag;
         if (!s->started) {
-            elag[k] = (k < ${M}_N_LAGS && ${P}_idle[k < ${M}_N_LAGS ? k : 0]) ? 0.0 : e;
+            elag = (k < ${M}_N_LAGS && ${P}_idle[k < ${M}_N_LAGS ? k : 0]) ? 0.0 : e;
         } else if (k < ${M}_N_LAGS) {
             double a = exp(-dt / ${P}_tau[k]);
-            elag[k] = (1.0 - a) * e + a * s->elag[k];
+            elag = (1.0 - a) * e + a * s->elag[k];
         } else {
-            elag[k] = e;
+            elag = e;
         }
-        if (${P}_env_slot[k] >= 0) din[${P}_env_slot[k]] += ${P}_weight[k] * elag[k];
+        s->work_elag[k] = elag;
+        if (${P}_env_slot[k] >= 0) s->work_din[${P}_env_slot[k]] += ${P}_weight[k] * elag;
     }"""
     ).substitute(P=P, M=M)
     store = Template(
@@ -594,12 +709,13 @@ def _envelope_c(p):
     s->has_estart = s->started ? s->has_estart : s->has_start;
     s->widening_um = 0.0;
     for (j = 0; j < ${M}_N_ENV; j++) {
-        if (!s->started) s->estart[j] = s->has_start ? din[j] : 0.0;
-        s->widening_um += fabs(s->has_estart ? din[j] - s->estart[j] : din[j]);
-        s->ef[j] = ef[j];
-        s->ex[j] = ex[j];
+        double din = s->work_din[j];
+        if (!s->started) s->estart[j] = s->has_start ? din : 0.0;
+        s->widening_um += fabs(s->has_estart ? din - s->estart[j] : din);
+        s->ef[j] = s->work_ef[j];
+        s->ex[j] = s->work_ex[j];
     }
-    for (k = 0; k < ${M}_N_TERMS; k++) s->elag[k] = elag[k];
+    for (k = 0; k < ${M}_N_TERMS; k++) s->elag[k] = s->work_elag[k];
     s->outside = outside;"""
     ).substitute(P=P, M=M)
     return {
@@ -612,11 +728,7 @@ def _envelope_c(p):
             f"\nstatic const int {P}_env_slot[{max(len(p.terms), 1)}] = "
             f"{_array(e.term_slot, str, 16)};"
         ),
-        "env_locals": (
-            f"\n    double ef[{M}_N_ENV], ex[{M}_N_ENV], xt[{M}_N_INPUTS];"
-            f"\n    double elag[{max(len(p.terms), 1)}], din[{M}_N_ENV];"
-            "\n    int outside = 0;"
-        ),
+        "env_locals": "\n    int outside = 0;",
         "env_step": step,
         "env_store": store,
     }
@@ -626,7 +738,7 @@ def _record_c(p):
     """Step (6): the probe filter's record of the row, or the model's correction as it is."""
     if p.trust is None:
         return (
-            "    (void)shift; /* no filter times to move */\n    s->model_um = value;\n"
+            "    (void)shift; /* no filter times to move */\n    s->model_um = model;\n"
             "    s->correction_um = value;"
         )
     return (
@@ -645,11 +757,10 @@ def _record_c(p):
         s->has_ft0 = 1;
     }
     s->ht[s->hpos] = time_s;
-    s->hm[s->hpos] = value;
+    s->hm[s->hpos] = model;
     s->hpos = (s->hpos + 1) % HISTORY_;
     if (s->hcount < HISTORY_) s->hcount += 1;
-    s->model_um = value;
-    if (s->adjusted) value = PREFIX_corrected(s, value, time_s);
+    s->model_um = model;
     s->correction_um = value;""".replace("HISTORY_", f"{p.name.upper()}_HISTORY")
         .replace("WINDOW_", f"{p.name.upper()}_WINDOW")
         .replace("PREFIX_", f"{p.name}_")
@@ -754,6 +865,7 @@ def write_c(p):
         status_macros=status_macros,
         input_macros=input_macros,
         members=_struct(p),
+        init=_init_body(p),
         trust_declarations=declarations,
         trust_functions=functions,
         input_index=_array([t.input for t in p.terms], str, 16),
@@ -769,6 +881,12 @@ def write_c(p):
         intercept=_real(p.intercept),
         relative=int(p.relative_to_start),
         record=_record_c(p),
+        filter_value=(
+            ""
+            if p.trust is None
+            else f"\n    if (s->adjusted) value = {p.name}_corrected(s, model, time_s, "
+            "s->ft0 - shift);"
+        ),
         stage=stage,
         **_envelope_c(p),
     )

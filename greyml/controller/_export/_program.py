@@ -30,6 +30,7 @@ from greyml.dynamic._observer import KINDS, WINDOW, glr_threshold
 
 __all__ = [
     "CHANGE_KINDS",
+    "RESERVED_WORDS",
     "SCHEMA",
     "SCHEMA_VERSION",
     "STATUS_CODES",
@@ -57,25 +58,56 @@ STATUS_CODES = {
     "ERR_VALUE": (
         -3,
         "an input missing (on_missing='raise'), negative to a fractional power, or the "
-        "correction overflows: refused",
+        "correction not finite or beyond max_correction_um: refused, no state changed",
     ),
-    "ERR_READING": (-4, "a probe reading refused (as Compensator.observe refuses it)"),
+    "ERR_READING": (
+        -4,
+        "a probe reading or a recalibration size refused (as Compensator.observe and "
+        "recalibrate refuse them): no state changed",
+    ),
 }
 
-# IEC 61131-3 and C keywords (case-insensitive for Structured Text) that a
-# function or block name may not be; an input's identifier always has a prefix
-_RESERVED = frozenset(
-    """
-    abs action and any array at auto bool break by byte case char const continue date
-    default dint do double dt dword else elsif end_action end_case end_for end_function
-    end_function_block end_if end_method end_program end_repeat end_struct end_type
-    end_var end_while enum exit exp extern false float for function function_block goto
-    if inline int int16_t int32_t int64_t lint long lreal mod not of or program real
-    register repeat restrict return short signed sint sizeof static string struct switch
-    then time to tod true trunc type typedef udint uint ulint union unsigned until usint
-    var var_input var_output var_in_out var_temp var_global void volatile while word xor
-    """.split()
-)
+# Words a function or block name may not be (case-insensitive, as Structured Text reads
+# them): the keywords of C99 and C11; of IEC 61131-3 (third edition: its statements,
+# sections, types and operators, the object-oriented extensions, namespaces, SFC); the
+# extensions of TwinCAT 3 and CODESYS 3.5 (properties, references, unions, pointers,
+# JMP, the qualifiers of VAR sections); and the standard functions the function block
+# calls. An input's identifier always has a prefix (x_), so it is none of them.
+_C_KEYWORDS = """
+    auto break case char const continue default do double else enum extern float for goto
+    if inline int long register restrict return short signed sizeof static struct switch
+    typedef union unsigned void volatile while bool complex imaginary alignas alignof
+    atomic generic noreturn static_assert thread_local int8_t int16_t int32_t int64_t
+    uint8_t uint16_t uint32_t uint64_t size_t main nan infinity huge_val
+"""
+_IEC_KEYWORDS = """
+    action end_action array at by case end_case class end_class configuration
+    end_configuration constant continue do else elsif end_for end_function
+    end_function_block end_if end_interface end_method end_namespace end_program
+    end_repeat end_resource end_step end_struct end_transition end_type end_var end_while
+    en eno exit extends f_edge r_edge false final for from function function_block if
+    implements initial_step interface internal method namespace non_retain null of on
+    or override private program protected public read_only read_write ref ref_to repeat
+    resource retain return step struct super task then this to transition true type
+    until using var var_access var_config var_external var_global var_in_out var_input
+    var_output var_temp var_stat var_inst while with abstract and and_then or_else xor
+    not mod
+    bool byte word dword lword sint int dint lint usint uint udint ulint real lreal time
+    ltime date ldate time_of_day tod ltod date_and_time dt ldt string wstring char wchar
+    any any_num any_real any_int any_bit any_string any_date any_elementary any_derived
+    any_magnitude any_signed any_unsigned any_duration any_char any_chars
+"""
+_VENDOR_KEYWORDS = """
+    property end_property reference pointer union end_union jmp persistent adr adrinst
+    bitadr sizeof ini xword xint uxint bit jmpc jmpcn cal calc calcn ret retc retcn
+    var_in_out_constant end_class interface end_interface
+    abs exp expt sqrt trunc ln log sin cos tan asin acos atan min max limit sel mux
+    dint_to_lreal lreal_to_dint
+"""
+_RESERVED = frozenset((_C_KEYWORDS + _IEC_KEYWORDS + _VENDOR_KEYWORDS).split())
+
+#: Every word refused as a name, in upper case (what the tests try).
+RESERVED_WORDS = tuple(sorted(w.upper() for w in _RESERVED))
 
 _NAME = re.compile(r"[A-Za-z](?:_?[A-Za-z0-9])*")
 _NAME_MAX = 31
@@ -385,10 +417,12 @@ ALGORITHM = [
     "(3) an input not finite -> refuse(); (4) v_k = x[input_k] ** power_k; at the first "
     "row lag_k = v_k (0 for idle lags), else lag_k = (1 - a_k) v_k + a_k lag_k with "
     "a_k = exp(-dt / tau_k) (a_k = 0 without lag); total = sum weight_k lag_k; not finite "
-    "-> ERR_VALUE; (5) at the first row start = intercept + total - initial (initial "
-    "given), total (relative_to_start) or nothing; total -= start; (6) model = intercept "
-    "+ total; the probe filter's correction: model + offset exp(-dh / memory_h) + bias + "
-    "rate dh once a reading was taken (dh in hours since the filter's time); (7) the "
+    "-> ERR_VALUE (the sum term after term, in the order of terms); (5) at the first row "
+    "start = intercept + total - initial (initial given), total (relative_to_start) or "
+    "nothing; total -= start; (6) model = intercept + total; the probe filter's "
+    "correction: model + offset exp(-dh / memory_h) + bias + rate dh once a reading was "
+    "taken (dh in hours since the filter's time); not finite or beyond "
+    "max_correction_um -> ERR_VALUE; nothing is kept before this check; (7) the "
     "output stage: clamp, quantise (floor(|v| / q + 0.5) quanta, at most quanta_max, "
     "sign of v), rate limit (without a quantum: within +-rate dt of the last output, 0 "
     "at the first row after init or reset; with one: credit = min(credit + rate dt, "
@@ -405,7 +439,9 @@ ALGORITHM = [
     "rate_var_per_h3 dh]]; x = F x, P = F P F' + Q, but at the first reading since reset "
     "x = 0, P = diag(scale (offset_var + growth_var_per_h dh), 0, 0); innovation = "
     "(measured - m) - H x, S = H P H' + reading_var, K = P H' / S, x += K innovation, P = "
-    "(I - K H) P (I - K H)' + K K' reading_var, symmetrised.",
+    "(I - K H) P (I - K H)' + K K' reading_var, symmetrised; the filter, the bank and "
+    "the correction are computed on copies and kept only if every number is finite "
+    "(else ERR_READING).",
     "the change detector (Willsky and Jones, 1976), after each reading at time_h = time_s "
     "/ 3600: a bank of `window` onsets for each kind (step, ramp) shifts by one (the "
     "newest onset begins at the filter's previous time, the oldest beyond the window "
@@ -418,10 +454,14 @@ ALGORITHM = [
     "changes += 1, change_kind and change_start_s (the onset, s) set; the last "
     "standardised innovation innovation / sqrt(S) is kept.",
     "recalibrate(size?): P += diag(0, size^2, size^2) (size by default sqrt(offset_var + "
-    "noise_var), 1 if that is 0), changes += 1, the bank emptied.",
+    "noise_var), 1 if that is 0; a size not finite or beyond max_correction_um, or a P "
+    "that would not be finite: ERR_READING), changes += 1, the bank emptied.",
     "half-width: interval_quantile sqrt(offset_var + growth_var_per_h dh + noise_var) "
     "before any reading (dh from the filter's time to the last row), else "
-    "interval_quantile sqrt(max(H P H', 0) + white_var) with P carried to the last row.",
+    "interval_quantile sqrt(max(hph + scale hqh, 0) + white_var) (infinite for NaN) with "
+    "phi = exp(-dh / "
+    "memory_h), hph = phi phi P00 + P11 + dh dh P22 + 2 (phi P01 + phi dh P02 + dh P12), "
+    "hqh = memory_var (1 - phi phi) + bias_var_per_h dh + rate_var_per_h3 dh^3 / 3.",
 ]
 
 
@@ -557,7 +597,7 @@ def describe(comp, *, name="greyml_compensator", description=None):
             interval_quantile=float(comp.interval_quantile),
             probe_noise_um=probe_noise,
             # as Compensator.observe and status compute them
-            reading_var=u.scale * u.noise_var + probe_noise**2,
+            reading_var=u.scale * u.noise_var + probe_noise * probe_noise,
             white_var=u.scale * u.noise_var,
             false_alarm_rate=rate,
             glr_threshold=glr_threshold(rate) * u.glr_scale,  # as observe compares it

@@ -55,7 +55,11 @@ def observe_block(p):
     tolerance = "TRUE" if p.tolerance_um is None else f"HalfWidthUm <= {literal(p.tolerance_um)}"
     return Template(
         r"""glrEmpty := FALSE;
-IF Observe THEN
+observeEdge := Observe AND NOT observeBefore;
+observeBefore := Observe;
+recalibrateEdge := Recalibrate AND NOT recalibrateBefore;
+recalibrateBefore := Recalibrate;
+IF observeEdge THEN
     ProbeStatus := 0;
     IF NOT (${finite_probe_time} AND ${finite_probe}) OR NOT st_started THEN
         ProbeStatus := ERR_READING;
@@ -88,6 +92,21 @@ IF Observe THEN
                 END_IF;
             END_IF;
         END_FOR;
+        (* everything below works on copies: the state changes only once all is finite *)
+        FOR k := 0 TO 2 * WINDOW * 3 - 1 DO
+            gD[k] := st_glr_d[k];
+        END_FOR;
+        FOR k := 0 TO 2 * WINDOW - 1 DO
+            gA[k] := st_glr_a[k];
+            gB[k] := st_glr_b[k];
+        END_FOR;
+        FOR k := 0 TO WINDOW - 1 DO
+            gT0[k] := st_glr_t0[k];
+        END_FOR;
+        gN := st_glr_n;
+        ckNew := st_change_kind;
+        csNew := st_change_start_s;
+        chNew := st_changes;
         prevTime := st_ft0;
         propTime := ProbeTimeS;
 ${propagate}
@@ -145,53 +164,53 @@ ${propagate}
         FOR j := 0 TO WINDOW - 2 DO
             jt := WINDOW - 1 - j;
             jf := WINDOW - 2 - j;
-            st_glr_t0[jt] := st_glr_t0[jf];
+            gT0[jt] := gT0[jf];
             FOR c := 0 TO 1 DO
-                st_glr_a[c * WINDOW + jt] := st_glr_a[c * WINDOW + jf];
-                st_glr_b[c * WINDOW + jt] := st_glr_b[c * WINDOW + jf];
+                gA[c * WINDOW + jt] := gA[c * WINDOW + jf];
+                gB[c * WINDOW + jt] := gB[c * WINDOW + jf];
                 FOR i := 0 TO 2 DO
-                    st_glr_d[(c * WINDOW + jt) * 3 + i] := st_glr_d[(c * WINDOW + jf) * 3 + i];
+                    gD[(c * WINDOW + jt) * 3 + i] := gD[(c * WINDOW + jf) * 3 + i];
                 END_FOR;
             END_FOR;
         END_FOR;
-        st_glr_t0[0] := prevTime / 3600.0;
+        gT0[0] := prevTime / 3600.0;
         FOR c := 0 TO 1 DO
-            st_glr_a[c * WINDOW] := 0.0;
-            st_glr_b[c * WINDOW] := 0.0;
+            gA[c * WINDOW] := 0.0;
+            gB[c * WINDOW] := 0.0;
             FOR i := 0 TO 2 DO
-                st_glr_d[c * WINDOW * 3 + i] := 0.0;
+                gD[c * WINDOW * 3 + i] := 0.0;
             END_FOR;
         END_FOR;
-        IF st_glr_n < WINDOW THEN
-            st_glr_n := st_glr_n + 1;
+        IF gN < WINDOW THEN
+            gN := gN + 1;
         END_IF;
         best := 0.0;
         glrKind := 0;
         glrSlot := 0;
         FOR c := 0 TO 1 DO
             FOR j := 0 TO WINDOW - 1 DO
-                IF j < st_glr_n THEN
+                IF j < gN THEN
                     gi := (c * WINDOW + j) * 3;
                     FOR i := 0 TO 2 DO
-                        dd[i] := st_glr_d[gi] * ff[3 * i] + st_glr_d[gi + 1] * ff[3 * i + 1]
-                            + st_glr_d[gi + 2] * ff[3 * i + 2];
+                        dd[i] := gD[gi] * ff[3 * i] + gD[gi + 1] * ff[3 * i + 1]
+                            + gD[gi + 2] * ff[3 * i + 2];
                     END_FOR;
                     IF c = 0 THEN
                         gg := 1.0;
                     ELSE
-                        gg := ProbeTimeS / 3600.0 - st_glr_t0[j];
+                        gg := ProbeTimeS / 3600.0 - gT0[j];
                     END_IF;
                     rho := (0.0 - dd[0]) + (gg - dd[1]);
                     FOR i := 0 TO 2 DO
-                        st_glr_d[gi + i] := dd[i] + rho * kg[i];
+                        gD[gi + i] := dd[i] + rho * kg[i];
                     END_FOR;
-                    st_glr_a[c * WINDOW + j] := st_glr_a[c * WINDOW + j] + rho * innov / sv;
-                    st_glr_b[c * WINDOW + j] := st_glr_b[c * WINDOW + j] + rho * rho / sv;
+                    gA[c * WINDOW + j] := gA[c * WINDOW + j] + rho * innov / sv;
+                    gB[c * WINDOW + j] := gB[c * WINDOW + j] + rho * rho / sv;
                     stat := 0.0;
-                    IF st_glr_b[c * WINDOW + j] > 0.0 AND (c = 0 OR j > 0) THEN
+                    IF gB[c * WINDOW + j] > 0.0 AND (c = 0 OR j > 0) THEN
                         (* a ramp read once is the step: its statistic is the step's *)
-                        stat := st_glr_a[c * WINDOW + j] * st_glr_a[c * WINDOW + j]
-                            / st_glr_b[c * WINDOW + j];
+                        stat := gA[c * WINDOW + j] * gA[c * WINDOW + j]
+                            / gB[c * WINDOW + j];
                     END_IF;
                     IF (c = 0 AND j = 0) OR stat > best THEN
                         best := stat;
@@ -204,15 +223,15 @@ ${propagate}
         IF best > GLR_THRESHOLD THEN
             (* a change: its estimate added to the states, its variance to theirs *)
             gi := (glrKind * WINDOW + glrSlot) * 3;
-            bb := st_glr_b[glrKind * WINDOW + glrSlot];
-            sz := st_glr_a[glrKind * WINDOW + glrSlot] / bb;
-            miss[0] := 0.0 - st_glr_d[gi];
+            bb := gB[glrKind * WINDOW + glrSlot];
+            sz := gA[glrKind * WINDOW + glrSlot] / bb;
+            miss[0] := 0.0 - gD[gi];
             IF glrKind = 0 THEN
-                miss[1] := 1.0 - st_glr_d[gi + 1];
-                miss[2] := 0.0 - st_glr_d[gi + 2];
+                miss[1] := 1.0 - gD[gi + 1];
+                miss[2] := 0.0 - gD[gi + 2];
             ELSE
-                miss[1] := (ProbeTimeS / 3600.0 - st_glr_t0[glrSlot]) - st_glr_d[gi + 1];
-                miss[2] := 1.0 - st_glr_d[gi + 2];
+                miss[1] := (ProbeTimeS / 3600.0 - gT0[glrSlot]) - gD[gi + 1];
+                miss[2] := 1.0 - gD[gi + 2];
             END_IF;
             FOR k := 0 TO 2 DO
                 fx[k] := fx[k] + sz * miss[k];
@@ -222,7 +241,7 @@ ${propagate}
             END_FOR;
             (* a few readings cannot tell a step from a ramp: the bias and the rate
                are opened by the size found (its effect here, and per hour since) *)
-            span := ProbeTimeS / 3600.0 - st_glr_t0[glrSlot];
+            span := ProbeTimeS / 3600.0 - gT0[glrSlot];
             IF span < 1.0E-9 THEN
                 span := 1.0E-9;
             END_IF;
@@ -233,38 +252,88 @@ ${propagate}
             END_IF;
             fp[4] := fp[4] + effect2;
             fp[8] := fp[8] + effect2 / (span * span);
-            st_change_kind := glrKind + 1;
-            st_change_start_s := st_glr_t0[glrSlot] * 3600.0;
-            st_changes := st_changes + 1;
-            glrEmpty := TRUE;
+            ckNew := glrKind + 1;
+            csNew := gT0[glrSlot] * 3600.0;
+            chNew := chNew + 1;
+            FOR k := 0 TO 2 * WINDOW * 3 - 1 DO
+                gD[k] := 0.0;
+            END_FOR;
+            FOR k := 0 TO 2 * WINDOW - 1 DO
+                gA[k] := 0.0;
+                gB[k] := 0.0;
+            END_FOR;
+            FOR k := 0 TO WINDOW - 1 DO
+                gT0[k] := 0.0;
+            END_FOR;
+            gN := 0;
         END_IF;
         FOR k := 0 TO 2 DO
-            st_fx[k] := fx[k];
             FOR j := 0 TO 2 DO
-                st_fp[3 * k + j] := 0.5 * (fp[3 * k + j] + fp[3 * j + k]);
+                pn[3 * k + j] := 0.5 * (fp[3 * k + j] + fp[3 * j + k]);
             END_FOR;
         END_FOR;
-        st_ft0 := ProbeTimeS;
-        st_has_ft0 := TRUE;
-        st_adjusted := TRUE;
-        st_has_reading := TRUE;
-        st_last_reading := ProbeTimeS;
-        st_innovation := innov / SQRT(sv);
-        dh := (st_time_s - st_ft0) / 3600.0;
-        st_correction_um := st_model_um + st_fx[0] * EXP(-dh / MEMORY_H) + st_fx[1]
-            + st_fx[2] * dh;
+        stdInnov := innov / SQRT(sv);
+        dh := (st_time_s - ProbeTimeS) / 3600.0;
+        corrNew := st_model_um + fx[0] * EXP(-dh / MEMORY_H) + fx[1] + fx[2] * dh;
+        (* a reading that overflows the filter is refused: nothing changes *)
+        ok := ${finite_std} AND ${finite_corr};
+        FOR k := 0 TO 2 DO
+            ok := ok AND ${finite_fx};
+        END_FOR;
+        FOR k := 0 TO 8 DO
+            ok := ok AND ${finite_pn};
+        END_FOR;
+        FOR k := 0 TO 2 * WINDOW * 3 - 1 DO
+            ok := ok AND ${finite_gd};
+        END_FOR;
+        FOR k := 0 TO 2 * WINDOW - 1 DO
+            ok := ok AND ${finite_ga} AND ${finite_gb};
+        END_FOR;
+        IF NOT ok THEN
+            ProbeStatus := ERR_READING;
+        ELSE
+            FOR k := 0 TO 2 DO
+                st_fx[k] := fx[k];
+            END_FOR;
+            FOR k := 0 TO 8 DO
+                st_fp[k] := pn[k];
+            END_FOR;
+            FOR k := 0 TO 2 * WINDOW * 3 - 1 DO
+                st_glr_d[k] := gD[k];
+            END_FOR;
+            FOR k := 0 TO 2 * WINDOW - 1 DO
+                st_glr_a[k] := gA[k];
+                st_glr_b[k] := gB[k];
+            END_FOR;
+            FOR k := 0 TO WINDOW - 1 DO
+                st_glr_t0[k] := gT0[k];
+            END_FOR;
+            st_glr_n := gN;
+            st_change_kind := ckNew;
+            st_change_start_s := csNew;
+            st_changes := chNew;
+            st_ft0 := ProbeTimeS;
+            st_has_ft0 := TRUE;
+            st_adjusted := TRUE;
+            st_has_reading := TRUE;
+            st_last_reading := ProbeTimeS;
+            st_innovation := stdInnov;
+            st_correction_um := corrNew;
+        END_IF;
     END_IF;
 END_IF;
-IF Recalibrate THEN
+IF recalibrateEdge THEN
     (* a known change: the bias and its rate become uncertain *)
     recalSize := SQRT(${offset_var} + ${noise_var});
     IF recalSize = 0.0 THEN
         recalSize := 1.0;
     END_IF;
-    st_fp[4] := st_fp[4] + recalSize * recalSize;
-    st_fp[8] := st_fp[8] + recalSize * recalSize;
-    st_changes := st_changes + 1;
-    glrEmpty := TRUE;
+    IF ${finite_recal4} AND ${finite_recal8} THEN
+        st_fp[4] := st_fp[4] + recalSize * recalSize;
+        st_fp[8] := st_fp[8] + recalSize * recalSize;
+        st_changes := st_changes + 1;
+        glrEmpty := TRUE;
+    END_IF;
 END_IF;
 IF glrEmpty THEN
     (* the change detector's bank emptied: after a change found, or Recalibrate *)
@@ -284,6 +353,15 @@ END_IF;
     ).substitute(
         finite_probe_time=finite("ProbeTimeS"),
         finite_probe=finite("ProbeUm"),
+        finite_std=finite("stdInnov"),
+        finite_corr=finite("corrNew"),
+        finite_fx=finite("fx[k]"),
+        finite_pn=finite("pn[k]"),
+        finite_gd=finite("gD[k]"),
+        finite_ga=finite("gA[k]"),
+        finite_gb=finite("gB[k]"),
+        finite_recal4=finite("st_fp[4] + recalSize * recalSize"),
+        finite_recal8=finite("st_fp[8] + recalSize * recalSize"),
         max_correction=literal(p.max_correction_um),
         offset_var=literal(t.offset_var),
         growth_var=literal(t.growth_var_per_h),
@@ -333,20 +411,26 @@ def _status_st(p, tolerance):
         r"""HalfWidthUm := 0.0;
 Trusted := FALSE;
 IF st_started THEN
+    dh := (st_time_s - st_ft0) / 3600.0;
+    IF dh < 0.0 THEN
+        dh := 0.0;
+    END_IF;
     IF NOT st_adjusted THEN
-        dh := (st_time_s - st_ft0) / 3600.0;
-        IF dh < 0.0 THEN
-            dh := 0.0;
-        END_IF;
         variance := ${offset_var} + ${growth_var} * dh + ${noise_var};
     ELSE
-        propTime := st_time_s;
-${propagate}
-        hph := (fp[0] + fp[3]) + (fp[1] + fp[4]); (* H P H' with H = (1, 1, 0) *)
-        IF hph < 0.0 THEN
-            hph := 0.0;
+        (* H (F P F' + Q) H' with H F = (phi, 1, dh), in scalars, as Python computes it *)
+        phi := EXP(-dh / MEMORY_H);
+        hph := phi * phi * st_fp[0] + st_fp[4] + dh * dh * st_fp[8]
+            + 2.0 * (phi * st_fp[1] + phi * dh * st_fp[2] + dh * st_fp[5]);
+        hqh := MEMORY_VAR * (1.0 - phi * phi) + BIAS_VAR * dh;
+        hqh := hqh + RATE_VAR * EXPT(dh, 3.0) / 3.0;
+        variance := hph + SCALE * hqh;
+        IF variance < 0.0 THEN
+            variance := 0.0;
+        ELSIF NOT (variance >= 0.0) THEN
+            variance := 1.7976931348623157E308; (* inf - inf: nothing is known *)
         END_IF;
-        variance := hph + WHITE_VAR;
+        variance := variance + WHITE_VAR;
     END_IF;
     HalfWidthUm := ${quantile} * SQRT(variance)${widening};
     Trusted := Plausible AND ${tolerance};
@@ -361,7 +445,6 @@ Innovation := st_innovation;
         growth_var=literal(t.growth_var_per_h),
         noise_var=literal(t.noise_var),
         quantile=literal(t.interval_quantile),
-        propagate=_propagate_st("        "),
         tolerance=tolerance,
         widening="" if p.envelope is None else " + st_widening_um",
     )
@@ -491,10 +574,14 @@ def _stage_st(p):
     return "\n".join(lines)
 
 
+def _indent(text, by="    "):
+    return "\n".join(by + line if line else line for line in text.split("\n"))
+
+
 def _record_st(p):
     """Step (6): the probe filter's record of the row, or the model's correction as it is."""
     if p.trust is None:
-        return "        st_model_um := value;\n        st_correction_um := value;"
+        return "        st_model_um := modelNew;\n        st_correction_um := value;"
     return """        IF shift <> 0.0 THEN
             (* the rows' clock restarted (a new piece): move the filter's times with it *)
             IF st_has_ft0 THEN
@@ -520,22 +607,23 @@ def _record_st(p):
             st_has_ft0 := TRUE;
         END_IF;
         st_ht[st_hpos] := TimeS;
-        st_hm[st_hpos] := value;
+        st_hm[st_hpos] := modelNew;
         st_hpos := (st_hpos + 1) MOD HISTORY;
         IF st_hcount < HISTORY THEN
             st_hcount := st_hcount + 1;
         END_IF;
-        st_model_um := value;
-        IF st_adjusted THEN
-            dh := (TimeS - st_ft0) / 3600.0;
-            value := value + st_fx[0] * EXP(-dh / MEMORY_H) + st_fx[1] + st_fx[2] * dh;
-        END_IF;
+        st_model_um := modelNew;
         st_correction_um := value;"""
 
 
 _BODY = Template(
     r"""
-(* what a call does: Reset, then Execute (a row), then Observe and Recalibrate *)
+(* what a call does: Reset, then Execute (a row), then Observe and Recalibrate, each on
+   its rising edge (FALSE at the previous call, TRUE at this one) *)
+executeEdge := Execute AND NOT executeBefore;
+executeBefore := Execute;
+resetEdge := Reset AND NOT resetBefore;
+resetBefore := Reset;
 missing := NOT InputsValid;
 ${copy_inputs}
 FOR j := 0 TO N_INPUTS - 1 DO
@@ -543,10 +631,10 @@ FOR j := 0 TO N_INPUTS - 1 DO
         missing := TRUE;
     END_IF;
 END_FOR;
-IF Reset THEN
+IF resetEdge THEN
 ${reset}
 END_IF;
-IF Execute THEN
+IF executeEdge THEN
     code := 0;
     refuse := FALSE;
     hasDt := FALSE;
@@ -611,33 +699,42 @@ ${missing}
             code := ERR_VALUE;
         END_IF;
     ELSIF code = 0 THEN
-        (* (5) the reference *)
+        (* (5) the reference and (6) the correction, probe filter included: refused if
+           not finite or beyond max_correction_um, before anything is kept *)
+        hasStartNew := st_has_start;
+        startNew := st_start;
         IF NOT st_started THEN
             IF st_has_initial THEN
-                st_has_start := TRUE;
-                st_start := ${intercept} + total - st_initial;
+                hasStartNew := TRUE;
+                startNew := ${intercept} + total - st_initial;
             ELSE
-                st_has_start := ${relative};
-                st_start := 0.0;
+                hasStartNew := ${relative};
+                startNew := 0.0;
                 IF ${relative} THEN
-                    st_start := total;
+                    startNew := total;
                 END_IF;
             END_IF;
         END_IF;
-        FOR k := 0 TO N_TERMS - 1 DO
-            st_lag[k] := lagNew[k];
-        END_FOR;${env_store}
-        IF st_has_start THEN
-            total := total - st_start;
+        IF hasStartNew THEN
+            total := total - startNew;
         END_IF;
-        (* (6) the model's correction, and the probe filter's *)
-        value := ${intercept} + total;
+        modelNew := ${intercept} + total;
+        value := modelNew;${filter_value}
+        IF NOT (ABS(value) <= ${max_correction}) THEN
+            code := ERR_VALUE;
+        ELSE
+            st_has_start := hasStartNew;
+            st_start := startNew;
+            FOR k := 0 TO N_TERMS - 1 DO
+                st_lag[k] := lagNew[k];
+            END_FOR;${env_store}
 ${record}
-        st_started := TRUE;
-        st_time_s := TimeS;
-        st_held := FALSE;
-        (* (7) the output stage *)
+            st_started := TRUE;
+            st_time_s := TimeS;
+            st_held := FALSE;
+            (* (7) the output stage *)
 ${stage}
+        END_IF;
     END_IF;
     Status := code;
 END_IF;
@@ -743,7 +840,7 @@ def _envelope_st(p):
         END_FOR;
         st_outside := outsideNew;"""
     outputs = "\nOutside := st_outside;\nWideningUm := st_widening_um;"
-    return {"env_step": step, "env_store": store, "env_outputs": outputs}
+    return {"env_step": step, "env_store": _indent(store), "env_outputs": outputs}
 
 
 def _declarations(p):
@@ -751,23 +848,23 @@ def _declarations(p):
     n_terms, n_lags, n_inputs = len(p.terms), p.n_lags, len(p.inputs)
     trust = p.trust is not None
     inputs = [
-        "    Execute : BOOL; (* TRUE: take the row of TimeS and the inputs below *)",
+        "    Execute : BOOL; (* rising edge: take the row of TimeS and the inputs below *)",
         "    TimeS : LREAL; (* the row's time, s *)",
     ]
     for v in p.inputs:
         inputs.append(f"    {v.identifier} : LREAL; (* {v.comment}, {v.unit} *)")
     inputs += [
         "    InputsValid : BOOL := TRUE; (* FALSE: an input is missing, as a NaN would be *)",
-        "    Reset : BOOL; (* TRUE: forget the state first; the output is kept *)",
+        "    Reset : BOOL; (* rising edge: forget the state first; the output is kept *)",
         "    UseInitial : BOOL; (* with Reset: the displacement at the next row is InitialUm *)",
         "    InitialUm : LREAL; (* um *)",
     ]
     if trust:
         inputs += [
-            "    Observe : BOOL; (* TRUE: take the probe reading (after the row, if any) *)",
+            "    Observe : BOOL; (* rising edge: take the probe reading (after the row, if any) *)",
             "    ProbeTimeS : LREAL; (* when it was measured, s, on the rows' clock *)",
             "    ProbeUm : LREAL; (* the measured displacement, um *)",
-            "    Recalibrate : BOOL; (* TRUE: let the next readings estimate a step and a drift *)",
+            "    Recalibrate : BOOL; (* rising edge: let readings estimate a step and drift *)",
         ]
     outputs = [
         "    OutputUm : LREAL; (* the predicted displacement after the limits, um *)",
@@ -813,6 +910,13 @@ def _declarations(p):
         "    cap : LREAL;",
         "    d : LREAL;",
         "    allowed : LREAL;",
+        "    hasStartNew : BOOL;",
+        "    startNew : LREAL;",
+        "    modelNew : LREAL;",
+        "    executeEdge : BOOL; (* Execute rose since the previous call *)",
+        "    executeBefore : BOOL; (* Execute at the previous call *)",
+        "    resetEdge : BOOL;",
+        "    resetBefore : BOOL;",
     ]
     if env is not None:
         n_env = len(env.input)
@@ -842,6 +946,7 @@ def _declarations(p):
             "    slope : LREAL;",
             "    innov : LREAL;",
             "    hph : LREAL;",
+            "    hqh : LREAL;",
             "    sv : LREAL;",
             "    variance : LREAL;",
             "    recalSize : LREAL;",
@@ -862,6 +967,21 @@ def _declarations(p):
             "    span : LREAL;",
             "    effect2 : LREAL;",
             "    glrEmpty : BOOL;",
+            "    observeEdge : BOOL;",
+            "    observeBefore : BOOL;",
+            "    recalibrateEdge : BOOL;",
+            "    recalibrateBefore : BOOL;",
+            "    ok : BOOL;",
+            "    gN : DINT;",
+            "    ckNew : DINT;",
+            "    chNew : DINT;",
+            "    csNew : LREAL;",
+            "    stdInnov : LREAL;",
+            "    corrNew : LREAL;",
+            f"    gD : ARRAY[0..{2 * p.trust.window * 3 - 1}] OF LREAL;",
+            f"    gA : ARRAY[0..{2 * p.trust.window - 1}] OF LREAL;",
+            f"    gB : ARRAY[0..{2 * p.trust.window - 1}] OF LREAL;",
+            f"    gT0 : ARRAY[0..{p.trust.window - 1}] OF LREAL;",
             "    fx : ARRAY[0..2] OF LREAL;",
             "    dd : ARRAY[0..2] OF LREAL;",
             "    miss : ARRAY[0..2] OF LREAL;",
@@ -983,16 +1103,28 @@ def write_st(p):
         missing=missing,
         intercept=literal(p.intercept),
         relative=_bool(p.relative_to_start),
-        record=_record_st(p),
-        stage=_stage_st(p),
+        record=_indent(_record_st(p)),
+        stage=_indent(_stage_st(p)),
+        filter_value=(
+            ""
+            if p.trust is None
+            else "\n        IF st_adjusted THEN\n"
+            "            dh := (TimeS - (st_ft0 - shift)) / 3600.0;\n"
+            "            value := value + st_fx[0] * EXP(-dh / MEMORY_H) + st_fx[1]\n"
+            "                + st_fx[2] * dh;\n"
+            "        END_IF;"
+        ),
         observe=observe,
         max_correction=literal(p.max_correction_um),
         status_outputs=status,
         **_envelope_st(p),
     )
     call = (
-        f"call {p.name} every cycle; set Execute on a cycle that brings a new row (time_s "
-        "must increase); OutputUm is the output"
+        f"call {p.name} once every PLC cycle (cyclic); a command acts on its rising edge only "
+        "(FALSE at the previous call, TRUE at this one, as PLCopen's Execute): Reset, then "
+        "Execute (take the row of TimeS and the inputs; time_s must increase), then Observe "
+        "and Recalibrate, in that order within one call; a command held TRUE acts once. "
+        "OutputUm is the output, held between rows"
     )
     found = (
         "What it found: ChangeKind (0 none, 1 step, 2 ramp), ChangeStartS (when it began, s on "
