@@ -2,8 +2,9 @@
 
 Every hostile file is built here, from a model fitted in the test; none is
 shipped. All of them are loaded in ONE child process (importing greyml takes
-seconds) that runs under an address-space limit of 500 MiB
-(``resource.setrlimit(RLIMIT_AS)``): each goes through ``load_model`` and
+seconds) that runs under an address-space limit of 500 MiB beyond what its
+imports took (``resource.setrlimit(RLIMIT_AS)``; pandas with pyarrow maps a
+large address space of its own): each goes through ``load_model`` and
 through ``greyml predict`` (``greyml.cli.main``), and the child reports the
 messages, exit codes, standard error, its child processes and its peak
 resident memory (``VmHWM``, Linux).
@@ -50,10 +51,21 @@ COLUMNS = ["T1_C", "T2_C", "T3_C", "T4_C"]
 # The child: load every file, then run greyml predict on it; report as JSON.
 CHILD = r"""
 import contextlib, io, json, os, resource, sys
-limit = int(sys.argv[1])
-resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
 from greyml.cli import main
 from greyml.persist import load_model
+import greyml.dynamic, greyml.controller, greyml.selection  # noqa: E401  what a file may name
+
+def address_space():
+    with open("/proc/self/status") as handle:
+        for line in handle:
+            if line.startswith("VmSize:"):
+                return int(line.split()[1]) * 1024
+    return 0
+
+# the limit is on top of what the imports took (pandas with pyarrow maps a
+# large address space of its own): what a file can cost beyond them
+limit = address_space() + int(sys.argv[1])
+resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
 
 def children():
     me, count = str(os.getpid()), 0
