@@ -179,3 +179,22 @@ def test_the_scores_kept_give_quantiles_no_lower_and_at_most_a_level_higher():
         assert exact <= q <= higher
     small = np.sort(rng.uniform(size=50))
     assert compress_scores(small, np.ones(50), k=1000)[0] is small
+
+
+@pytest.mark.parametrize("slope", [0.5, -0.5])
+def test_scale_fit_is_non_negative_least_squares_on_the_rows_or_the_tests(slope):
+    """From the sums of each test: scipy's NNLS on every row (the weighted rows), also
+    where the unconstrained slope is negative (then b = 0)."""
+    from scipy.optimize import nnls
+
+    rng = np.random.default_rng(2)
+    hours = [np.linspace(0, 8, n) for n in (50, 120, 80)]
+    resid = [rng.normal(0, 1, h.size) * np.sqrt(np.maximum(1 + slope * h, 0.05)) for h in hours]
+    w = [np.full(h.size, 1 / (3 * h.size)) for h in hours]
+    H, R, W = np.concatenate(hours), np.concatenate(resid), np.concatenate(w)
+    root = np.sqrt(W)
+    (a0, b0), _ = nnls(np.column_stack([np.ones_like(H), H]) * root[:, None], R**2 * root)
+    a, b = scale_fit(hours, resid, w)
+    assert (a, b) == pytest.approx((a0, b0), rel=1e-9, abs=1e-12)
+    assert scale_fit(H, R, W) == pytest.approx((a, b), rel=1e-12)
+    assert (b == 0.0) == (slope < 0)

@@ -88,15 +88,49 @@ def weights_by_test(sizes):
 
 def scale_fit(hours, residuals, weights=None):
     """``(a, b)`` of ``s(t)² = a + b·t`` fitted to the squared residuals (both ≥ 0),
-    each row weighing ``weights`` (equal by default)."""
-    M = np.column_stack([np.ones_like(hours), hours])
-    e2 = residuals**2
-    if weights is not None:
-        root = np.sqrt(np.asarray(weights, dtype=float))
-        (a, b), _ = nnls(M * root[:, None], e2 * root)
-    else:
-        (a, b), _ = nnls(M, e2)
-    floor = _FLOOR * float(e2.mean()) if e2.size else 0.0
+    each row weighing ``weights`` (equal by default).
+
+    ``hours``, ``residuals`` and ``weights`` may also be sequences of arrays (one
+    per test): the fit is then the same, from the sums of each, without joining
+    them (a year of rows costs no copy). Non-negative least squares on two
+    unknowns: the unconstrained solution of the normal equations if it is
+    non-negative, else the better of the two with one unknown at 0.
+    """
+    parts = (
+        list(zip(hours, residuals, weights if weights is not None else [None] * len(hours)))
+        if isinstance(hours, (list, tuple))
+        else [(hours, residuals, weights)]
+    )
+    S0 = S1 = S2 = T0 = T1 = total = 0.0
+    n = 0
+    for h, r, w in parts:
+        e2 = np.asarray(r, dtype=float) ** 2
+        h = np.asarray(h, dtype=float)
+        w = np.ones_like(e2) if w is None else np.asarray(w, dtype=float)
+        we2 = w * e2
+        S0 += float(w.sum())
+        S1 += float(w @ h)
+        S2 += float(w @ (h * h))
+        T0 += float(we2.sum())
+        T1 += float(we2 @ h)
+        total += float(e2.sum())
+        n += e2.size
+
+    def loss(a, b):  # the weighted squared error, less its constant
+        return a * a * S0 + 2.0 * a * b * S1 + b * b * S2 - 2.0 * (a * T0 + b * T1)
+
+    candidates = [(0.0, 0.0)]
+    if S0 > 0:
+        candidates.append((T0 / S0, 0.0))
+    if S2 > 0:
+        candidates.append((0.0, max(T1 / S2, 0.0)))
+    det = S0 * S2 - S1 * S1
+    if det > 1e-12 * max(S0 * S2, np.finfo(float).tiny):
+        a, b = (S2 * T0 - S1 * T1) / det, (S0 * T1 - S1 * T0) / det
+        if a >= 0 and b >= 0:
+            candidates = [(a, b)]
+    a, b = min(candidates, key=lambda ab: loss(*ab))
+    floor = _FLOOR * total / n if n else 0.0
     return max(float(a), floor, np.finfo(float).tiny), float(b)
 
 

@@ -969,8 +969,9 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
     def _fit_data(self, data, settings):
         """The fit proper, on checked :class:`Data`."""
         reference = self._choose_reference(settings.reference, data)
-        y_fit = data.y.copy()
+        y_fit = data.y  # from the recording's zero as it is; else each test's change
         if reference == "start":
+            y_fit = data.y.copy()
             for start, stop in data.bounds:
                 y_fit[start:stop] -= data.y[start]
         scored = [i for i, s in enumerate(data.segments) if data.w[s.slice].sum() > 0]
@@ -1731,36 +1732,46 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
             reference,
             coefs,
         )
+        resid = np.subtract(y, pred, out=pred)  # in place: one array of rows
         hours_all = elapsed_hours(data.steps.dt, data.bounds)
         hours, residuals = [], []
         for t in (t for k in folds for t in tests[k]):
             start, stop = data.bounds[t]
             used = data.w[start:stop] > 0
-            hours.append(hours_all[start:stop][used])
-            residuals.append((y[start:stop] - pred[start:stop])[used])
+            if used.all():  # views, not copies
+                hours.append(hours_all[start:stop])
+                residuals.append(resid[start:stop])
+            else:
+                hours.append(hours_all[start:stop][used])
+                residuals.append(resid[start:stop][used])
         series = [(h, r) for h, r in zip(hours, residuals) if r.size]
+        hours, residuals = [h for h, _ in series], [r for _, r in series]
         # the white part: what decorrelates faster than the shortest reading
         # interval the filter is chosen for (15 min)
         c, s2, memory_h = variogram_fit(
             residuals, data.steps.nominal_step_s, min_hours=READING_HOURS[0]
         )
-        weights = weights_by_test([r.size for _, r in series])
-        hours, residuals = np.concatenate(hours), np.concatenate(residuals)
+        sizes = [r.size for r in residuals]
+        per_test = [np.full(m, 1.0 / (len(sizes) * m)) for m in sizes]  # weights_by_test's
         if reference == "start":
-            a, b = scale_fit(hours, residuals, weights)
+            a, b = scale_fit(hours, residuals, per_test)
         else:
             # from the recording's zero the displacement is never known at a row,
             # so nothing anchors a width that grows: one width for every row
-            a, b = scale_fit(np.zeros_like(hours), residuals, weights)[0], 0.0
+            flat = [np.broadcast_to(0.0, r.shape) for r in residuals]
+            a, b = scale_fit(flat, residuals, per_test)[0], 0.0
         noise = float(min(c, a))
 
         def prior(h):  # the offset's variance before the first reading, h hours in
             return a - noise + b * h
 
         qb, qr, scale, glr_scale = observer_noise(series, prior, noise, memory_h, s2)
-        scores = np.abs(residuals) / scale_of(hours, a, b)
+        scores = np.concatenate([np.abs(r) / scale_of(h, a, b) for h, r in series])
+        weights = weights_by_test(sizes)
         order = np.argsort(scores, kind="stable")
-        kept, kept_weights = compress_scores(scores[order], weights[order])
+        scores, weights = scores[order], weights[order]
+        del order
+        kept, kept_weights = compress_scores(scores, weights)
         return IntervalCalibration(
             anchor_var=float(a),
             growth_var_per_h=float(b),
