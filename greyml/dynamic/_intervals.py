@@ -91,10 +91,11 @@ def scale_fit(hours, residuals, weights=None):
     each row weighing ``weights`` (equal by default).
 
     ``hours``, ``residuals`` and ``weights`` may also be sequences of arrays (one
-    per test): the fit is then the same, from the sums of each, without joining
-    them (a year of rows costs no copy). Non-negative least squares on two
-    unknowns: the unconstrained solution of the normal equations if it is
-    non-negative, else the better of the two with one unknown at 0.
+    per test; a test's weights may be one number): the fit is then the same,
+    from the sums of each, without joining them (a year of rows costs no copy).
+    Non-negative least squares on two unknowns: the unconstrained solution of
+    the normal equations if it is non-negative, else the better of the two
+    with one unknown at 0.
     """
     parts = (
         list(zip(hours, residuals, weights if weights is not None else [None] * len(hours)))
@@ -107,6 +108,7 @@ def scale_fit(hours, residuals, weights=None):
         e2 = np.asarray(r, dtype=float) ** 2
         h = np.asarray(h, dtype=float)
         w = np.ones_like(e2) if w is None else np.asarray(w, dtype=float)
+        w = np.broadcast_to(w, e2.shape)  # a number: every row of the test weighs it
         we2 = w * e2
         S0 += float(w.sum())
         S1 += float(w @ h)

@@ -266,14 +266,17 @@ def read_rows(estimator, pieces, *, weights, default_step, keep):
             n_changes += d.shape[0]
         ts.append(t)
         ys.append(ya)
-        ws.append(w)
+        ws.append(None if sample_weight is None else w)  # ones are not kept row by row
         sizes.append(Xa.shape[0])
         last_row, last_t = Xa[-1].copy(), float(t[-1])
         n += Xa.shape[0]
         held = Xa if keep and j == 0 else None
     if names is None:
         raise ValueError(f"{name}: the training data has no pieces.")
-    w = np.concatenate(ws)
+    if all(v is None for v in ws):  # no weights given: one read-only 1 for every row
+        w = np.broadcast_to(1.0, (n,))
+    else:
+        w = np.concatenate([np.ones(size) if v is None else v for v, size in zip(ws, sizes)])
     if w.sum() <= 0:
         raise ValueError(f"{name}: every sample_weight is zero; give some rows a positive weight.")
     q = len(names)

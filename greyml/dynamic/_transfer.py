@@ -1752,7 +1752,7 @@ class ThermalTransferFunction(RegressorMixin, BaseEstimator):
             residuals, data.steps.nominal_step_s, min_hours=READING_HOURS[0]
         )
         sizes = [r.size for r in residuals]
-        per_test = [np.full(m, 1.0 / (len(sizes) * m)) for m in sizes]  # weights_by_test's
+        per_test = [1.0 / (len(sizes) * m) for m in sizes]  # weights_by_test's, per row
         if reference == "start":
             a, b = scale_fit(hours, residuals, per_test)
         else:
