@@ -22,6 +22,7 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 
 import numpy as np
+import pandas as pd
 
 from greyml._sequences import TEST_LEVEL, Segment, segment_label
 from greyml._validation import check_magnitudes, column_names, validate_sequences
@@ -207,7 +208,7 @@ def read_rows(estimator, pieces, *, weights, default_step, keep):
             Xa, ya, segs = validate_sequences(estimator, X, y, reset=j == 0)
             if j == 0:
                 names = column_names(estimator, Xa.shape[1])
-                index = getattr(X, "index", None)
+                index = X.index if isinstance(X, (pd.DataFrame, pd.Series)) else None
                 labelled = index is not None and TEST_LEVEL in (index.names or [])
             else:
                 check_magnitudes(estimator, Xa, names, segs)
