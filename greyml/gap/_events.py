@@ -45,17 +45,20 @@ or every 5 min gives the same events:
   speed changes), not a knock;
 - every other event is then tested against the logged inputs (the ambient
   air, the sensors, the drivers): an event is a change the measured inputs
-  do not explain. Around the event (``FOLLOW_S`` = 4 min either side, and
-  at least five rows), the gap is fitted with a local quadratic and the
-  event's column, then with one input added, raw or through a first-order
-  lag of 1 to 8 min. When, with the input, the event's column is no longer
-  significant (below ``z`` standard errors) and the input's own fitted part
-  accounts for at least half of the event's size, with its sign, the event
-  **follows that input** (``follows``, ``follows_lag_s``): a thermal
-  response to a change of the air or of a temperature (a door, the air
-  conditioning cycling), which the simulation lacks, not a knock. A sensor
-  that has no change near the event cannot explain a step; the input that
-  explains most is named.
+  do not explain. Around its leading edge (``FOLLOW_S`` = 4 min either
+  side, at least ``FOLLOW_ROWS`` rows), the gap is fitted with a local
+  quadratic and the event's column, then with one input instead, raw or
+  through a first-order lag of 30 s to 8 min (as read, or one row late).
+  An input that swings near the event (its change over 4 min there is at
+  least twice its median over the test), fits about as well as the event's
+  column (within one noise variance; any fit when the event explains less
+  than z² noise variances over the local quadratic: a ramp, not a step),
+  leaves the event's column less than ``z`` standard errors to add, and
+  accounts for at least half of the event's size with its sign is the one
+  the event **follows** (``follows``, ``follows_lag_s``; the one that fits
+  best when several do): a thermal response to a change of the air or of a
+  temperature (a door, the air conditioning cycling) that the simulation
+  lacks, not a knock (:func:`follows_input`).
 
 This is the one-sided fit idea of jump detection in regression (Müller
 (1992); Qiu and Yandell (1998)), with a spline and bends for the smooth part
@@ -481,7 +484,10 @@ def follows_input(x, first, lagged, dt, per_row, z):
     - the input swings near the event: its change over ``FOLLOW_S``
       somewhere within ``FOLLOW_S`` of the event is at least ``SWING``
       times its median over the test (a slow, even change makes no step);
-    - the input fits the gap there at least as well as the event's column;
+    - the input fits the gap there within ``FIT_SLACK``² noise variances of
+      the event's column, or the event is not abrupt there (its column
+      explains less than z² noise variances over the local quadratic: a
+      ramp that the spline of the whole test took for a step);
     - with the input, the event's column adds less than ``z`` standard
       errors (the sum of squares it explains, given the quadratic and the
       input, is under z² noise variances: an input that steps with the
@@ -542,6 +548,11 @@ def follows_input(x, first, lagged, dt, per_row, z):
         return None
     as_event = float(np.sum((y - design @ coef) ** 2))
     scale = float(np.sum((y - y.mean()) ** 2))
+    # not abrupt where it stands: the event's column explains less than z²
+    # noise variances over the local quadratic (a ramp the spline of the
+    # whole test took for a step); any swinging input that fits it is followed
+    gain0, *_ = np.linalg.lstsq(base, y, rcond=None)
+    smooth = np.sqrt(max(float(np.sum((y - base @ gain0) ** 2)) - as_event, 0.0)) / per_row < z
     near = max(1, int(np.ceil(FOLLOW_S / dt)))
     swings = _swings(lagged[:, :, 0], max(0, first - near), min(n, first + 1 + near), dt)
     best = None
@@ -558,7 +569,7 @@ def follows_input(x, first, lagged, dt, per_row, z):
             gain, *_ = np.linalg.lstsq(alone, y, rcond=None)
             left = float(np.sum((y - alone @ gain) ** 2))
             # the event's column fits clearly better: not the input
-            if left > as_event + (FIT_SLACK * per_row) ** 2 + 1e-9 * scale:
+            if not smooth and left > as_event + (FIT_SLACK * per_row) ** 2 + 1e-9 * scale:
                 continue
             both = np.column_stack([alone, event])
             coef, *_ = np.linalg.lstsq(both, y, rcond=None)
