@@ -245,12 +245,18 @@ def describe_event(record):
     head = f"Located event: test {record['test']} at time_s={record['time_s']:g}, {what}"
     driver = record.get("at_driver_change")
     follows = record.get("follows")
-    if _missing(driver) and not _missing(follows):
+    if not _missing(follows):
         lag = record.get("follows_lag_s")
         through = "at once" if _missing(lag) or not lag > 0 else f"through a lag of {lag:g} s"
+        also = ""
+        if not _missing(driver):
+            also = (
+                f" It came {_change_words(driver)} too ({record['driver_before']:g} -> "
+                f"{record['driver_after']:g} at time_s={record['driver_change_s']:g})."
+            )
         return (
             f"{head}, following a change of {follows} within {FOLLOW_S / 60:g} min ({through}): "
-            "a thermal response to a logged input that the simulation lacks, not a knock."
+            f"a thermal response to a logged input that the simulation lacks, not a knock.{also}"
         )
     if _missing(driver):
         return f"{head} (not a physical effect: a probe knocked, a re-clamp, a door opened?)."
@@ -368,6 +374,7 @@ def locate_events(
     lagged = None
     if inputs is not None and np.shape(inputs)[1]:
         lagged = _lagged_inputs(np.asarray(inputs, dtype=float), dt, bounds)
+        is_driver = np.array([name in driver_names for name in input_names], dtype=bool)
     for j, (start, stop) in enumerate(bounds):
         x, t = r[start:stop], times[start:stop]
         if x.size < 20:
@@ -391,16 +398,20 @@ def locate_events(
         for m, last, size, z in merged:
             edges = [start + m] + ([start + last + 1] if last is not None else [])
             edges = [e for e in edges if e < stop]
-            # the leading edge first: at a driver's switch, else following an
-            # input; a spike's return at a switch only when neither
+            # the leading edge against the logged temperatures (and the drivers
+            # when it is at no driver's switch: a speed change moves a probe at
+            # once, which is no thermal response); then the switches
             hit = _at_switch(edges[:1], times, start, stop, switches, tolerance)
             found = None
-            if hit is None and lagged is not None:
+            if lagged is not None:
                 inflation = variance_inflation(
                     correlation, rows_per_step(dt[j], settings.step_time_s)
                 )
                 per_row = floor * np.sqrt(inflation)
-                found = follows_input(x, m, lagged[start:stop], dt[j], per_row, settings.z)
+                usable = ~is_driver if hit is not None else None
+                found = follows_input(
+                    x, m, lagged[start:stop], dt[j], per_row, settings.z, usable=usable
+                )
             if hit is None and found is None:
                 hit = _at_switch(edges, times, start, stop, switches, tolerance)
             extra = {}
@@ -412,8 +423,8 @@ def locate_events(
                     driver_before=before,
                     driver_after=after,
                 )
-            elif found is not None:
-                extra = dict(follows=input_names[found[0]], follows_lag_s=found[1])
+            if found is not None:
+                extra.update(follows=input_names[found[0]], follows_lag_s=found[1])
             out.append(
                 Event(
                     test=labels[j],
@@ -472,7 +483,7 @@ def _swings(inputs, lo, hi, dt):
     return (largest > 0) & (largest >= SWING * typical)
 
 
-def follows_input(x, first, lagged, dt, per_row, z):
+def follows_input(x, first, lagged, dt, per_row, z, *, usable=None):
     """The input an event of one test follows, and through which lag: (column, tau_s) or None.
 
     Around the event (``FOLLOW_S`` either side of its first row, at least
@@ -512,6 +523,8 @@ def follows_input(x, first, lagged, dt, per_row, z):
     per_row : float
         The noise's standard deviation per row, its correlation counted.
     z : float
+    usable : ndarray of bool of shape (p,), optional
+        The inputs that may be followed (all by default).
 
     Returns
     -------
@@ -555,6 +568,8 @@ def follows_input(x, first, lagged, dt, per_row, z):
     smooth = np.sqrt(max(float(np.sum((y - base @ gain0) ** 2)) - as_event, 0.0)) / per_row < z
     near = max(1, int(np.ceil(FOLLOW_S / dt)))
     swings = _swings(lagged[:, :, 0], max(0, first - near), min(n, first + 1 + near), dt)
+    if usable is not None:
+        swings = swings & usable
     best = None
     for j in np.flatnonzero(swings):
         for i in range(lagged.shape[2]):

@@ -42,11 +42,16 @@ of rows where the reading stands still over a step time either side::
 with q the step of the readings (given, or detected: :func:`detect_quantum`).
 For a probe whose reading stands still, s = 1 and the floor is
 √(σ² + q²/12); for readings that dither, s ≈ 0 and it is the white part.
-On quantised readings of a displacement that crosses several steps (the
-null cases of ``benchmarks/bench_gap_measured.py``: VMC probe noise
-0.1 µm, steps of 0.25 and 1 µm, rows every 15 s to 5 min) the floor came out
-between 5 % below and 25 % above the root mean square of the true
-measurement error. Where the displacement stands still on one step for a
+With quantised readings the white part is taken two ways and the smaller
+floor kept (:func:`noise_floor`): trimmed by 10 % and scaled as for Gaussian
+noise, it overstates the bounded rounding errors of readings that flip from
+row to row (20-27 % high on 1-µm steps over 0.1 µm of noise); trimmed by
+1 %, it keeps the flips of readings that mostly stand still, whose rounding
+s·q²/12 then adds again. On the null cases of
+``benchmarks/bench_gap_measured.py`` (VMC probe noise 0.1 µm, steps of 0.25
+and 1 µm, rows every 15 s to 5 min) the floor is 7-14 % above the root
+mean square of the true measurement error on 1-µm steps (it was 11-25 %),
+0-3 % on 0.25-µm steps. Where the displacement stands still on one step for a
 whole test, its rounding error is a constant offset anywhere from 0 to q/2,
 which no estimate from the readings can know; q/√12 is its average.
 
