@@ -14,6 +14,10 @@ heating/cooling tests of the VMC simulator at every rate, 5.5 h each):
   air but not the bracket;
 - smooth: a fixture heater, switched in 20-90 min blocks and not handed to
   the diagnosis, through a 60-120 min lag (10× and 30× the noise).
+- door (issue 42): a door open for 20 min in one test that neither the
+  ambient column nor the simulation sees, the structure's smooth response
+  peaking at 1-2 µm, located as a departure (``report.departures``);
+  ``bench_gap_thermal.py`` prints its acceptance line.
 
 Printed, with issue 27's acceptance beside each number: the share of
 quantised nulls ``"within_noise"`` with no event (>= 95 %), of Gaussian nulls

@@ -202,3 +202,50 @@ def test_the_driver_window_is_a_stated_time():
     assert event["time_s"] == 7410.0 and pd.isna(event["at_driver_change"])
     wide = diagnose_gap(late, sim, driver_window_s=300.0, **kwargs).events.set_index("test")
     assert wide.loc["T1", "at_driver_change"] == "spindle_rpm"
+
+
+def _air_case(dt, seed=0):
+    """One 4-hour test: the air drops by 2 °C at 1 h and the probe's bracket follows it
+    (30 s lag, 0.8 µm); a knock of 0.8 µm at 3 h that no input explains."""
+    rng = np.random.default_rng(seed)
+    t = dt * np.arange(int(4 * 3600 / dt))
+    air = 20.0 + 0.5 * np.sin(2 * np.pi * t / 86400) - 2.0 * (t >= 3600.0)
+    bracket = -0.4 * (air - air[0]) * (1 - np.exp(-np.clip(t - 3600.0 + dt, 0, None) / 30.0))
+    sensor = 25.0 + 3.0 * (1 - np.exp(-t / 5400.0)) + 0.02 * rng.standard_normal(t.size)
+    r = bracket * (t >= 3600.0) + 0.8 * (t >= 10800.0) + NOISE * rng.standard_normal(t.size)
+    return t, r, np.column_stack([sensor, air])
+
+
+@pytest.mark.parametrize("dt", [15.0, 60.0, 300.0])
+def test_an_event_that_follows_the_air_is_thermal_and_names_it(dt):
+    t, r, inputs = _air_case(dt)
+    events = locate_events(
+        r, [(0, t.size)], t, [dt], NOISE, inputs=inputs, input_names=["T1_C", "ambient_C"]
+    )
+    assert [(e.kind, e.follows) for e in events] == [("step", "ambient_C"), ("step", None)]
+    assert events[0].time_s == pytest.approx(3600.0, abs=dt) and events[1].time_s == 10800.0
+    assert "following a change of ambient_C within 4 min" in events[0].describe()
+    assert "probe knocked" in events[1].describe()
+    # without the inputs both are knocks
+    plain = locate_events(r, [(0, t.size)], t, [dt], NOISE)
+    assert [e.follows for e in plain] == [None, None]
+
+
+def test_the_report_says_what_it_compared_held_out_and_drew_and_what_to_do_next():
+    real, sim = _spindle_tests()
+    kwargs = dict(target="dz_um", drivers=["spindle_rpm"], random_state=0, recalibrate=False)
+    report = diagnose_gap(real, sim, **kwargs)
+    assert report.verdict == "unexplained" and report.named == [] and report.n_placebo == 0
+    assert report.departures.empty  # the knock is an event, not a departure
+    assert not report.remainder_held_out and report.reference == "recording"
+    text = str(report)
+    assert "A gap over all rows (nothing fitted to it) of RMSE" in text
+    assert 'reference "recording"' in text and "Held out: leave one test out" in text
+    assert "Placebos drawn: none. They are drawn only for an effect" in text
+    assert "min_shrinkage=0.05" in text
+    tried = report.causes.loc[report.causes["shrinkage"].notna(), "effect"]
+    line = next(x for x in text.splitlines() if x.startswith("Tried, not supported: "))
+    assert line.count("(held-out shrinkage ") == len(tried) == 3  # every effect tried
+    assert all(f"{effect} (held-out shrinkage" in line for effect in tried)
+    assert "What to do next:" in text and "(custom_effects=)" in text
+    assert report.to_dict()["next_steps"] == report.next_steps()

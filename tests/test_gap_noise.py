@@ -177,3 +177,29 @@ def test_bad_noise_and_event_settings_say_what_is_wrong(kwargs, match):
     with pytest.raises(ValueError, match=match) as info:
         diagnose_gap(real, sim, target="dz_um", **kwargs)
     assert "\n" not in str(info.value)
+
+
+@pytest.mark.parametrize("seed", [0, 3])
+def test_a_1_um_quantum_on_0_1_um_noise_is_not_counted_twice(seed):
+    # issue 42: on readings that flip from row to row (a simulated machine,
+    # rows every 15 s), trimming 10 % of the pseudo-residuals and scaling by a
+    # Gaussian's consistency put the floor 26-27 % above the truth (seeds 0, 3)
+    from gap_harness._measured import quantised_null_case
+
+    case = quantised_null_case(1.0, 15.0, seed, n_tests=3, hours=2.0)
+    measured = case.real[case.roles["target"]].to_numpy()
+    gap = measured - case.sim[case.roles["target"]].to_numpy()
+    bounds = [(0, gap.size // 3), (gap.size // 3, 2 * gap.size // 3), (2 * gap.size // 3, gap.size)]
+    true_rms = float(np.sqrt(np.mean(case.noise**2)))
+    noise = measure_noise(gap, measured, bounds, [15.0] * 3)
+    assert noise.quantum == pytest.approx(1.0)
+    assert 0.95 * true_rms <= noise.floor <= 1.15 * true_rms
+    # on readings that mostly stand still the 1 % trim would count the flips
+    # twice; the floor keeps the smaller count
+    still_gap, still_reading = _quantised_gap(1.0, seed=seed + 3)
+    still_rms = float(np.sqrt(np.mean(still_gap**2)))
+    assert (
+        0.95 * still_rms
+        <= measure_noise(still_gap, still_reading, [(0, 1500)], [15.0]).floor
+        <= 1.05 * still_rms
+    )

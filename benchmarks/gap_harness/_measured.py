@@ -56,6 +56,7 @@ __all__ = [
     "MeasuredCase",
     "QUANTA",
     "RATES_S",
+    "door_case",
     "drop_case",
     "quantised_null_case",
     "run_measured_case",
@@ -69,7 +70,17 @@ RATES_S = (15.0, 60.0, 300.0)
 #: Quanta (µm) of the quantised nulls.
 QUANTA = (0.25, 1.0)
 #: The families :func:`validate_measured` runs.
-FAMILIES = ("gaussian_null", "quantised_null", "slow_noise_null", "drop", "drop_unlogged", "smooth")
+FAMILIES = (
+    "gaussian_null",
+    "quantised_null",
+    "slow_noise_null",
+    "drop",
+    "drop_unlogged",
+    "smooth",
+    "door",
+)
+#: The smooth door: the structure's response peaks at this many µm (drawn).
+DOOR_UM = (1.0, 2.0)
 #: The drop: how much colder, for how long, and how fast the probe follows.
 DROP_C, DROP_S, BRACKET_TAU_S = 2.0, 1200.0, 30.0
 #: How close (s) a located event must be to the drop's start.
@@ -327,6 +338,53 @@ def drop_case(
     )
 
 
+def door_case(sample_s, seed, *, machine="vmc", n_tests=6, hours=5.5, n_sensors=10):
+    """A door open for 20 min in one test, which only the structure feels: a smooth transient.
+
+    See the module's docstring. ``drop`` holds (test, opening time_s, peak
+    of the response in µm); family ``"door"``.
+
+    Examples
+    --------
+    >>> case = door_case(300.0, 0, n_tests=3, hours=3)
+    >>> test, at, peak = case.drop
+    >>> bool(1.0 <= abs(peak) <= 2.0), bool(abs(case.effect).max() == abs(peak))
+    (True, True)
+    """
+    m = _machine(machine)
+    target = main_target(m)
+    tests, rng = _tests(m, seed, sample_s, n_tests, hours)
+    k = int(rng.integers(n_tests))
+    length = tests[k].programme.duration_s
+    t0 = 60.0 * np.floor(rng.uniform(0.15, 0.75) * length / 60.0)
+    peak = float(rng.uniform(*DOOR_UM))
+    air = door_openings(tests[k].ambient, [t0], drop_C=DROP_C, duration_s=DROP_S)
+    drafty = list(tests)
+    drafty[k] = replace(tests[k], ambient=air)
+    quiet, full, real, noise, _ = _simulated(m, drafty, target, seed)
+    plain = make_tests(m, tests, effects=quiet).frame
+    part = full[target].to_numpy() - plain[target].to_numpy()
+    effect = peak / float(np.max(np.abs(part))) * part
+    sim_true = plain[target].to_numpy()
+    real = real.copy()
+    real[target] = sim_true + effect + noise
+    real["ambient_C"] = plain["ambient_C"].to_numpy()
+    return _finish(
+        m,
+        tests,
+        target,
+        quiet,
+        n_sensors,
+        real,
+        sim_true,
+        effect,
+        family="door",
+        sample_s=float(sample_s),
+        seed=int(seed),
+        drop=(tests[k].label, float(t0), float(effect[np.argmax(np.abs(effect))])),
+    )
+
+
 def _heater(rng, length_s):
     """On/off blocks of 20-90 min (whole minutes) over ``length_s``: (edges, levels)."""
     edges, levels, total = [0.0], [], 0.0
@@ -432,9 +490,10 @@ def run_measured_case(case, **diagnose_kwargs):
         effects ``named``, the ``noise_floor`` and the ``true_noise`` (root
         mean square of the measurement error), the ``detected_quantum``;
         ``n_events``; ``located`` (a drop found as an event in its test
-        within 10 min of its start) and ``located_s``; ``false_events``
+        within 10 min of its start; a door, as a departure), ``located_s`` and ``follows`` (the
+        logged input the located event follows, "mechanical" when none); ``false_events``
         (events that are not the drop: in a null or smooth case, every
-        event); ``seconds`` of the diagnosis.
+        event); ``n_departures`` and ``departure_times``; ``seconds`` of the diagnosis.
     """
     from greyml.gap import diagnose_gap
 
@@ -455,7 +514,17 @@ def run_measured_case(case, **diagnose_kwargs):
     located = False
     n_true = 0
     at = np.nan
-    if case.drop is not None:
+    follows = ""
+    departures = report.departures
+    if case.family == "door":
+        # a smooth transient: located as a departure from its test's pattern
+        test, at, _ = case.drop
+        found = (departures["test"].astype(str) == test) & (
+            (departures["start_s"] - at).abs() <= LOCATED_WITHIN_S
+        )
+        located = bool(found.any())
+        at = float(departures.loc[found, "start_s"].iloc[0]) if located else np.nan
+    elif case.drop is not None:
         test, at, _ = case.drop
         hit = (events["test"].astype(str) == test) & (
             (events["time_s"] - at).abs() <= LOCATED_WITHIN_S
@@ -463,6 +532,9 @@ def run_measured_case(case, **diagnose_kwargs):
         located = bool(hit.any())
         n_true = int(hit.sum())
         at = float(events.loc[hit, "time_s"].iloc[0]) if located else np.nan
+        if located:
+            first = events.loc[hit].iloc[0]
+            follows = first["follows"] if isinstance(first["follows"], str) else "mechanical"
     n_tests = len(pd.unique(case.real.index.get_level_values("test")))
     return {
         "family": case.family,
@@ -481,7 +553,12 @@ def run_measured_case(case, **diagnose_kwargs):
         "n_events": len(events),
         "located": located,
         "located_s": at,
+        "follows": follows,
         "false_events": len(events) - min(n_true, 1),
+        "n_departures": len(departures),
+        "departure_times": ";".join(
+            f"{t}@{a:g}" for t, a in zip(departures["test"], departures["start_s"])
+        ),
         "event_times": ";".join(f"{t}@{s:g}" for t, s in zip(events["test"], events["time_s"])),
         "seconds": seconds,
     }
@@ -496,6 +573,8 @@ def _run(spec, diagnose_kwargs):
         case = quantised_null_case(0.0, sample_s, seed, noise_s=SLOW_NOISE_S)
     elif family in ("drop", "drop_unlogged"):
         case = drop_case(sample_s, seed, size=size, logged=family == "drop")
+    elif family == "door":
+        case = door_case(sample_s, seed)
     else:
         case = smooth_case(sample_s, seed, size=size)
     row = run_measured_case(case, **diagnose_kwargs)
@@ -557,6 +636,8 @@ def validate_measured(
                     specs += [(family, 0.0, rate, seed, s) for s in smooth_sizes]
                 elif family in ("drop", "drop_unlogged"):
                     specs.append((family, 0.0, rate, seed, drop_size))
+                elif family == "door":
+                    specs.append((family, 0.0, rate, seed, 0.0))
                 else:
                     specs.append((family, 0.0, rate, seed, 0.0))
     rows = Parallel(n_jobs=n_jobs, verbose=verbose)(

@@ -299,6 +299,8 @@ def _run_gap(args):
                 step_time_s=args.step_time,
                 driver_window_s=args.driver_window,
             )
+        if since_start:
+            report.reference = "start"
         data = report.to_dict()
         if args.json not in (None, "-"):
             progress.step(f"writing {args.json!r}")
@@ -320,6 +322,7 @@ _FLAGS = {
     "(sensors=)": "(--sensors)",
     "(the target among fbgs=)": "(the target among --fbgs)",
     "(effects=)": "(--effects)",
+    "(custom_effects=)": "(--custom NAME=COL)",
 }
 
 

@@ -18,6 +18,7 @@ from greyml._param_validation import Integral, Interval, Real, validate_params
 from greyml._rng import RANDOM_STATE_CONSTRAINT, make_generator
 from greyml._time import format_duration
 from greyml.gap._consistency import inconsistent_sensors
+from greyml.gap._departures import DEPARTURE_COLUMNS, departure_table, locate_departures
 from greyml.gap._effects import LIBRARY, build_candidates, tau_grid
 from greyml.gap._events import EVENT_COLUMNS, EventSettings, event_table, events_in
 from greyml.gap._naming import EffectSearch, showing_tests, shrinkage
@@ -229,6 +230,7 @@ def diagnose_gap(
     not_tried = _not_tried(asked, skipped)
     descriptions = {e.name: e.description for e in (*effects, *custom)}
     report = _report(target, ctx, start, found, not_tried, untestable, descriptions, flags)
+    report.min_shrinkage = search["min_shrinkage"]
     return report
 
 
@@ -332,6 +334,9 @@ def _report(target, ctx, start, found, not_tried, untestable, descriptions, flag
     remainder_where = gap_breakdown(corrected, drivers=drivers_frame)
     remainder_white, remainder_xcorr = residual_diagnostics(corrected, signal_frame)
     named = found.named
+    # the events still in what the named effects leave (one found in the gap
+    # before the search may have been a thermal bend)
+    located = events_in(ctx, final.held_out, start.noise, start.events)
     inconsistent = pd.DataFrame(
         {
             "test": [ctx.labels[f.test] for f in flags],
@@ -363,7 +368,8 @@ def _report(target, ctx, start, found, not_tried, untestable, descriptions, flag
         descriptions=descriptions,
         recalibration=start.recal_detail,
         recalibration_kept=found.kept,
-        events=_events(ctx, final, start),
+        events=pd.DataFrame(event_table(located), columns=EVENT_COLUMNS),
+        departures=_departures(ctx, final, start, located),
         n_placebo=found.n_placebo,
         remainder_where=remainder_where,
         remainder_whiteness=remainder_white,
@@ -374,13 +380,21 @@ def _report(target, ctx, start, found, not_tried, untestable, descriptions, flag
     )
 
 
-def _events(ctx, final, start):
-    """The events still in what the named effects leave, as a table.
-
-    One found in the gap before the search may have been a thermal bend.
-    """
-    located = events_in(ctx, final.held_out, start.noise, start.events)
-    return pd.DataFrame(event_table(located), columns=EVENT_COLUMNS)
+def _departures(ctx, final, start, located):
+    """Where, in time, what the named effects leave departs from each test's slow pattern."""
+    noise = start.noise
+    found = locate_departures(
+        final.held_out,
+        ctx.bounds,
+        ctx.index.get_level_values("time_s").to_numpy(dtype=float),
+        ctx.dt,
+        noise.floor,
+        labels=[str(label) for label in ctx.labels],
+        correlation=noise.correlation,
+        step_time_s=start.events.step_time_s,
+        event_rows=[e.row for e in located],
+    )
+    return pd.DataFrame(departure_table(found), columns=DEPARTURE_COLUMNS)
 
 
 def _causes(ctx, found, skipped):

@@ -9,6 +9,7 @@ import numpy as np
 import pandas as pd
 
 from greyml.exceptions import GapWarning
+from greyml.gap._departures import DEPARTURE_COLUMNS, describe_departure
 from greyml.gap._events import EVENT_COLUMNS, describe_event
 
 __all__ = ["GapReport", "GapWarning", "VERDICTS"]
@@ -127,6 +128,23 @@ class GapReport:
     unexplained_share : float
         The part of the held-out gap above the noise floor that the named
         effects leave (see :attr:`unexplained_share`).
+    departures : DataFrame
+        Where, in time, what the named effects leave departs smoothly from
+        its test's slow pattern (a door, a draught: a transient of tens of
+        minutes, which is no event; :mod:`greyml.gap._departures`):
+        ``test``, ``start_s`` (the first row that leaves the pattern),
+        ``peak_s`` (the end of its rise), ``end_s`` (back within a third of
+        its size, or the test's last row), ``size`` (at the peak, from the
+        test's pattern, in the target's unit) and ``z`` (standard errors).
+        They do not change the verdict.
+    reference : {"recording", "start"}
+        What the displacements of the report are measured from:
+        ``"recording"``, the measured and simulated target as given (from
+        the recording's zero); ``"start"``, both as changes from each test's
+        first row (``greyml gap`` with a ``_since_start`` prediction).
+    min_shrinkage : float
+        The smallest held-out shrinkage that could count as an effect (the
+        diagnosis's setting), for the report's words on the placebos.
 
     Examples
     --------
@@ -155,7 +173,7 @@ class GapReport:
       test  time_s  kind  size
     0    C  3600.0  step   2.0
     >>> sorted(report.to_dict())[:4]
-    ['cause', 'causes', 'cross_correlation', 'events']
+    ['cause', 'causes', 'cross_correlation', 'departures']
     """
 
     target: str
@@ -189,6 +207,11 @@ class GapReport:
         )
     )
     quantum: float = 0.0
+    departures: pd.DataFrame = field(
+        default_factory=lambda: pd.DataFrame(columns=DEPARTURE_COLUMNS)
+    )
+    reference: str = "recording"
+    min_shrinkage: float = 0.05
 
     def _quantum_words(self):
         """How the floor holds the readings' step, in words ("" without one)."""
@@ -225,13 +248,16 @@ class GapReport:
             return 0.0
         return float(np.clip((self.rmse_after**2 - floor2) / above, 0.0, 1.0))
 
-    def not_supported(self, top=3):
-        """The best effects tried but not named, each with its shrinkage and why (a list of str)."""
+    def not_supported(self, top=None):
+        """The effects tried but not named, best first, each with its shrinkage and why.
+
+        ``top``: at most this many (None: all). A list of str.
+        """
         rows = self.causes[
             ~self.causes["significant"].astype(bool) & self.causes["shrinkage"].notna()
         ]
         out = []
-        for _, row in rows.head(top).iterrows():
+        for _, row in (rows if top is None else rows.head(top)).iterrows():
             why = row["detail"].rpartition("not supported: ")[2]
             low, high = row["shrinkage_ci"]
             out.append(
@@ -254,6 +280,93 @@ class GapReport:
             return "partial" if remains else "explained"
         return "unexplained" if remains else "within_noise"
 
+    @property
+    def remainder_held_out(self):
+        """Whether ``rmse_after`` is held out: an effect named or the recalibration kept.
+
+        With neither, nothing was fitted to the gap and ``rmse_after`` is
+        the gap itself over all rows.
+        """
+        return bool(self.named) or bool(self.recalibration_kept)
+
+    def _remainder_words(self):
+        if self.remainder_held_out:
+            return "held-out remainder"
+        return "gap over all rows (nothing fitted to it)"
+
+    def reference_sentence(self):
+        """What the report compared, from which zero, and what was held out and how."""
+        if self.reference == "start":
+            zero = (
+                'reference "start": the measured and simulated target each from its '
+                "test's first row"
+            )
+        else:
+            zero = (
+                'reference "recording": the measured and simulated target as given, from '
+                "the recording's zero"
+            )
+        return (
+            f"Compared: the gap = measured − simulated {self.target} on every row ({zero}). "
+            "Held out: leave one test out; each effect (and the recalibration) is fitted on "
+            "all tests but one and scored on the test left out, in turn; an RMSE called "
+            "held-out is over those left-out predictions, one over all rows has nothing "
+            "fitted to it."
+        )
+
+    def placebo_sentence(self):
+        """How many placebos were drawn, and why none when none were."""
+        if self.n_placebo > 0:
+            return (
+                f"Placebos drawn: {self.n_placebo} (random walks given each candidate's "
+                "freedom; an effect is named only when it beats all of them)."
+            )
+        tried = self.causes["shrinkage"].notna().any() if len(self.causes) else False
+        if not tried:
+            return "Placebos drawn: none, since no effect could be tried on these columns."
+        return (
+            "Placebos drawn: none. They are drawn only for an effect whose held-out shrinkage "
+            f"exceeds min_shrinkage={self.min_shrinkage:g} with its 95% interval over tests "
+            "above 0, and no effect tried did."
+        )
+
+    def next_steps(self):
+        """What to do next when the gap is not explained (a list of str, empty otherwise)."""
+        if self.verdict not in ("partial", "unexplained"):
+            return []
+        steps = [
+            "an effect the library lacks (a coolant, a hydraulic unit, a fixture heater) can be "
+            "tried under its own name from the column that logs it (custom_effects=)"
+        ]
+        follows = self.events["follows"] if "follows" in self.events else []
+        inputs = sorted({f for f in follows if isinstance(f, str)})
+        if inputs:
+            steps.append(
+                f"located events follow {', '.join(inputs)}: the simulation lacks a fast path "
+                f"from {'it' if len(inputs) == 1 else 'them'} to the target (a bracket, the air "
+                "on the probe)"
+            )
+        if len(self.departures):
+            steps.append(
+                "the departures above say when the gap leaves its pattern: look for what "
+                "happened then (a door, a draught) and log it as an input"
+            )
+        n_tests = self.where["by"].eq("test").sum() if len(self.where) else 0
+        if n_tests < 4 or self.untestable:
+            steps.append(
+                f"a longer recording with more tests (here {n_tests}) lets an effect seen in "
+                "few tests be scored on a test left out"
+            )
+        xcorr = self.remainder_cross_correlation
+        if xcorr is not None and len(xcorr):
+            top = xcorr.loc[xcorr["peak_corr"].abs().idxmax()]
+            if abs(top["peak_corr"]) >= 0.3:
+                steps.append(
+                    f"the remainder still follows {top['signal']} ({top['peak_corr']:+.2f} at "
+                    f"{top['peak_lag_s']:g} s): a path from it that the simulation lacks"
+                )
+        return steps
+
     def verdict_sentence(self):
         """The verdict in one sentence."""
         ratio = self.remainder_ratio
@@ -263,24 +376,26 @@ class GapReport:
         at = f"; {events} located event{'s' if events != 1 else ''}" if events else ""
         if self.verdict == "within_noise":
             return (
-                f"Verdict: within noise. The held-out gap (RMSE {self.rmse_after:.3g}) is "
-                f"{ratio:.1f}× the {floor}; the data need no unmodelled effect."
+                f"Verdict: within noise. The {self._remainder_words()} (RMSE "
+                f"{self.rmse_after:.3g}) is {ratio:.1f}× the {floor}; the data need no "
+                "unmodelled effect."
             )
         if self.verdict == "explained":
             return (
                 f"Verdict: explained. {named} bring{'s' if len(self.named) == 1 else ''} the "
-                f"held-out gap from RMSE {self.rmse_before:.3g} to {self.rmse_after:.3g}, "
-                f"{ratio:.1f}× the {floor}."
+                f"gap from RMSE {self.rmse_before:.3g} (all rows) to {self.rmse_after:.3g} "
+                f"held out, {ratio:.1f}× the {floor}."
             )
         share = f"{self.unexplained_share:.0%} of the gap above the noise is unexplained"
         if self.verdict == "partial":
             return (
                 f"Verdict: partial. {named} explain{'s' if len(self.named) == 1 else ''} part of "
-                f"the gap (RMSE {self.rmse_before:.3g} -> {self.rmse_after:.3g}), but "
+                f"the gap (RMSE {self.rmse_before:.3g} over all rows -> {self.rmse_after:.3g} "
+                "held out), but "
                 f"{ratio:.1f}× the {floor} remains{at}; {share}."
             )
         return (
-            f"Verdict: unexplained. A held-out gap of RMSE {self.rmse_after:.3g}, "
+            f"Verdict: unexplained. A {self._remainder_words()} of RMSE {self.rmse_after:.3g}, "
             f"{ratio:.1f}× the {floor}{at}, that no effect tried explains; {share}."
         )
 
@@ -321,6 +436,8 @@ class GapReport:
             )
         for _, event in self.events.iterrows():
             lines.append(describe_event(event))
+        for _, departure in self.departures.iterrows():
+            lines.append(describe_departure(departure))
         return lines
 
     @property
@@ -338,6 +455,7 @@ class GapReport:
                 "unexplained_rms": self.unexplained_rms,
                 "remainder_ratio": self.remainder_ratio,
                 "events": self.events.to_dict(orient="records"),
+                "departures": self.departures.to_dict(orient="records"),
                 "n_placebo": self.n_placebo,
                 "target": self.target,
                 "cause": self.cause,
@@ -364,6 +482,9 @@ class GapReport:
                 "remainder_whiteness": dict(self.remainder_whiteness),
                 "unexplained_share": self.unexplained_share,
                 "not_supported": self.not_supported(),
+                "reference": self.reference,
+                "remainder_held_out": self.remainder_held_out,
+                "next_steps": self.next_steps(),
                 "not_tried": dict(self.not_tried),
                 "untestable": dict(self.untestable),
                 "inconsistent_sensors": self.inconsistent_sensors.to_dict(orient="records"),
@@ -377,8 +498,10 @@ class GapReport:
     def __str__(self):
         lines = [self.verdict_sentence(), *self.where_remains()]
         lines += [
-            f"Gap of {self.target}: held-out RMSE {self.rmse_before:.3g}, peak "
-            f"{self.peak_before:.3g}; noise floor {self.noise_floor:.3g}{self._quantum_words()}."
+            self.reference_sentence(),
+            f"Gap of {self.target} over all rows (nothing fitted): RMSE {self.rmse_before:.3g}, "
+            f"peak {self.peak_before:.3g}; noise floor {self.noise_floor:.3g}"
+            f"{self._quantum_words()}.",
         ]
         if self.recalibration and self.recalibration_kept:
             lines.append(f"Recalibrated ({self.recalibration}): RMSE {self.rmse_recalibrated:.3g}.")
@@ -416,7 +539,7 @@ class GapReport:
                 f"With {', '.join(self.named)} added: RMSE {self.rmse_after:.3g}{ratio}, "
                 f"peak {self.peak_after:.3g}."
             )
-        unsupported = self.not_supported() if self.verdict in ("partial", "unexplained") else []
+        unsupported = self.not_supported(top=None)
         if unsupported:
             lines.append("Tried, not supported: " + "; ".join(unsupported) + ".")
         for effect, why in self.untestable.items():
@@ -427,7 +550,10 @@ class GapReport:
                 + "; ".join(f"{effect} ({why})" for effect, why in self.not_tried.items())
                 + "."
             )
-        lines.append(f"Placebos drawn: {self.n_placebo}.")
+        lines.append(self.placebo_sentence())
+        steps = self.next_steps()
+        if steps:
+            lines.append("What to do next: " + "; ".join(steps) + ".")
         return "\n".join(lines)
 
     def plot(self, axes=None):
