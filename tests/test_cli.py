@@ -107,8 +107,10 @@ def test_json_file_and_human_report(drift_case, tmp_path, capsys):
     data = _strict_json(target.read_text(encoding="utf-8"))
     assert data["cause"] == "drift"
     # the verdict comes first (issue 17), then the report as before
-    assert out.startswith("Verdict: explained. drift brings the held-out gap")
-    assert out.splitlines()[1].startswith("Gap of dz_um:")
+    assert out.startswith("Verdict: explained. drift brings the gap from RMSE")
+    assert "(all rows) to" in out.splitlines()[0] and "held out" in out.splitlines()[0]
+    assert out.splitlines()[1].startswith("Compared: the gap = measured − simulated dz_um")
+    assert "Gap of dz_um over all rows (nothing fitted):" in out
     assert "1. drift" in out
     with pytest.raises(json.JSONDecodeError):
         json.loads(out)
@@ -117,7 +119,8 @@ def test_json_file_and_human_report(drift_case, tmp_path, capsys):
 def test_human_report_without_json(drift_case, tmp_path, capsys):
     assert main(_gap(drift_case)) == 0
     out, _ = capsys.readouterr()
-    assert out.startswith("Verdict: explained.") and "Gap of dz_um:" in out and "drift" in out
+    assert out.startswith("Verdict: explained.") and "Gap of dz_um over all rows" in out
+    assert "drift" in out
     assert list(tmp_path.iterdir()) == []
 
 
