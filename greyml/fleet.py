@@ -6,7 +6,8 @@ machine's pieces of data (what :meth:`~greyml.ThermalTransferFunction.fit_chunks
 takes, e.g. a :class:`greyml.io.TestFiles` naming its files): on a Dask
 cluster each worker reads its own machine's files and sends back only the
 fitted model; without a cluster, one machine after another in this process.
-Either way the models are the same.
+Either way the models are the same, to rounding (a worker's BLAS may sum in
+another order).
 
 :class:`Partitions` turns a ``dask.dataframe`` (flat columns: the test labels,
 ``time_s``, the target, the inputs) into those pieces, one partition at a
